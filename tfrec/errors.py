@@ -1,0 +1,35 @@
+"""Errors raised by tfrec, one class per stage of the data flow.
+
+Library code raises these and never prints; the CLI turns them into one line
+``tfrec: error: <message>`` and exit code 2.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "TfrecError",
+    "DescriptionError",
+    "TrajectoryError",
+    "KinematicsError",
+    "RecordingError",
+]
+
+
+class TfrecError(Exception):
+    """Base class of every error tfrec reports to a user (one line, input first)."""
+
+
+class DescriptionError(TfrecError):
+    """A robot description could not be loaded: xacro, XML, packages or URDF validation."""
+
+
+class TrajectoryError(TfrecError):
+    """A joint trajectory could not be made (bad option, bad CSV file, unknown joint)."""
+
+
+class KinematicsError(TfrecError):
+    """Forward kinematics could not be computed for the given positions."""
+
+
+class RecordingError(TfrecError):
+    """A recording could not be written or read."""
