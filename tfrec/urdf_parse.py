@@ -320,7 +320,8 @@ def _check_tree(p: _Parser, robot: str, links: list[Link], joints: list[Joint],
                 frontier.append(child)
     unreached = [link.name for link in links if link.name not in reached]
     if unreached:
-        cycle = [joint_by_child[name].name for name in unreached if name in joint_by_child]
+        order = {joint.name: i for i, joint in enumerate(joints)}
+        cycle = sorted((joint_by_child[name].name for name in unreached if name in joint_by_child), key=order.get)
         raise p.fail(elem_of(cycle[0]) if cycle else None,
                      f"joints {', '.join(repr(c) for c in cycle)} form a cycle (links "
                      f"{', '.join(unreached)} are not reachable from root '{roots[0]}')")

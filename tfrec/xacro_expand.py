@@ -133,6 +133,8 @@ def expand_xacro(
                 f"{xml.parsers.expat.ErrorString(err.code)}"
             ) from None
         except xacro.XacroException as err:
+            if isinstance(err.exc, DescriptionError):  # $(find) failed inside an expression
+                raise DescriptionError(f"{_where(xacro, filename)}: {err.exc}") from None
             raise DescriptionError(f"{_where(xacro, filename)}: {_xacro_message(err)}") from None
         except (NameError, TypeError, ValueError, ZeroDivisionError, SyntaxError, KeyError, IndexError) as err:
             # xacro lets some evaluation errors through unwrapped

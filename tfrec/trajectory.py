@@ -1,0 +1,534 @@
+"""Joint trajectories: joint positions on a clock, as joint_state_publisher(_gui) makes them.
+
+A :class:`JointTrajectory` holds the actuated joints of a robot (revolute, continuous and
+prismatic joints that mimic nothing, in URDF document order) sampled at integer-nanosecond
+times. :func:`make_trajectory` builds one from a kind name (``center``, ``random``, ``sine``,
+``sweep``) or a CSV file; :func:`all_joint_states` adds the mimic joints, giving every moving
+joint as joint_state_publisher publishes it.
+
+Sampling rule of the generated kinds: sample ``i`` is at ``time_ns[i] = round(i * 1e9 / rate_hz)``
+for every ``i`` with ``time_ns[i] <= round(duration_s * 1e9)``, so both ends are included when
+the duration is a whole number of periods (10 s at 50 Hz gives 501 samples). Positions and
+velocities are evaluated at exactly those times.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from enum import Enum
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tfrec.errors import TrajectoryError
+from tfrec.model import Joint, JointType, Robot
+
+__all__ = [
+    "TrajectoryKind",
+    "JointTrajectory",
+    "make_trajectory",
+    "center_trajectory",
+    "random_trajectory",
+    "sine_trajectory",
+    "sweep_trajectory",
+    "read_csv_trajectory",
+    "center_positions",
+    "joint_bounds",
+    "sample_times_ns",
+    "all_joint_states",
+]
+
+MAX_SAMPLES = 10_000_000
+"""Most samples a generated trajectory may have (1 h at 1 kHz is 3.6 million)."""
+
+Array = NDArray[np.float64]
+
+
+class TrajectoryKind(str, Enum):
+    """The generated trajectory kinds (``--traj``); anything else names a CSV file."""
+
+    CENTER = "center"
+    RANDOM = "random"
+    SINE = "sine"
+    SWEEP = "sweep"
+
+
+@dataclass(frozen=True, slots=True)
+class JointTrajectory:
+    """Positions of the actuated joints of a robot over time.
+
+    Attributes:
+        joint_names: the actuated joints, in URDF document order.
+        time_ns: int64 (N,), strictly increasing nanoseconds from the start of the
+            recording (0 for the first sample of the generated kinds).
+        positions: float64 (N, J), radians or metres.
+        velocities: float64 (N, J), the time derivative of ``positions``.
+    """
+
+    joint_names: tuple[str, ...]
+    time_ns: NDArray[np.int64]
+    positions: Array
+    velocities: Array
+
+    def __post_init__(self) -> None:
+        n, j = len(self.time_ns), len(self.joint_names)
+        if self.time_ns.dtype != np.int64 or self.time_ns.shape != (n,):
+            raise ValueError(f"time_ns must be int64 of shape (N,), got {self.time_ns.dtype} {self.time_ns.shape}")
+        for name in ("positions", "velocities"):
+            array = getattr(self, name)
+            if array.dtype != np.float64 or array.shape != (n, j):
+                raise ValueError(f"{name} must be float64 of shape {(n, j)}, got {array.dtype} {array.shape}")
+
+    def __len__(self) -> int:
+        return len(self.time_ns)
+
+    def chunks(self, size: int) -> Iterator[JointTrajectory]:
+        """Consecutive pieces of at most ``size`` samples (views, no copies)."""
+        if size < 1:
+            raise ValueError(f"chunk size must be at least 1, got {size}")
+        for start in range(0, len(self), size):
+            stop = start + size
+            yield JointTrajectory(
+                self.joint_names,
+                self.time_ns[start:stop],
+                self.positions[start:stop],
+                self.velocities[start:stop],
+            )
+
+
+def make_trajectory(
+    robot: Robot,
+    kind: str | os.PathLike[str],
+    *,
+    duration_s: float = 10.0,
+    rate_hz: float = 50.0,
+    seed: int = 0,
+    period_s: float = 2.0,
+    amplitude: float = 0.8,
+    overrides: Mapping[str, float] = {},  # noqa: B006 - read only
+) -> JointTrajectory:
+    """Make the trajectory ``--traj KIND`` asks for.
+
+    Args:
+        robot: the robot whose actuated joints move.
+        kind: a :class:`TrajectoryKind` name, or else the path of a CSV file (a file
+            named like a kind is reached as ``./sine``).
+        duration_s, rate_hz: length and sample rate of the generated kinds.
+        seed: seed of ``random`` (same seed, same trajectory).
+        period_s: time between the waypoints of ``random``; sets the periods of ``sine``.
+        amplitude: fraction of each joint's half-range that ``sine`` uses, in [0, 1].
+        overrides: joint name → position, held constant (``--set``). In ``center`` this is
+            joint_state_publisher's ``zeros`` parameter; in a CSV file it gives joints
+            without a column.
+
+    Raises:
+        TrajectoryError: an option is out of range, an override is unknown or beyond its
+            joint's limits, or the CSV file is missing or malformed.
+    """
+    if not (isinstance(duration_s, (int, float)) and math.isfinite(duration_s) and duration_s > 0):
+        raise TrajectoryError(f"duration {duration_s!r} s is not a positive number")
+    if not (isinstance(rate_hz, (int, float)) and math.isfinite(rate_hz) and rate_hz > 0):
+        raise TrajectoryError(f"rate {rate_hz!r} Hz is not a positive number")
+    if not (isinstance(period_s, (int, float)) and math.isfinite(period_s) and period_s > 0):
+        raise TrajectoryError(f"period {period_s!r} s is not a positive number")
+    if not (isinstance(amplitude, (int, float)) and 0.0 <= amplitude <= 1.0):
+        raise TrajectoryError(f"amplitude {amplitude!r} is not a fraction between 0 and 1")
+    if not (isinstance(seed, int) and seed >= 0):
+        raise TrajectoryError(f"seed {seed!r} is not a non-negative integer")
+    if isinstance(kind, str) and kind in TrajectoryKind._value2member_map_:
+        which = TrajectoryKind(kind)
+        if which is TrajectoryKind.CENTER:
+            return center_trajectory(robot, duration_s=duration_s, rate_hz=rate_hz, overrides=overrides)
+        if which is TrajectoryKind.RANDOM:
+            return random_trajectory(
+                robot, duration_s=duration_s, rate_hz=rate_hz, seed=seed, period_s=period_s, overrides=overrides
+            )
+        if which is TrajectoryKind.SINE:
+            return sine_trajectory(
+                robot,
+                duration_s=duration_s,
+                rate_hz=rate_hz,
+                period_s=period_s,
+                amplitude=amplitude,
+                overrides=overrides,
+            )
+        return sweep_trajectory(robot, duration_s=duration_s, rate_hz=rate_hz, overrides=overrides)
+    path = Path(kind)
+    if not path.exists():
+        text = os.fspath(kind)
+        if isinstance(kind, str) and os.sep not in text and "." not in text:
+            names = ", ".join(k.value for k in TrajectoryKind)
+            raise TrajectoryError(f"{text}: neither a trajectory kind ({names}) nor a CSV file")
+        raise TrajectoryError(f"{text}: no such CSV file")
+    return read_csv_trajectory(path, robot, overrides=overrides)
+
+
+def joint_bounds(joint: Joint) -> tuple[float, float]:
+    """The position range of a moving joint: its limits, or [-π, π] for a continuous joint."""
+    if joint.type is JointType.CONTINUOUS:
+        return -math.pi, math.pi
+    if joint.limit is None:
+        raise TrajectoryError(f"joint '{joint.name}' is {joint.type.value} but has no <limit>")
+    return joint.limit.lower, joint.limit.upper
+
+
+def center_positions(robot: Robot, *, overrides: Mapping[str, float] = {}) -> Array:  # noqa: B006
+    """joint_state_publisher_gui's Center: 0, or the middle of the limits when 0 is outside them.
+
+    Returns:
+        float64 (J,), one value per actuated joint; ``overrides`` replace the computed ones.
+    """
+    pinned = _pinned(robot, overrides)
+    center = np.empty(len(robot.actuated_joints))
+    for i, joint in enumerate(robot.actuated_joints):
+        lower, upper = joint_bounds(joint)
+        center[i] = 0.0 if lower <= 0.0 <= upper else (lower + upper) / 2.0
+    for i, value in pinned.items():
+        center[i] = value
+    return center
+
+
+def sample_times_ns(duration_s: float, rate_hz: float) -> NDArray[np.int64]:
+    """``round(i * 1e9 / rate_hz)`` for every i whose time is at most the duration."""
+    duration_ns = round(duration_s * 1e9)
+    count = int(duration_ns * rate_hz / 1e9) + 2
+    if count > MAX_SAMPLES + 1:
+        raise TrajectoryError(
+            f"duration {duration_s:g} s at {rate_hz:g} Hz gives more than {MAX_SAMPLES:,} samples"
+        )
+    time_ns = np.rint(np.arange(count, dtype=np.float64) * 1e9 / rate_hz).astype(np.int64)
+    return time_ns[time_ns <= duration_ns]
+
+
+def center_trajectory(
+    robot: Robot,
+    *,
+    duration_s: float = 10.0,
+    rate_hz: float = 50.0,
+    overrides: Mapping[str, float] = {},  # noqa: B006
+) -> JointTrajectory:
+    """Every actuated joint held at its center (:func:`center_positions`)."""
+    center = center_positions(robot, overrides=overrides)
+    time_ns = sample_times_ns(duration_s, rate_hz)
+    positions = np.broadcast_to(center, (len(time_ns), len(center))).copy()
+    return _trajectory(robot, time_ns, positions, np.zeros_like(positions))
+
+
+def random_trajectory(
+    robot: Robot,
+    *,
+    duration_s: float = 10.0,
+    rate_hz: float = 50.0,
+    seed: int = 0,
+    period_s: float = 2.0,
+    overrides: Mapping[str, float] = {},  # noqa: B006
+) -> JointTrajectory:
+    """The Randomize button pressed every ``period_s`` seconds, with smooth motion between.
+
+    Waypoint 0 (t = 0) is the center; waypoint k (t = k·period) is uniform within each
+    joint's bounds (:func:`joint_bounds`), drawn row by row from ``numpy.random.default_rng(seed)``
+    so a longer duration extends the same trajectory. Between waypoints each joint follows
+    a minimum-jerk (quintic) segment: continuous velocity, at rest on every waypoint, never
+    beyond either end.
+    """
+    pinned = _pinned(robot, overrides)
+    center = center_positions(robot, overrides=overrides)
+    lower, upper = _bounds_arrays(robot)
+    time_ns = sample_times_ns(duration_s, rate_hz)
+    count = math.ceil(duration_s / period_s) + 1
+    rng = np.random.default_rng(seed)
+    waypoints = np.empty((count, len(center)))
+    waypoints[0] = center
+    waypoints[1:] = rng.uniform(lower, upper, size=(count - 1, len(center)))
+    for i, value in pinned.items():
+        waypoints[:, i] = value
+    knot_s = np.arange(count) * period_s
+    positions, velocities = _min_jerk(time_ns * 1e-9, knot_s, waypoints)
+    return _trajectory(robot, time_ns, positions, velocities)
+
+
+def sine_trajectory(
+    robot: Robot,
+    *,
+    duration_s: float = 10.0,
+    rate_hz: float = 50.0,
+    period_s: float = 2.0,
+    amplitude: float = 0.8,
+    overrides: Mapping[str, float] = {},  # noqa: B006
+) -> JointTrajectory:
+    """Every joint oscillates about the middle of its bounds.
+
+    Joint j of J (actuated order) follows ``mid + a·sin(2π t / T_j + 2π j / J)`` with
+    ``a = amplitude · half-range`` (continuous joints: ``amplitude · π``) and
+    ``T_j = 2·period_s·(1 + j / J)``, so no two joints move in lockstep.
+    """
+    pinned = _pinned(robot, overrides)
+    lower, upper = _bounds_arrays(robot)
+    time_ns = sample_times_ns(duration_s, rate_hz)
+    count = len(lower)
+    index = np.arange(count)
+    omega = 2.0 * np.pi / (2.0 * period_s * (1.0 + index / max(count, 1)))
+    phase = 2.0 * np.pi * index / max(count, 1)
+    middle = (lower + upper) / 2.0
+    reach = amplitude * (upper - lower) / 2.0
+    angle = np.outer(time_ns * 1e-9, omega) + phase
+    positions = middle + reach * np.sin(angle)
+    velocities = reach * omega * np.cos(angle)
+    for i, value in pinned.items():
+        positions[:, i] = value
+        velocities[:, i] = 0.0
+    return _trajectory(robot, time_ns, positions, velocities)
+
+
+def sweep_trajectory(
+    robot: Robot,
+    *,
+    duration_s: float = 10.0,
+    rate_hz: float = 50.0,
+    overrides: Mapping[str, float] = {},  # noqa: B006
+) -> JointTrajectory:
+    """One joint at a time goes center → lower → upper → center; the others stay at center.
+
+    Each joint that is not overridden gets an equal slot of the duration, in actuated order;
+    within its slot the three moves take time in proportion to their lengths, each a
+    minimum-jerk segment (at rest at center and at both limits).
+    """
+    pinned = _pinned(robot, overrides)
+    center = center_positions(robot, overrides=overrides)
+    lower, upper = _bounds_arrays(robot)
+    time_ns = sample_times_ns(duration_s, rate_hz)
+    t = time_ns * 1e-9
+    positions = np.broadcast_to(center, (len(t), len(center))).copy()
+    velocities = np.zeros_like(positions)
+    swept = [i for i in range(len(center)) if i not in pinned]
+    slot = duration_s / max(len(swept), 1)
+    for k, i in enumerate(swept):
+        values = np.array([center[i], lower[i], upper[i], center[i]])
+        lengths = np.abs(np.diff(values))
+        if lengths.sum() == 0.0:
+            continue
+        start = k * slot
+        knot_s = np.concatenate([[0.0], start + slot * np.cumsum(np.r_[0.0, lengths]) / lengths.sum(), [duration_s]])
+        knot_q = np.concatenate([[center[i]], values, [center[i]]])
+        keep = np.diff(knot_s, prepend=-np.inf) > 0.0  # drop empty segments (zero length, zero time)
+        pos, vel = _min_jerk(t, knot_s[keep], knot_q[keep, np.newaxis])
+        positions[:, i] = pos[:, 0]
+        velocities[:, i] = vel[:, 0]
+    return _trajectory(robot, time_ns, positions, velocities)
+
+
+def read_csv_trajectory(
+    path: str | os.PathLike[str],
+    robot: Robot,
+    *,
+    overrides: Mapping[str, float] = {},  # noqa: B006
+) -> JointTrajectory:
+    """Read a trajectory from CSV: a ``time`` column in seconds and one column per joint.
+
+    Samples are at the file's own times (``time_ns = round(time * 1e9)``, which must be
+    non-negative and increasing). Joints without a column stay at their center (or their
+    override). Velocities are ``numpy.gradient`` of the positions over the times.
+
+    Raises:
+        TrajectoryError: the file cannot be read; a column is not an actuated joint, repeated,
+            or also overridden; a cell is not a finite number; a row has the wrong number of
+            cells; times do not increase; a position is beyond its joint's limits
+            (continuous joints excepted). The message starts with ``file:line:``.
+    """
+    name = os.fspath(path)
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as stream:
+            rows = [(number, row) for number, row in _numbered_rows(stream) if any(cell.strip() for cell in row)]
+    except FileNotFoundError as err:
+        raise TrajectoryError(f"{name}: no such CSV file") from err
+    except (OSError, UnicodeDecodeError, csv.Error) as err:
+        raise TrajectoryError(f"{name}: cannot read CSV: {err}") from err
+    if not rows:
+        raise TrajectoryError(f"{name}: empty file, expected a header with 'time' and joint names")
+    header_line, header = rows[0]
+    columns = [cell.strip() for cell in header]
+    actuated = {joint.name: i for i, joint in enumerate(robot.actuated_joints)}
+    pinned = _pinned(robot, overrides)
+    seen: set[str] = set()
+    for column in columns:
+        where = f"{name}:{header_line}: column '{column}'"
+        if column in seen:
+            raise TrajectoryError(f"{where} appears twice")
+        seen.add(column)
+        if column == "time":
+            continue
+        joint = robot.joint_by_name.get(column)
+        if joint is None:
+            raise TrajectoryError(f"{where} is not a joint of robot '{robot.name}'")
+        if joint.mimic is not None and joint.type.moves:
+            raise TrajectoryError(f"{where} is a mimic joint; give '{joint.mimic.joint}' instead")
+        if column not in actuated:
+            raise TrajectoryError(f"{where} is a {joint.type.value} joint, which has no position")
+        if actuated[column] in pinned:
+            raise TrajectoryError(f"{where} is also set by an override")
+    if "time" not in seen:
+        raise TrajectoryError(f"{name}:{header_line}: no 'time' column")
+    if len(rows) == 1:
+        raise TrajectoryError(f"{name}: no samples after the header")
+
+    lines = np.array([number for number, _ in rows[1:]])
+    values = np.empty((len(rows) - 1, len(columns)))
+    for r, (number, row) in enumerate(rows[1:]):
+        if len(row) != len(columns):
+            raise TrajectoryError(f"{name}:{number}: {len(row)} cells, expected {len(columns)} as in the header")
+        for c, cell in enumerate(row):
+            try:
+                value = float(cell)
+            except ValueError:
+                raise TrajectoryError(f"{name}:{number}: '{cell}' in column '{columns[c]}' is not a number") from None
+            if not math.isfinite(value):
+                raise TrajectoryError(f"{name}:{number}: '{cell.strip()}' in column '{columns[c]}' is not finite")
+            values[r, c] = value
+
+    seconds = values[:, columns.index("time")]
+    time_ns = np.rint(seconds * 1e9).astype(np.int64)
+    negative = np.flatnonzero(time_ns < 0)
+    if negative.size:
+        r = negative[0]
+        raise TrajectoryError(f"{name}:{lines[r]}: time {seconds[r]!r} is negative")
+    stuck = np.flatnonzero(np.diff(time_ns) <= 0)
+    if stuck.size:
+        r = stuck[0] + 1
+        raise TrajectoryError(f"{name}:{lines[r]}: time {seconds[r]!r} does not increase (previous {seconds[r - 1]!r})")
+
+    positions = np.broadcast_to(center_positions(robot, overrides=overrides), (len(rows) - 1, len(actuated))).copy()
+    for c, column in enumerate(columns):
+        if column == "time":
+            continue
+        joint = robot.joint_by_name[column]
+        positions[:, actuated[column]] = values[:, c]
+        if joint.type is JointType.CONTINUOUS:
+            continue
+        lower, upper = joint_bounds(joint)
+        beyond = np.flatnonzero((values[:, c] < lower) | (values[:, c] > upper))
+        if beyond.size:
+            r = beyond[0]
+            raise TrajectoryError(
+                f"{name}:{lines[r]}: {column} = {values[r, c]!r} is beyond its limits [{lower!r}, {upper!r}]"
+            )
+    if len(time_ns) > 1 and positions.shape[1]:
+        velocities = np.gradient(positions, time_ns * 1e-9, axis=0)
+    else:
+        velocities = np.zeros_like(positions)
+    return _trajectory(robot, time_ns, positions, velocities, clip=False)
+
+
+def all_joint_states(robot: Robot, trajectory: JointTrajectory) -> tuple[tuple[str, ...], Array, Array]:
+    """Every moving joint, as joint_state_publisher publishes it: actuated and mimic joints.
+
+    A mimic joint's position is ``multiplier · master + offset`` and its velocity
+    ``multiplier · master velocity``; chains are resolved in dependency order
+    (:attr:`Robot.mimic_order`). A mimic of a joint that does not move stays at ``offset``.
+    Works on any piece of a trajectory (see :meth:`JointTrajectory.chunks`).
+
+    Returns:
+        (names, positions, velocities): the moving joints in URDF document order, and
+        float64 (N, M) arrays.
+
+    Raises:
+        TrajectoryError: the trajectory does not have exactly the robot's actuated joints.
+    """
+    column = {name: i for i, name in enumerate(trajectory.joint_names)}
+    for joint in robot.actuated_joints:
+        if joint.name not in column:
+            raise TrajectoryError(f"trajectory has no position for joint '{joint.name}' of robot '{robot.name}'")
+    if len(column) != len(robot.actuated_joints):
+        extra = next(n for n in trajectory.joint_names if n not in {j.name for j in robot.actuated_joints})
+        raise TrajectoryError(f"trajectory joint '{extra}' is not an actuated joint of robot '{robot.name}'")
+    names = tuple(joint.name for joint in robot.moving_joints)
+    index = {name: k for k, name in enumerate(names)}
+    positions = np.zeros((len(trajectory), len(names)))
+    velocities = np.zeros((len(trajectory), len(names)))
+    for joint in robot.actuated_joints:
+        positions[:, index[joint.name]] = trajectory.positions[:, column[joint.name]]
+        velocities[:, index[joint.name]] = trajectory.velocities[:, column[joint.name]]
+    for joint in robot.mimic_order:
+        assert joint.mimic is not None
+        k = index[joint.name]
+        master = index.get(joint.mimic.joint)
+        if master is None:
+            positions[:, k] = joint.mimic.offset
+            continue
+        positions[:, k] = joint.mimic.multiplier * positions[:, master] + joint.mimic.offset
+        velocities[:, k] = joint.mimic.multiplier * velocities[:, master] + 0.0  # no -0.0
+    return names, positions, velocities
+
+
+def _pinned(robot: Robot, overrides: Mapping[str, float]) -> dict[int, float]:
+    """Check ``overrides`` and map them to actuated-joint columns."""
+    actuated = {joint.name: i for i, joint in enumerate(robot.actuated_joints)}
+    pinned: dict[int, float] = {}
+    for name, value in overrides.items():
+        where = f"{name}={value!r}"
+        joint = robot.joint_by_name.get(name)
+        if joint is None:
+            raise TrajectoryError(f"{where}: '{name}' is not a joint of robot '{robot.name}'")
+        if joint.mimic is not None and joint.type.moves:
+            raise TrajectoryError(f"{where}: '{name}' is a mimic joint; set '{joint.mimic.joint}' instead")
+        if name not in actuated:
+            raise TrajectoryError(f"{where}: '{name}' is a {joint.type.value} joint, which has no position")
+        if not (isinstance(value, (int, float)) and math.isfinite(value)):
+            raise TrajectoryError(f"{where}: not a finite number")
+        if joint.type is not JointType.CONTINUOUS:
+            lower, upper = joint_bounds(joint)
+            if not lower <= value <= upper:
+                raise TrajectoryError(f"{where}: beyond the limits [{lower!r}, {upper!r}] of joint '{name}'")
+        pinned[actuated[name]] = float(value)
+    return pinned
+
+
+def _bounds_arrays(robot: Robot) -> tuple[Array, Array]:
+    bounds = [joint_bounds(joint) for joint in robot.actuated_joints]
+    return np.array([b[0] for b in bounds], dtype=np.float64), np.array([b[1] for b in bounds], dtype=np.float64)
+
+
+def _min_jerk(t: Array, knot_s: Array, knot_q: Array) -> tuple[Array, Array]:
+    """Positions and velocities at times ``t`` of a path through waypoints.
+
+    Args:
+        t: (N,) seconds.
+        knot_s: (K,) strictly increasing waypoint times, K >= 2; times outside hold the ends.
+        knot_q: (K, J) waypoints.
+
+    Each segment is the minimum-jerk blend ``s(τ) = 10τ³ − 15τ⁴ + 6τ⁵``: it starts and ends
+    at rest and stays between its two waypoints.
+    """
+    if len(knot_s) < 2:
+        return np.broadcast_to(knot_q[0], (len(t), knot_q.shape[1])).copy(), np.zeros((len(t), knot_q.shape[1]))
+    k = np.clip(np.searchsorted(knot_s, t, side="right") - 1, 0, len(knot_s) - 2)
+    span = knot_s[k + 1] - knot_s[k]
+    tau = np.clip((t - knot_s[k]) / span, 0.0, 1.0)
+    blend = tau**3 * (10.0 + tau * (-15.0 + 6.0 * tau))
+    rate = 30.0 * tau**2 * (1.0 - tau) ** 2 / span
+    start = knot_q[k]
+    delta = knot_q[k + 1] - start
+    return start + delta * blend[:, np.newaxis], delta * rate[:, np.newaxis]
+
+
+def _numbered_rows(stream: object) -> Iterator[tuple[int, list[str]]]:
+    """CSV rows with the (1-based) line number on which each ends."""
+    reader = csv.reader(stream)  # type: ignore[arg-type]
+    for row in reader:
+        yield reader.line_num, row
+
+
+def _trajectory(
+    robot: Robot, time_ns: NDArray[np.int64], positions: Array, velocities: Array, *, clip: bool = True
+) -> JointTrajectory:
+    """Wrap arrays as a trajectory, first clipping rounding overshoot (a few ulps) at the limits."""
+    if clip and positions.shape[1]:
+        lower, upper = _bounds_arrays(robot)
+        continuous = np.array([joint.type is JointType.CONTINUOUS for joint in robot.actuated_joints])
+        lower[continuous], upper[continuous] = -np.inf, np.inf
+        np.clip(positions, lower, upper, out=positions)
+    return JointTrajectory(tuple(joint.name for joint in robot.actuated_joints), time_ns, positions, velocities)
