@@ -23,24 +23,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from tfrec.errors import KinematicsError
 from tfrec.model import Joint, JointType, Robot
-from tfrec.rotations import (
-    canonical_quaternion,
-    matrix_from_quaternion,
-    quaternion_from_rpy,
-    quaternion_multiply,
-    quaternion_rotate,
-)
+from tfrec.rotations import matrix_from_quaternion, quaternion_from_rpy, quaternion_multiply, quaternion_rotate
 from tfrec.trajectory import JointTrajectory, all_joint_states
 
 __all__ = [
-    "Transforms",
+    "DEFAULT_CHUNK_SIZE",
     "DynamicChunk",
-    "static_transforms",
+    "Transforms",
     "dynamic_transforms",
     "iter_dynamic_chunks",
-    "world_from_link",
     "link_poses",
-    "DEFAULT_CHUNK_SIZE",
+    "static_transforms",
+    "world_from_link",
 ]
 
 Array = NDArray[np.float64]
@@ -49,6 +43,11 @@ DEFAULT_CHUNK_SIZE = 8192
 """Samples per chunk in :func:`iter_dynamic_chunks`: ~0.5 MB per transform per chunk."""
 
 STATIC_TYPES = (JointType.FIXED, JointType.PLANAR)
+
+BLOCK = 4096
+"""Samples computed together inside the functions below. Blocks keep numpy's temporaries at
+32 kB, which the C allocator recycles; temporaries of ~100 kB and more are handed back to the
+OS and page-faulted in again on every operation, three times slower on the same samples."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -111,9 +110,8 @@ def static_transforms(robot: Robot, *, frame_prefix: str = "") -> Transforms:
     robot_state_publisher does.
     """
     joints = [joint for joint in robot.joints if joint.type in STATIC_TYPES]
-    translation = np.array([joint.origin.xyz for joint in joints], dtype=np.float64).reshape(1, -1, 3)
-    rotation = _origin_rotations(joints).reshape(1, -1, 4)
-    return _transforms(joints, frame_prefix, translation, canonical_quaternion(rotation))
+    components = _static_components(joints)
+    return _transforms(joints, frame_prefix, components[:, :3].transpose(2, 0, 1), components[:, 3:].transpose(2, 0, 1))
 
 
 def dynamic_transforms(
@@ -136,40 +134,14 @@ def dynamic_transforms(
         KinematicsError: a name is not a moving joint of the robot, the array has the wrong
             shape, or a position is not finite.
     """
-    q = np.asarray(positions, dtype=np.float64)
-    if q.ndim != 2 or q.shape[1] != len(names):
-        raise KinematicsError(f"positions of shape {q.shape} do not match {len(names)} joint names")
-    joints = []
-    for name in names:
-        joint = robot.joint_by_name.get(name)
-        if joint is None or not joint.type.moves:
-            raise KinematicsError(f"'{name}' is not a moving joint of robot '{robot.name}'")
-        joints.append(joint)
-    bad = np.argwhere(~np.isfinite(q))
-    if bad.size:
-        sample, column = bad[0]
-        raise KinematicsError(f"joint '{names[column]}' has position {q[sample, column]} at sample {sample}")
-
-    origin_t = np.array([joint.origin.xyz for joint in joints], dtype=np.float64).reshape(-1, 3)
-    origin_q = _origin_rotations(joints)
-    axis = np.array([joint.axis for joint in joints], dtype=np.float64).reshape(-1, 3)
-    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-    prismatic = np.array([joint.type is JointType.PRISMATIC for joint in joints], dtype=bool)
-    revolute = ~prismatic
-
-    n = q.shape[0]
-    translation = np.empty((n, len(joints), 3))
-    rotation = np.empty((n, len(joints), 4))
-    # revolute, continuous: origin ⊗ (sin(q/2)·axis, cos(q/2)) = cos(q/2)·origin + sin(q/2)·(origin ⊗ axis)
-    spin = quaternion_multiply(origin_q[revolute], np.concatenate([axis[revolute], np.zeros((revolute.sum(), 1))], 1))
-    half = q[:, revolute] * 0.5
-    rotation[:, revolute] = np.cos(half)[..., np.newaxis] * origin_q[revolute] + np.sin(half)[..., np.newaxis] * spin
-    translation[:, revolute] = origin_t[revolute]
-    # prismatic: origin translation + q · (axis in the parent frame)
-    direction = quaternion_rotate(origin_q[prismatic], axis[prismatic])
-    translation[:, prismatic] = origin_t[prismatic] + q[:, prismatic, np.newaxis] * direction
-    rotation[:, prismatic] = origin_q[prismatic]
-    return _transforms(joints, frame_prefix, translation, canonical_quaternion(rotation))
+    joints, q = _moving_joints(robot, names, positions)
+    translation = np.empty((q.shape[0], len(joints), 3))
+    rotation = np.empty((q.shape[0], len(joints), 4))
+    for block in _blocks(q.shape[0]):
+        components = _dynamic_components(joints, q[block])
+        translation[block] = components[:, :3].transpose(2, 0, 1)
+        rotation[block] = components[:, 3:].transpose(2, 0, 1)
+    return _transforms(joints, frame_prefix, translation, rotation)
 
 
 def iter_dynamic_chunks(
@@ -209,27 +181,23 @@ def world_from_link(static: Transforms, dynamic: Transforms, *, root: str) -> Tr
         KinematicsError: a frame has two parents.
     """
     n = max(len(static), len(dynamic))
-    edges: dict[str, list[tuple[str, Array, Array]]] = {}
-    has_parent: set[str] = set()
-    for tfs in (static, dynamic):
-        for k, (parent, child) in enumerate(zip(tfs.parents, tfs.children)):
-            if child in has_parent:
-                raise KinematicsError(f"frame '{child}' has two parents")
-            has_parent.add(child)
-            edges.setdefault(parent, []).append((child, tfs.translation[:, k], tfs.rotation[:, k]))
-    frames = [root]
-    translations = [np.zeros((n, 3))]
-    rotations = [np.broadcast_to(np.array([0.0, 0.0, 0.0, 1.0]), (n, 4))]
-    i = 0
-    while i < len(frames):
-        for child, t, r in edges.get(frames[i], []):
-            frames.append(child)
-            translations.append(translations[i] + quaternion_rotate(rotations[i], t))
-            rotations.append(quaternion_multiply(rotations[i], r))
-        i += 1
-    translation = np.stack(translations, axis=1)
-    rotation = canonical_quaternion(np.stack(rotations, axis=1))
-    rotation /= np.linalg.norm(rotation, axis=-1, keepdims=True)
+    translation = rotation = np.empty(0)
+    frames: list[str] = []
+    for block in _blocks(n):
+        fixed = _unpack(static, block if len(static) > 1 else slice(None))
+        moving = _unpack(dynamic, block if len(dynamic) > 1 else slice(None))
+        edges = [
+            (parent, child, components)
+            for tfs, stacked in ((static, fixed), (dynamic, moving))
+            for parent, child, components in zip(tfs.parents, tfs.children, stacked)
+        ]
+        frames, poses = _compose(edges, root)
+        if not translation.size:
+            translation, rotation = np.empty((n, len(frames), 3)), np.empty((n, len(frames), 4))
+        stacked = np.stack(poses, axis=1)  # (7, L, m)
+        _canonicalize(stacked)
+        translation[block] = stacked[:3].transpose(2, 1, 0)
+        rotation[block] = stacked[3:].transpose(2, 1, 0)
     return Transforms((root,) * len(frames), tuple(frames), translation, rotation)
 
 
@@ -246,17 +214,173 @@ def link_poses(robot: Robot, names: Sequence[str], positions: ArrayLike) -> dict
 
     Returns:
         link name → float64 (N, 4, 4); links below a floating joint are absent.
+
+    Raises:
+        KinematicsError: as :func:`dynamic_transforms`.
     """
-    composed = world_from_link(static_transforms(robot), dynamic_transforms(robot, names, positions), root=robot.root)
-    poses = composed.matrices()
-    return {frame: poses[:, k] for k, frame in enumerate(composed.children)}
+    joints, q = _moving_joints(robot, names, positions)
+    fixed = [joint for joint in robot.joints if joint.type in STATIC_TYPES]
+    fixed_edges = [(j.parent, j.child, c) for j, c in zip(fixed, _static_components(fixed))]
+    n = q.shape[0]
+    out: dict[str, Array] = {}
+    for block in _blocks(n):
+        moving = _dynamic_components(joints, q[block])
+        frames, poses = _compose(fixed_edges + [(j.parent, j.child, c) for j, c in zip(joints, moving)], robot.root)
+        rows = np.zeros((16, moving.shape[2]))
+        rows[15] = 1.0
+        for frame, (tx, ty, tz, x, y, z, w) in zip(frames, poses):
+            xx, yy, zz = x * x, y * y, z * z
+            xy, xz, yz = x * y, x * z, y * z
+            wx, wy, wz = w * x, w * y, w * z
+            rows[0] = 1.0 - 2.0 * (yy + zz)
+            rows[1] = 2.0 * (xy - wz)
+            rows[2] = 2.0 * (xz + wy)
+            rows[3] = tx
+            rows[4] = 2.0 * (xy + wz)
+            rows[5] = 1.0 - 2.0 * (xx + zz)
+            rows[6] = 2.0 * (yz - wx)
+            rows[7] = ty
+            rows[8] = 2.0 * (xz - wy)
+            rows[9] = 2.0 * (yz + wx)
+            rows[10] = 1.0 - 2.0 * (xx + yy)
+            rows[11] = tz
+            if frame not in out:
+                out[frame] = np.empty((n, 4, 4))
+            out[frame][block] = rows.T.reshape(-1, 4, 4)
+    if n == 0:
+        return {frame: np.empty((0, 4, 4)) for frame in _compose(fixed_edges, robot.root)[0]}
+    return out
 
 
-def _origin_rotations(joints: Sequence[Joint]) -> Array:
-    return quaternion_from_rpy(np.array([joint.origin.rpy for joint in joints], dtype=np.float64).reshape(-1, 3))
+# Internally a set of K transforms at N instants is a "component-major" array (K, 7, N):
+# tx, ty, tz, qx, qy, qz, qw as contiguous rows of N. numpy is several times faster on those
+# rows than on the (N, K, 4) layout, whose innermost axis is only 3 or 4 long.
+
+_Pose = Array
+"""(7, N) or (7, 1): one transform's components; (7, 1) broadcasts for transforms that do not move."""
+
+
+def _moving_joints(robot: Robot, names: Sequence[str], positions: ArrayLike) -> tuple[list[Joint], Array]:
+    q = np.asarray(positions, dtype=np.float64)
+    if q.ndim != 2 or q.shape[1] != len(names):
+        raise KinematicsError(f"positions of shape {q.shape} do not match {len(names)} joint names")
+    joints = []
+    for name in names:
+        joint = robot.joint_by_name.get(name)
+        if joint is None or not joint.type.moves:
+            raise KinematicsError(f"'{name}' is not a moving joint of robot '{robot.name}'")
+        joints.append(joint)
+    bad = np.argwhere(~np.isfinite(q))
+    if bad.size:
+        sample, column = bad[0]
+        raise KinematicsError(f"joint '{names[column]}' has position {q[sample, column]} at sample {sample}")
+    return joints, q
+
+
+def _origins(joints: Sequence[Joint]) -> tuple[Array, Array]:
+    """Origin translations (K, 3) and rotations (K, 4) of joints."""
+    xyz = np.array([joint.origin.xyz for joint in joints], dtype=np.float64).reshape(-1, 3)
+    rpy = np.array([joint.origin.rpy for joint in joints], dtype=np.float64).reshape(-1, 3)
+    return xyz, quaternion_from_rpy(rpy)
+
+
+def _static_components(joints: Sequence[Joint]) -> Array:
+    """(K, 7, 1): the origins alone."""
+    xyz, rotation = _origins(joints)
+    out = np.concatenate([xyz, rotation], axis=1)[:, :, np.newaxis]
+    _canonicalize(out.transpose(1, 0, 2))
+    return out
+
+
+def _dynamic_components(joints: Sequence[Joint], q: Array) -> Array:
+    """(K, 7, N): origin · motion(q) for moving joints, with w >= 0."""
+    xyz, rotation = _origins(joints)
+    axis = np.array([joint.axis for joint in joints], dtype=np.float64).reshape(-1, 3)
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    prismatic = np.array([joint.type is JointType.PRISMATIC for joint in joints], dtype=bool)
+    revolute = np.flatnonzero(~prismatic)
+    prismatic = np.flatnonzero(prismatic)
+    by_joint = np.ascontiguousarray(q.T)  # (K, N)
+    out = np.empty((len(joints), 7, q.shape[0]))
+    if revolute.size:
+        # origin ⊗ (sin(q/2)·axis, cos(q/2)) = cos(q/2)·origin + sin(q/2)·(origin ⊗ (axis, 0))
+        spin = quaternion_multiply(rotation[revolute], np.pad(axis[revolute], ((0, 0), (0, 1))))
+        half = by_joint[revolute] * 0.5
+        cos, sin = np.cos(half), np.sin(half)
+        for c in range(4):
+            out[revolute, 3 + c] = cos * rotation[revolute, c, np.newaxis] + sin * spin[:, c, np.newaxis]
+        out[revolute, :3] = xyz[revolute, :, np.newaxis]
+    if prismatic.size:
+        # origin translation + q · (axis in the parent frame)
+        direction = quaternion_rotate(rotation[prismatic], axis[prismatic])
+        for c in range(3):
+            out[prismatic, c] = xyz[prismatic, c, np.newaxis] + by_joint[prismatic] * direction[:, c, np.newaxis]
+        out[prismatic, 3:] = rotation[prismatic, :, np.newaxis]
+    _canonicalize(out.transpose(1, 0, 2))
+    return out
+
+
+def _canonicalize(components: Array) -> None:
+    """Flip quaternions to w >= 0 in place; ``components`` is (7, ...)."""
+    np.negative(components[3:], out=components[3:], where=components[6] < 0.0)
 
 
 def _transforms(joints: Sequence[Joint], frame_prefix: str, translation: Array, rotation: Array) -> Transforms:
     parents = tuple(frame_prefix + joint.parent for joint in joints)
     children = tuple(frame_prefix + joint.child for joint in joints)
-    return Transforms(parents, children, translation, rotation)
+    return Transforms(parents, children, np.ascontiguousarray(translation), np.ascontiguousarray(rotation))
+
+
+def _unpack(tfs: Transforms, block: slice = slice(None)) -> Array:
+    """Transforms (of the samples in ``block``) → (K, 7, m)."""
+    return np.ascontiguousarray(
+        np.concatenate([tfs.translation[block], tfs.rotation[block]], axis=2).transpose(1, 2, 0)
+    )
+
+
+def _blocks(n: int) -> Iterator[slice]:
+    """Slices of at most BLOCK samples covering range(n) (one empty slice when n is 0)."""
+    for start in range(0, max(n, 1), BLOCK):
+        yield slice(start, start + BLOCK)
+
+
+def _compose(edges: Sequence[tuple[str, str, _Pose]], root: str) -> tuple[list[str], list[_Pose]]:
+    """Breadth-first composition from ``root``: one (7, N) pose per reachable frame."""
+    children: dict[str, list[tuple[str, _Pose]]] = {}
+    has_parent: set[str] = set()
+    for parent, child, components in edges:
+        if child in has_parent:
+            raise KinematicsError(f"frame '{child}' has two parents")
+        has_parent.add(child)
+        children.setdefault(parent, []).append((child, components))
+    n = max((components.shape[-1] for _, _, components in edges), default=1)
+    frames = [root]
+    poses: list[_Pose] = [np.array([[0.0], [0.0], [0.0], [0.0], [0.0], [0.0], [1.0]])]
+    i = 0
+    while i < len(frames):
+        for child, local in children.get(frames[i], []):
+            frames.append(child)
+            poses.append(_compose_pair(poses[i], local))
+        i += 1
+    return frames, [np.broadcast_to(pose, (7, n)) for pose in poses]
+
+
+def _compose_pair(a: _Pose, b: _Pose) -> _Pose:
+    """The pose a · b: translation a.t + a.q b.t, rotation a.q ⊗ b.q."""
+    atx, aty, atz, ax, ay, az, aw = a
+    btx, bty, btz, bx, by, bz, bw = b
+    # rotate b's translation by a's rotation: v + w·t + u × t with t = 2 u × v
+    cx = 2.0 * (ay * btz - az * bty)
+    cy = 2.0 * (az * btx - ax * btz)
+    cz = 2.0 * (ax * bty - ay * btx)
+    return np.stack(
+        [
+            atx + btx + aw * cx + (ay * cz - az * cy),
+            aty + bty + aw * cy + (az * cx - ax * cz),
+            atz + btz + aw * cz + (ax * cy - ay * cx),
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz,
+        ]
+    )

@@ -11,12 +11,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
-    "quaternion_from_rpy",
-    "quaternion_from_axis_angle",
-    "quaternion_multiply",
-    "quaternion_rotate",
     "canonical_quaternion",
     "matrix_from_quaternion",
+    "quaternion_from_axis_angle",
+    "quaternion_from_rpy",
+    "quaternion_multiply",
+    "quaternion_rotate",
 ]
 
 Array = NDArray[np.float64]

@@ -3,8 +3,8 @@
 A :class:`JointTrajectory` holds the actuated joints of a robot (revolute, continuous and
 prismatic joints that mimic nothing, in URDF document order) sampled at integer-nanosecond
 times. :func:`make_trajectory` builds one from a kind name (``center``, ``random``, ``sine``,
-``sweep``) or a CSV file; :func:`all_joint_states` adds the mimic joints, giving every moving
-joint as joint_state_publisher publishes it.
+``sweep``) or a CSV file (:mod:`tfrec.trajectory_csv`); :func:`all_joint_states` adds the
+mimic joints, giving every moving joint as joint_state_publisher publishes it.
 
 Sampling rule of the generated kinds: sample ``i`` is at ``time_ns[i] = round(i * 1e9 / rate_hz)``
 for every ``i`` with ``time_ns[i] <= round(duration_s * 1e9)``, so both ends are included when
@@ -14,13 +14,14 @@ velocities are evaluated at exactly those times.
 
 from __future__ import annotations
 
-import csv
 import math
+import numbers
 import os
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,24 +30,24 @@ from tfrec.errors import TrajectoryError
 from tfrec.model import Joint, JointType, Robot
 
 __all__ = [
-    "TrajectoryKind",
     "JointTrajectory",
-    "make_trajectory",
+    "TrajectoryKind",
+    "all_joint_states",
+    "center_positions",
     "center_trajectory",
+    "joint_bounds",
+    "make_trajectory",
     "random_trajectory",
+    "sample_times_ns",
     "sine_trajectory",
     "sweep_trajectory",
-    "read_csv_trajectory",
-    "center_positions",
-    "joint_bounds",
-    "sample_times_ns",
-    "all_joint_states",
 ]
 
 MAX_SAMPLES = 10_000_000
 """Most samples a generated trajectory may have (1 h at 1 kHz is 3.6 million)."""
 
 Array = NDArray[np.float64]
+Floats = NDArray[np.floating[Any]]
 
 
 class TrajectoryKind(str, Enum):
@@ -110,7 +111,7 @@ def make_trajectory(
     seed: int = 0,
     period_s: float = 2.0,
     amplitude: float = 0.8,
-    overrides: Mapping[str, float] = {},  # noqa: B006 - read only
+    overrides: Mapping[str, float] = {},
 ) -> JointTrajectory:
     """Make the trajectory ``--traj KIND`` asks for.
 
@@ -130,15 +131,15 @@ def make_trajectory(
         TrajectoryError: an option is out of range, an override is unknown or beyond its
             joint's limits, or the CSV file is missing or malformed.
     """
-    if not (isinstance(duration_s, (int, float)) and math.isfinite(duration_s) and duration_s > 0):
+    if not (isinstance(duration_s, numbers.Real) and math.isfinite(duration_s) and duration_s > 0):
         raise TrajectoryError(f"duration {duration_s!r} s is not a positive number")
-    if not (isinstance(rate_hz, (int, float)) and math.isfinite(rate_hz) and rate_hz > 0):
+    if not (isinstance(rate_hz, numbers.Real) and math.isfinite(rate_hz) and rate_hz > 0):
         raise TrajectoryError(f"rate {rate_hz!r} Hz is not a positive number")
-    if not (isinstance(period_s, (int, float)) and math.isfinite(period_s) and period_s > 0):
+    if not (isinstance(period_s, numbers.Real) and math.isfinite(period_s) and period_s > 0):
         raise TrajectoryError(f"period {period_s!r} s is not a positive number")
-    if not (isinstance(amplitude, (int, float)) and 0.0 <= amplitude <= 1.0):
+    if not (isinstance(amplitude, numbers.Real) and 0.0 <= amplitude <= 1.0):
         raise TrajectoryError(f"amplitude {amplitude!r} is not a fraction between 0 and 1")
-    if not (isinstance(seed, int) and seed >= 0):
+    if not (isinstance(seed, numbers.Integral) and not isinstance(seed, bool) and seed >= 0):
         raise TrajectoryError(f"seed {seed!r} is not a non-negative integer")
     if isinstance(kind, str) and kind in TrajectoryKind._value2member_map_:
         which = TrajectoryKind(kind)
@@ -165,6 +166,8 @@ def make_trajectory(
             names = ", ".join(k.value for k in TrajectoryKind)
             raise TrajectoryError(f"{text}: neither a trajectory kind ({names}) nor a CSV file")
         raise TrajectoryError(f"{text}: no such CSV file")
+    from tfrec.trajectory_csv import read_csv_trajectory  # imports this module
+
     return read_csv_trajectory(path, robot, overrides=overrides)
 
 
@@ -177,7 +180,7 @@ def joint_bounds(joint: Joint) -> tuple[float, float]:
     return joint.limit.lower, joint.limit.upper
 
 
-def center_positions(robot: Robot, *, overrides: Mapping[str, float] = {}) -> Array:  # noqa: B006
+def center_positions(robot: Robot, *, overrides: Mapping[str, float] = {}) -> Array:
     """joint_state_publisher_gui's Center: 0, or the middle of the limits when 0 is outside them.
 
     Returns:
@@ -210,7 +213,7 @@ def center_trajectory(
     *,
     duration_s: float = 10.0,
     rate_hz: float = 50.0,
-    overrides: Mapping[str, float] = {},  # noqa: B006
+    overrides: Mapping[str, float] = {},
 ) -> JointTrajectory:
     """Every actuated joint held at its center (:func:`center_positions`)."""
     center = center_positions(robot, overrides=overrides)
@@ -226,7 +229,7 @@ def random_trajectory(
     rate_hz: float = 50.0,
     seed: int = 0,
     period_s: float = 2.0,
-    overrides: Mapping[str, float] = {},  # noqa: B006
+    overrides: Mapping[str, float] = {},
 ) -> JointTrajectory:
     """The Randomize button pressed every ``period_s`` seconds, with smooth motion between.
 
@@ -259,7 +262,7 @@ def sine_trajectory(
     rate_hz: float = 50.0,
     period_s: float = 2.0,
     amplitude: float = 0.8,
-    overrides: Mapping[str, float] = {},  # noqa: B006
+    overrides: Mapping[str, float] = {},
 ) -> JointTrajectory:
     """Every joint oscillates about the middle of its bounds.
 
@@ -290,13 +293,14 @@ def sweep_trajectory(
     *,
     duration_s: float = 10.0,
     rate_hz: float = 50.0,
-    overrides: Mapping[str, float] = {},  # noqa: B006
+    overrides: Mapping[str, float] = {},
 ) -> JointTrajectory:
     """One joint at a time goes center → lower → upper → center; the others stay at center.
 
     Each joint that is not overridden gets an equal slot of the duration, in actuated order;
     within its slot the three moves take time in proportion to their lengths, each a
-    minimum-jerk segment (at rest at center and at both limits).
+    minimum-jerk segment (at rest at center and at both limits). The turning points are moved
+    to the nearest sample, so the limits themselves are among the positions.
     """
     pinned = _pinned(robot, overrides)
     center = center_positions(robot, overrides=overrides)
@@ -314,113 +318,13 @@ def sweep_trajectory(
             continue
         start = k * slot
         knot_s = np.concatenate([[0.0], start + slot * np.cumsum(np.r_[0.0, lengths]) / lengths.sum(), [duration_s]])
+        knot_s = t[np.clip(np.rint(knot_s * rate_hz).astype(np.int64), 0, len(t) - 1)]  # on samples: limits are hit
         knot_q = np.concatenate([[center[i]], values, [center[i]]])
-        keep = np.diff(knot_s, prepend=-np.inf) > 0.0  # drop empty segments (zero length, zero time)
+        keep = np.diff(knot_s, prepend=-np.inf) > 0.0  # drop empty segments (zero length or less than a sample)
         pos, vel = _min_jerk(t, knot_s[keep], knot_q[keep, np.newaxis])
         positions[:, i] = pos[:, 0]
         velocities[:, i] = vel[:, 0]
     return _trajectory(robot, time_ns, positions, velocities)
-
-
-def read_csv_trajectory(
-    path: str | os.PathLike[str],
-    robot: Robot,
-    *,
-    overrides: Mapping[str, float] = {},  # noqa: B006
-) -> JointTrajectory:
-    """Read a trajectory from CSV: a ``time`` column in seconds and one column per joint.
-
-    Samples are at the file's own times (``time_ns = round(time * 1e9)``, which must be
-    non-negative and increasing). Joints without a column stay at their center (or their
-    override). Velocities are ``numpy.gradient`` of the positions over the times.
-
-    Raises:
-        TrajectoryError: the file cannot be read; a column is not an actuated joint, repeated,
-            or also overridden; a cell is not a finite number; a row has the wrong number of
-            cells; times do not increase; a position is beyond its joint's limits
-            (continuous joints excepted). The message starts with ``file:line:``.
-    """
-    name = os.fspath(path)
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as stream:
-            rows = [(number, row) for number, row in _numbered_rows(stream) if any(cell.strip() for cell in row)]
-    except FileNotFoundError as err:
-        raise TrajectoryError(f"{name}: no such CSV file") from err
-    except (OSError, UnicodeDecodeError, csv.Error) as err:
-        raise TrajectoryError(f"{name}: cannot read CSV: {err}") from err
-    if not rows:
-        raise TrajectoryError(f"{name}: empty file, expected a header with 'time' and joint names")
-    header_line, header = rows[0]
-    columns = [cell.strip() for cell in header]
-    actuated = {joint.name: i for i, joint in enumerate(robot.actuated_joints)}
-    pinned = _pinned(robot, overrides)
-    seen: set[str] = set()
-    for column in columns:
-        where = f"{name}:{header_line}: column '{column}'"
-        if column in seen:
-            raise TrajectoryError(f"{where} appears twice")
-        seen.add(column)
-        if column == "time":
-            continue
-        joint = robot.joint_by_name.get(column)
-        if joint is None:
-            raise TrajectoryError(f"{where} is not a joint of robot '{robot.name}'")
-        if joint.mimic is not None and joint.type.moves:
-            raise TrajectoryError(f"{where} is a mimic joint; give '{joint.mimic.joint}' instead")
-        if column not in actuated:
-            raise TrajectoryError(f"{where} is a {joint.type.value} joint, which has no position")
-        if actuated[column] in pinned:
-            raise TrajectoryError(f"{where} is also set by an override")
-    if "time" not in seen:
-        raise TrajectoryError(f"{name}:{header_line}: no 'time' column")
-    if len(rows) == 1:
-        raise TrajectoryError(f"{name}: no samples after the header")
-
-    lines = np.array([number for number, _ in rows[1:]])
-    values = np.empty((len(rows) - 1, len(columns)))
-    for r, (number, row) in enumerate(rows[1:]):
-        if len(row) != len(columns):
-            raise TrajectoryError(f"{name}:{number}: {len(row)} cells, expected {len(columns)} as in the header")
-        for c, cell in enumerate(row):
-            try:
-                value = float(cell)
-            except ValueError:
-                raise TrajectoryError(f"{name}:{number}: '{cell}' in column '{columns[c]}' is not a number") from None
-            if not math.isfinite(value):
-                raise TrajectoryError(f"{name}:{number}: '{cell.strip()}' in column '{columns[c]}' is not finite")
-            values[r, c] = value
-
-    seconds = values[:, columns.index("time")]
-    time_ns = np.rint(seconds * 1e9).astype(np.int64)
-    negative = np.flatnonzero(time_ns < 0)
-    if negative.size:
-        r = negative[0]
-        raise TrajectoryError(f"{name}:{lines[r]}: time {seconds[r]!r} is negative")
-    stuck = np.flatnonzero(np.diff(time_ns) <= 0)
-    if stuck.size:
-        r = stuck[0] + 1
-        raise TrajectoryError(f"{name}:{lines[r]}: time {seconds[r]!r} does not increase (previous {seconds[r - 1]!r})")
-
-    positions = np.broadcast_to(center_positions(robot, overrides=overrides), (len(rows) - 1, len(actuated))).copy()
-    for c, column in enumerate(columns):
-        if column == "time":
-            continue
-        joint = robot.joint_by_name[column]
-        positions[:, actuated[column]] = values[:, c]
-        if joint.type is JointType.CONTINUOUS:
-            continue
-        lower, upper = joint_bounds(joint)
-        beyond = np.flatnonzero((values[:, c] < lower) | (values[:, c] > upper))
-        if beyond.size:
-            r = beyond[0]
-            raise TrajectoryError(
-                f"{name}:{lines[r]}: {column} = {values[r, c]!r} is beyond its limits [{lower!r}, {upper!r}]"
-            )
-    if len(time_ns) > 1 and positions.shape[1]:
-        velocities = np.gradient(positions, time_ns * 1e-9, axis=0)
-    else:
-        velocities = np.zeros_like(positions)
-    return _trajectory(robot, time_ns, positions, velocities, clip=False)
 
 
 def all_joint_states(robot: Robot, trajectory: JointTrajectory) -> tuple[tuple[str, ...], Array, Array]:
@@ -477,7 +381,7 @@ def _pinned(robot: Robot, overrides: Mapping[str, float]) -> dict[int, float]:
             raise TrajectoryError(f"{where}: '{name}' is a mimic joint; set '{joint.mimic.joint}' instead")
         if name not in actuated:
             raise TrajectoryError(f"{where}: '{name}' is a {joint.type.value} joint, which has no position")
-        if not (isinstance(value, (int, float)) and math.isfinite(value)):
+        if not (isinstance(value, numbers.Real) and math.isfinite(value)):
             raise TrajectoryError(f"{where}: not a finite number")
         if joint.type is not JointType.CONTINUOUS:
             lower, upper = joint_bounds(joint)
@@ -492,7 +396,7 @@ def _bounds_arrays(robot: Robot) -> tuple[Array, Array]:
     return np.array([b[0] for b in bounds], dtype=np.float64), np.array([b[1] for b in bounds], dtype=np.float64)
 
 
-def _min_jerk(t: Array, knot_s: Array, knot_q: Array) -> tuple[Array, Array]:
+def _min_jerk(t: Floats, knot_s: Floats, knot_q: Floats) -> tuple[Array, Array]:
     """Positions and velocities at times ``t`` of a path through waypoints.
 
     Args:
@@ -515,18 +419,9 @@ def _min_jerk(t: Array, knot_s: Array, knot_q: Array) -> tuple[Array, Array]:
     return start + delta * blend[:, np.newaxis], delta * rate[:, np.newaxis]
 
 
-def _numbered_rows(stream: object) -> Iterator[tuple[int, list[str]]]:
-    """CSV rows with the (1-based) line number on which each ends."""
-    reader = csv.reader(stream)  # type: ignore[arg-type]
-    for row in reader:
-        yield reader.line_num, row
-
-
-def _trajectory(
-    robot: Robot, time_ns: NDArray[np.int64], positions: Array, velocities: Array, *, clip: bool = True
-) -> JointTrajectory:
+def _trajectory(robot: Robot, time_ns: NDArray[np.int64], positions: Array, velocities: Array) -> JointTrajectory:
     """Wrap arrays as a trajectory, first clipping rounding overshoot (a few ulps) at the limits."""
-    if clip and positions.shape[1]:
+    if positions.shape[1]:
         lower, upper = _bounds_arrays(robot)
         continuous = np.array([joint.type is JointType.CONTINUOUS for joint in robot.actuated_joints])
         lower[continuous], upper[continuous] = -np.inf, np.inf

@@ -1,0 +1,383 @@
+"""Joint trajectories: sampling, the four kinds, CSV files, mimic joints."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tfrec.description import load_description, parse_urdf
+from tfrec.errors import TrajectoryError
+from tfrec.model import JointType, Robot
+from tfrec.trajectory import (
+    JointTrajectory,
+    TrajectoryKind,
+    all_joint_states,
+    center_positions,
+    joint_bounds,
+    make_trajectory,
+    sample_times_ns,
+)
+from tfrec.trajectory_csv import read_csv_trajectory
+
+TOY_URDF = """<robot name="toy">
+  <link name="base"/><link name="a"/><link name="b"/><link name="c"/><link name="d"/>
+  <link name="e"/><link name="f"/><link name="g"/>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="a"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="2" effort="1" velocity="1"/></joint>
+  <joint name="lifted" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 1 0"/>
+    <limit lower="0.5" upper="1.5" effort="1" velocity="1"/></joint>
+  <joint name="sunk" type="prismatic"><parent link="b"/><child link="c"/><axis xyz="1 0 0"/>
+    <limit lower="-0.2" upper="-0.1" effort="1" velocity="1"/></joint>
+  <joint name="wheel" type="continuous"><parent link="base"/><child link="d"/><axis xyz="0 1 0"/></joint>
+  <joint name="mount" type="fixed"><parent link="base"/><child link="e"/></joint>
+  <joint name="follower2" type="revolute"><parent link="f"/><child link="g"/>
+    <limit lower="-9" upper="9" effort="1" velocity="1"/>
+    <mimic joint="follower" multiplier="-0.5" offset="0.3"/></joint>
+  <joint name="follower" type="revolute"><parent link="e"/><child link="f"/>
+    <limit lower="-9" upper="9" effort="1" velocity="1"/><mimic joint="shoulder" multiplier="2" offset="0.1"/></joint>
+</robot>"""
+
+ACTUATED = ("shoulder", "lifted", "sunk", "wheel")
+KINDS = [kind.value for kind in TrajectoryKind]
+
+
+@pytest.fixture(scope="module")
+def toy() -> Robot:
+    return parse_urdf(TOY_URDF)
+
+
+def within_limits(robot: Robot, trajectory: JointTrajectory) -> bool:
+    for i, joint in enumerate(robot.actuated_joints):
+        lower, upper = joint_bounds(joint)
+        if not ((trajectory.positions[:, i] >= lower) & (trajectory.positions[:, i] <= upper)).all():
+            return False
+    return True
+
+
+def write(tmp_path: Path, text: str, name: str = "traj.csv") -> Path:
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+# Sampling ------------------------------------------------------------------------------------------
+
+def test_samples_include_both_ends_at_integer_nanoseconds(toy: Robot) -> None:
+    trajectory = make_trajectory(toy, "center")
+    assert trajectory.joint_names == ACTUATED
+    assert trajectory.time_ns.dtype == np.int64
+    np.testing.assert_array_equal(trajectory.time_ns, np.arange(501) * 20_000_000)
+    assert trajectory.positions.shape == trajectory.velocities.shape == (501, 4)
+
+
+@pytest.mark.parametrize(
+    ("duration_s", "rate_hz", "expected"),
+    [
+        (1.0, 3.0, [0, 333_333_333, 666_666_667, 1_000_000_000]),
+        (0.05, 50.0, [0, 20_000_000, 40_000_000]),
+        (0.5, 1.0, [0]),
+    ],
+)
+def test_sample_times_round_i_times_period(duration_s: float, rate_hz: float, expected: list[int]) -> None:
+    np.testing.assert_array_equal(sample_times_ns(duration_s, rate_hz), expected)
+
+
+def test_duration_that_is_not_exact_in_binary_keeps_its_last_sample() -> None:
+    times = sample_times_ns(2.3, 100.0)  # 2.3 * 100 = 229.99999999999997
+    assert len(times) == 231 and times[-1] == 2_300_000_000
+
+
+# center ------------------------------------------------------------------------------------------
+
+def test_center_is_zero_or_the_middle_of_limits_that_exclude_zero(toy: Robot) -> None:
+    np.testing.assert_allclose(center_positions(toy), [0.0, 1.0, -0.15, 0.0], rtol=0, atol=1e-15)
+    trajectory = make_trajectory(toy, "center", duration_s=1)
+    np.testing.assert_array_equal(trajectory.positions, np.tile(center_positions(toy), (51, 1)))
+    np.testing.assert_array_equal(trajectory.velocities, 0.0)
+
+
+def test_overrides_set_center_values_like_zeros(toy: Robot) -> None:
+    trajectory = make_trajectory(toy, "center", duration_s=1, overrides={"lifted": 0.7, "wheel": 7.0})
+    np.testing.assert_allclose(trajectory.positions[0], [0.0, 0.7, -0.15, 7.0], rtol=0, atol=1e-15)  # wheel: any value
+
+
+@pytest.mark.parametrize("kind", ["random", "sine", "sweep"])
+def test_overridden_joints_are_held_in_every_kind(toy: Robot, kind: str) -> None:
+    trajectory = make_trajectory(toy, kind, duration_s=4, overrides={"shoulder": 1.25})
+    np.testing.assert_array_equal(trajectory.positions[:, 0], 1.25)
+    np.testing.assert_array_equal(trajectory.velocities[:, 0], 0.0)
+    assert np.ptp(trajectory.positions[:, 1]) > 0
+
+
+def test_override_of_unknown_joint_is_an_error(toy: Robot) -> None:
+    with pytest.raises(TrajectoryError, match=r"^elbow=1.0: 'elbow' is not a joint of robot 'toy'$"):
+        make_trajectory(toy, "center", overrides={"elbow": 1.0})
+
+
+def test_override_beyond_limits_is_an_error(toy: Robot) -> None:
+    with pytest.raises(TrajectoryError, match=r"^lifted=2.0: beyond the limits \[0.5, 1.5\] of joint 'lifted'$"):
+        make_trajectory(toy, "sine", overrides={"lifted": 2.0})
+
+
+def test_override_of_mimic_joint_is_an_error(toy: Robot) -> None:
+    with pytest.raises(TrajectoryError, match="'follower' is a mimic joint; set 'shoulder' instead"):
+        make_trajectory(toy, "center", overrides={"follower": 0.0})
+
+
+def test_override_of_fixed_joint_is_an_error(toy: Robot) -> None:
+    with pytest.raises(TrajectoryError, match="'mount' is a fixed joint, which has no position"):
+        make_trajectory(toy, "center", overrides={"mount": 0.0})
+
+
+def test_non_finite_override_is_an_error(toy: Robot) -> None:
+    with pytest.raises(TrajectoryError, match="^wheel=nan: not a finite number$"):
+        make_trajectory(toy, "center", overrides={"wheel": math.nan})
+
+
+# random, sine, sweep -----------------------------------------------------------------------------
+
+@settings(max_examples=40, deadline=None)
+@given(
+    kind=st.sampled_from(KINDS),
+    seed=st.integers(0, 2**31),
+    duration_s=st.floats(0.01, 30.0),
+    rate_hz=st.floats(1.0, 400.0),
+    period_s=st.floats(0.05, 5.0),
+    amplitude=st.floats(0.0, 1.0),
+)
+def test_positions_stay_within_limits(kind, seed, duration_s, rate_hz, period_s, amplitude) -> None:
+    robot = parse_urdf(TOY_URDF)
+    trajectory = make_trajectory(
+        robot, kind, duration_s=duration_s, rate_hz=rate_hz, seed=seed, period_s=period_s, amplitude=amplitude
+    )
+    assert within_limits(robot, trajectory)
+    assert np.isfinite(trajectory.velocities).all()
+    assert trajectory.time_ns[0] == 0 and (np.diff(trajectory.time_ns) > 0).all()
+    assert trajectory.time_ns[-1] <= round(duration_s * 1e9)
+
+
+def test_same_seed_same_trajectory_and_longer_duration_extends_it(toy: Robot) -> None:
+    first = make_trajectory(toy, "random", duration_s=6, seed=7)
+    again = make_trajectory(toy, "random", duration_s=6, seed=7)
+    longer = make_trajectory(toy, "random", duration_s=12, seed=7)
+    other = make_trajectory(toy, "random", duration_s=6, seed=8)
+    np.testing.assert_array_equal(first.positions, again.positions)
+    np.testing.assert_array_equal(first.velocities, again.velocities)
+    np.testing.assert_array_equal(longer.positions[: len(first)], first.positions)
+    assert not np.array_equal(first.positions, other.positions)
+
+
+def test_random_starts_at_center_and_rests_on_a_waypoint_every_period(toy: Robot) -> None:
+    trajectory = make_trajectory(toy, "random", duration_s=6, rate_hz=10, period_s=1.5)
+    np.testing.assert_array_equal(trajectory.positions[0], center_positions(toy))
+    at_waypoints = trajectory.velocities[::15]  # t = 0, 1.5, 3, 4.5, 6
+    np.testing.assert_allclose(at_waypoints, 0.0, atol=1e-12)
+    assert (np.ptp(trajectory.positions[:, :3], axis=0) > 0).all()
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_velocities_are_the_derivative_of_positions(toy: Robot, kind: str) -> None:
+    trajectory = make_trajectory(toy, kind, duration_s=10, rate_hz=2000)
+    numeric = np.gradient(trajectory.positions, trajectory.time_ns * 1e-9, axis=0)
+    scale = max(np.abs(trajectory.velocities).max(), 1.0)
+    np.testing.assert_allclose(trajectory.velocities[1:-1], numeric[1:-1], atol=2e-4 * scale)
+    # continuous velocity: no jumps between neighbouring samples
+    assert np.abs(np.diff(trajectory.velocities, axis=0)).max() < 0.05 * scale
+
+
+def test_sine_reaches_amplitude_times_half_range_around_the_middle(toy: Robot) -> None:
+    trajectory = make_trajectory(toy, "sine", duration_s=40, rate_hz=200, amplitude=0.5)
+    lower, upper = np.array([joint_bounds(j) for j in toy.actuated_joints]).T
+    middle, half = (lower + upper) / 2, (upper - lower) / 2
+    np.testing.assert_allclose(trajectory.positions.max(axis=0), middle + 0.5 * half, rtol=1e-4, atol=1e-9)
+    np.testing.assert_allclose(trajectory.positions.min(axis=0), middle - 0.5 * half, rtol=1e-4, atol=1e-9)
+    normalized = (trajectory.positions - middle) / half
+    for i in range(4):
+        for j in range(i + 1, 4):
+            assert np.abs(normalized[:, i] - normalized[:, j]).max() > 0.1  # not in lockstep
+
+
+def test_sine_with_full_amplitude_touches_but_never_passes_the_limits(toy: Robot) -> None:
+    trajectory = make_trajectory(toy, "sine", duration_s=60, rate_hz=500, amplitude=1.0)
+    assert within_limits(toy, trajectory)
+    assert np.isclose(trajectory.positions[:, 2].max(), -0.1, atol=1e-7)
+
+
+def test_sweep_moves_one_joint_at_a_time_through_its_limits(toy: Robot) -> None:
+    trajectory = make_trajectory(toy, "sweep", duration_s=8, rate_hz=200)
+    center = center_positions(toy)
+    moved = np.abs(trajectory.positions - center) > 1e-12
+    assert moved.sum(axis=1).max() == 1
+    np.testing.assert_array_equal(trajectory.positions[0], center)
+    np.testing.assert_allclose(trajectory.positions[-1], center, atol=1e-12)
+    for i, joint in enumerate(toy.actuated_joints):
+        lower, upper = joint_bounds(joint)
+        assert trajectory.positions[:, i].min() == lower
+        assert trajectory.positions[:, i].max() == upper
+        active = np.flatnonzero(moved[:, i])
+        assert 2 * i * 200 <= active[0] and active[-1] <= 2 * (i + 1) * 200  # its own 2 s slot
+
+
+@pytest.mark.parametrize("name", ["marm.xacro", "mbot.xacro"])
+def test_kinds_stay_within_limits_on_the_repository_robots(name: str) -> None:
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*legacy macro calls")  # mbot uses them on purpose
+        robot = load_description(Path(__file__).resolve().parents[1] / "robots" / name)
+    for kind in KINDS:
+        trajectory = make_trajectory(robot, kind, duration_s=5, rate_hz=100)
+        assert trajectory.joint_names == tuple(j.name for j in robot.actuated_joints)
+        assert within_limits(robot, trajectory)
+
+
+def test_robot_without_actuated_joints_gets_empty_columns() -> None:
+    robot = parse_urdf('<robot name="cube"><link name="box"/></robot>')
+    for kind in KINDS:
+        trajectory = make_trajectory(robot, kind, duration_s=1, rate_hz=4)
+        assert trajectory.positions.shape == (5, 0) and trajectory.joint_names == ()
+
+
+# options -----------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"duration_s": 0.0}, r"^duration 0.0 s is not a positive number$"),
+        ({"duration_s": -1.0}, r"^duration -1.0 s is not a positive number$"),
+        ({"duration_s": math.inf}, r"^duration inf s is not a positive number$"),
+        ({"rate_hz": 0.0}, r"^rate 0.0 Hz is not a positive number$"),
+        ({"period_s": -2.0}, r"^period -2.0 s is not a positive number$"),
+        ({"amplitude": 1.5}, r"^amplitude 1.5 is not a fraction between 0 and 1$"),
+        ({"seed": -1}, r"^seed -1 is not a non-negative integer$"),
+        ({"duration_s": 1e6, "rate_hz": 1e3}, r"^duration 1e\+06 s at 1000 Hz gives more than 10,000,000 samples$"),
+    ],
+)
+def test_bad_options_are_errors(toy: Robot, options: dict, message: str) -> None:
+    with pytest.raises(TrajectoryError, match=message):
+        make_trajectory(toy, "sine", **options)
+
+
+def test_unknown_kind_is_an_error(toy: Robot) -> None:
+    message = r"^sinus: neither a trajectory kind \(center, random, sine, sweep\) nor a CSV file$"
+    with pytest.raises(TrajectoryError, match=message):
+        make_trajectory(toy, "sinus")
+
+
+def test_missing_csv_file_is_an_error_naming_it(toy: Robot, tmp_path: Path) -> None:
+    missing = tmp_path / "nope.csv"
+    with pytest.raises(TrajectoryError, match=f"^{missing}: no such CSV file$"):
+        make_trajectory(toy, str(missing))
+
+
+# mimic joints ------------------------------------------------------------------------------------
+
+def test_all_joint_states_adds_mimic_chains_in_document_order(toy: Robot) -> None:
+    trajectory = make_trajectory(toy, "sine", duration_s=2)
+    names, positions, velocities = all_joint_states(toy, trajectory)
+    assert names == ("shoulder", "lifted", "sunk", "wheel", "follower2", "follower")
+    np.testing.assert_array_equal(positions[:, :4], trajectory.positions)
+    shoulder, follower, follower2 = positions[:, 0], positions[:, 5], positions[:, 4]
+    np.testing.assert_allclose(follower, 2 * shoulder + 0.1)
+    np.testing.assert_allclose(follower2, -0.5 * follower + 0.3)
+    np.testing.assert_allclose(velocities[:, 5], 2 * trajectory.velocities[:, 0])
+    np.testing.assert_allclose(velocities[:, 4], -trajectory.velocities[:, 0])
+
+
+def test_all_joint_states_works_on_chunks(toy: Robot) -> None:
+    trajectory = make_trajectory(toy, "random", duration_s=3)
+    whole = all_joint_states(toy, trajectory)[1]
+    pieces = [all_joint_states(toy, chunk)[1] for chunk in trajectory.chunks(40)]
+    assert [len(p) for p in pieces] == [40, 40, 40, 31]
+    np.testing.assert_array_equal(np.concatenate(pieces), whole)
+
+
+def test_trajectory_without_an_actuated_joint_is_an_error(toy: Robot) -> None:
+    short = JointTrajectory(("shoulder",), np.zeros(1, np.int64), np.zeros((1, 1)), np.zeros((1, 1)))
+    with pytest.raises(TrajectoryError, match="trajectory has no position for joint 'lifted' of robot 'toy'"):
+        all_joint_states(toy, short)
+
+
+def test_trajectory_with_a_foreign_joint_is_an_error(toy: Robot) -> None:
+    names = (*ACTUATED, "elbow")
+    extra = JointTrajectory(names, np.zeros(1, np.int64), np.zeros((1, 5)), np.zeros((1, 5)))
+    with pytest.raises(TrajectoryError, match="trajectory joint 'elbow' is not an actuated joint of robot 'toy'"):
+        all_joint_states(toy, extra)
+
+
+def test_joint_trajectory_checks_its_arrays() -> None:
+    with pytest.raises(ValueError, match="positions must be float64 of shape"):
+        JointTrajectory(("a",), np.zeros(2, np.int64), np.zeros((2, 2)), np.zeros((2, 1)))
+
+
+# CSV files ---------------------------------------------------------------------------------------
+
+def test_csv_gives_samples_at_its_own_times(toy: Robot, tmp_path: Path) -> None:
+    path = write(tmp_path, "\ufefftime, shoulder ,wheel\n0,0,0\n\n0.5,0.5,4\n1.25,1.0,-10\n")
+    trajectory = make_trajectory(toy, str(path))
+    np.testing.assert_array_equal(trajectory.time_ns, [0, 500_000_000, 1_250_000_000])
+    np.testing.assert_array_equal(trajectory.positions[:, 0], [0, 0.5, 1.0])
+    np.testing.assert_array_equal(trajectory.positions[:, 3], [0, 4, -10])  # continuous: beyond ±π
+    np.testing.assert_allclose(trajectory.positions[:, 1:3], [[1.0, -0.15]] * 3, rtol=0, atol=1e-15)  # center
+    np.testing.assert_allclose(trajectory.velocities[:, 0], np.gradient([0, 0.5, 1.0], [0, 0.5, 1.25]))
+    np.testing.assert_array_equal(trajectory.velocities[:, 1:3], 0.0)
+
+
+def test_csv_accepts_a_path_object_and_fills_missing_joints_from_overrides(toy: Robot, tmp_path: Path) -> None:
+    path = write(tmp_path, "time,shoulder\n0.1,0\n")
+    trajectory = make_trajectory(toy, path, overrides={"lifted": 0.6})
+    np.testing.assert_array_equal(trajectory.time_ns, [100_000_000])
+    np.testing.assert_allclose(trajectory.positions, [[0.0, 0.6, -0.15, 0.0]], rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(trajectory.velocities, 0.0)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("time,elbow\n0,1\n", r"^traj.csv:1: column 'elbow' is not a joint of robot 'toy'$"),
+        ("time,follower\n0,1\n", r"^traj.csv:1: column 'follower' is a mimic joint; give 'shoulder' instead$"),
+        ("time,mount\n0,1\n", r"^traj.csv:1: column 'mount' is a fixed joint, which has no position$"),
+        ("time,wheel,wheel\n0,1,1\n", r"^traj.csv:1: column 'wheel' appears twice$"),
+        ("t,wheel\n0,1\n", r"^traj.csv:1: column 't' is not a joint of robot 'toy'$"),
+        ("wheel\n0\n", r"^traj.csv:1: no 'time' column$"),
+        ("time,shoulder\n0,0\n0.1,0\n0.2,0\n0.3,abc\n", r"^traj.csv:5: 'abc' in column 'shoulder' is not a number$"),
+        ("time,shoulder\n0,0\n0.1,\n", r"^traj.csv:3: '' in column 'shoulder' is not a number$"),
+        ("time,shoulder\n0,nan\n", r"^traj.csv:2: 'nan' in column 'shoulder' is not finite$"),
+        ("time,shoulder\n0,0\n0.1\n", r"^traj.csv:3: 1 cells, expected 2 as in the header$"),
+        ("time,shoulder\n0,0\n0.1,0\n\n0.3,0\n0.3,0\n", r"^traj.csv:6: time 0.3 does not increase \(previous 0.3\)$"),
+        ("time,shoulder\n0,0\n0.3,0\n0.2,0\n", r"^traj.csv:4: time 0.2 does not increase \(previous 0.3\)$"),
+        ("time,shoulder\n-0.1,0\n", r"^traj.csv:2: time -0.1 is negative$"),
+        ("time,lifted\n0,1\n1,1.6\n", r"^traj.csv:3: lifted = 1.6 is beyond its limits \[0.5, 1.5\]$"),
+        ("", r"^traj.csv: empty file, expected a header with 'time' and joint names$"),
+        ("time,shoulder\n", r"^traj.csv: no samples after the header$"),
+    ],
+)
+def test_csv_errors_name_file_and_line(toy: Robot, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                       text: str, message: str) -> None:
+    write(tmp_path, text)
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(TrajectoryError, match=message):
+        make_trajectory(toy, "traj.csv")
+
+
+def test_csv_column_also_overridden_is_an_error(toy: Robot, tmp_path: Path) -> None:
+    path = write(tmp_path, "time,shoulder\n0,0\n")
+    with pytest.raises(TrajectoryError, match=r"traj.csv:1: column 'shoulder' is also set by an override$"):
+        read_csv_trajectory(path, toy, overrides={"shoulder": 0.5})
+
+
+def test_csv_that_is_not_text_is_an_error(toy: Robot, tmp_path: Path) -> None:
+    path = tmp_path / "traj.csv"
+    path.write_bytes(b"time,shoulder\n\xff\xfe\x00\n")
+    with pytest.raises(TrajectoryError, match=r"traj.csv: cannot read CSV: "):
+        read_csv_trajectory(path, toy)
+
+
+def test_continuous_joint_type_is_exempt_from_csv_limits(toy: Robot, tmp_path: Path) -> None:
+    assert toy.joint_by_name["wheel"].type is JointType.CONTINUOUS
+    path = write(tmp_path, "time,wheel\n0,100\n")
+    assert make_trajectory(toy, str(path)).positions[0, 3] == 100.0
