@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, TextIO
 
 from . import __version__
-from .errors import TfrecError
+from .errors import TfrecError, TrajectoryError
 
 if TYPE_CHECKING:
     from .model import Joint, Robot
@@ -58,6 +58,50 @@ def _build_parser() -> argparse.ArgumentParser:
     out.add_argument("--urdf", action="store_true", help="print the expanded URDF")
     out.add_argument("--json", action="store_true", help="print the model as JSON")
     inspect.set_defaults(handler=_cmd_inspect)
+
+    rec = sub.add_parser(
+        "record", help="drive the joints along a trajectory and record TF (MCAP, rosbag2, Rerun)",
+        description="What joint_state_publisher + robot_state_publisher + `ros2 bag record -s mcap` would "
+                    "record: /robot_description, /tf_static, /joint_states and /tf, as a ROS 2 MCAP file, "
+                    "plus a Rerun .rrd beside it.",
+    )
+    _add_robot_arguments(rec)
+    traj = rec.add_argument_group("trajectory")
+    traj.add_argument("--traj", metavar="KIND", default="sine",
+                      help="center, random, sine, sweep, or a CSV file (time column in s + one column per "
+                           "joint) (default: sine)")
+    traj.add_argument("--duration", metavar="S", type=float, default=10.0, help="seconds (default 10)")
+    traj.add_argument("--rate", metavar="HZ", type=float, default=50.0, help="samples per second (default 50)")
+    traj.add_argument("--seed", metavar="N", type=int, default=0, help="seed of --traj random (default 0)")
+    traj.add_argument("--period", metavar="S", type=float, default=2.0,
+                      help="seconds between random waypoints (Randomize presses); sine periods (default 2)")
+    traj.add_argument("--amplitude", metavar="F", type=float, default=0.8,
+                      help="sine amplitude, a fraction of each joint's half-range (default 0.8)")
+    traj.add_argument("--set", metavar="JOINT=VALUE", action="append", default=[], dest="overrides",
+                      help="hold a joint at a value (repeatable), like joint_state_publisher's zeros")
+    traj.add_argument("--frame-prefix", metavar="P", default="",
+                      help="put P in front of every TF frame id, as robot_state_publisher's frame_prefix")
+    out = rec.add_argument_group("output")
+    out.add_argument("-o", "--output", metavar="OUT.mcap",
+                     help="MCAP file (default recordings/<robot>-<traj>-<YYYYmmdd-HHMMSS>.mcap)")
+    out.add_argument("--bag", metavar="DIR", help="write a rosbag2 folder (metadata.yaml + .mcap) instead")
+    out.add_argument("--rrd", metavar="OUT.rrd", help="Rerun recording (default: beside the MCAP, same stem)")
+    out.add_argument("--no-rrd", action="store_true", help="write no Rerun recording")
+    out.add_argument("--no-mcap", action="store_true", help="write no MCAP (only the .rrd)")
+    out.add_argument("--compression", choices=("none", "lz4", "zstd"), default="zstd",
+                     help="MCAP chunk compression (default zstd)")
+    out.add_argument("--start-time", metavar="S", type=float, default=None,
+                     help="stamp of the first sample, seconds since the Unix epoch "
+                          "(default 1700000000 = 2023-11-14T22:13:20Z, so runs are byte-identical)")
+    out.add_argument("--force", action="store_true", help="overwrite existing outputs")
+    rec.set_defaults(handler=_cmd_record)
+
+    info = sub.add_parser("info", help="summarize a recording (MCAP file or rosbag2 folder)",
+                          description="Duration, start and end, topics with type, count and rate, joints, "
+                                      "TF frames and the robot's name, of tfrec's or any ROS 2 recording.")
+    info.add_argument("file", metavar="FILE", help="a .mcap file or a rosbag2 folder")
+    info.add_argument("--json", action="store_true", help="print the summary as JSON")
+    info.set_defaults(handler=_cmd_info)
     return parser
 
 
@@ -136,6 +180,101 @@ def _cmd_inspect(ns: argparse.Namespace) -> int:
         sys.stdout.write("\n")
     else:
         _print_tree(robot, sys.stdout)
+    return 0
+
+
+def _parse_overrides(items: Sequence[str]) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            sep = ""
+        if not sep or not name.strip():
+            raise TrajectoryError(f"--set '{item}' is not of the form joint=number")
+    return out
+
+
+class _Progress:
+    """A progress bar on stderr, shown only on a terminal and once a recording takes over a second."""
+
+    def __init__(self, stream: TextIO) -> None:
+        import time
+
+        self._clock = time.monotonic
+        self._start = self._clock()
+        self._enabled = stream.isatty()
+        self._stream = stream
+        self._shown = False
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self._enabled or (not self._shown and self._clock() - self._start < 1.0):
+            return
+        self._shown = True
+        width = 30
+        filled = int(width * done / max(total, 1))
+        self._stream.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {100 * done // max(total, 1):3d}% "
+                           f"{done}/{total} samples")
+        self._stream.flush()
+
+    def close(self) -> None:
+        if self._shown:
+            self._stream.write("\n")
+            self._stream.flush()
+
+
+def _cmd_record(ns: argparse.Namespace) -> int:
+    import math
+
+    from .recording import DEFAULT_START_TIME_NS, default_stem, plan_outputs, record
+    from .trajectory import make_trajectory
+
+    if ns.start_time is not None and not (math.isfinite(ns.start_time) and ns.start_time >= 0):
+        raise TrajectoryError(f"--start-time {ns.start_time} is not a time since the epoch in seconds")
+    start_ns = DEFAULT_START_TIME_NS if ns.start_time is None else int(round(ns.start_time * 1e9))
+    robot = _load_robot(ns)
+    trajectory = make_trajectory(
+        robot, ns.traj, duration_s=ns.duration, rate_hz=ns.rate, seed=ns.seed, period_s=ns.period,
+        amplitude=ns.amplitude, overrides=_parse_overrides(ns.overrides),
+    )
+    plan = plan_outputs(stem=default_stem(robot, ns.traj), out=ns.output, rrd=ns.rrd, bag=ns.bag,
+                        no_mcap=ns.no_mcap, no_rrd=ns.no_rrd, force=ns.force)
+    progress = _Progress(sys.stderr)
+    try:
+        result = record(robot, trajectory, plan, compression=ns.compression, start_time_ns=start_ns,
+                        frame_prefix=ns.frame_prefix, package_paths=ns.package_path, progress=progress)
+    finally:
+        progress.close()
+    seconds = (result.end_time_ns - result.start_time_ns) / 1e9
+    print(f"recorded {robot.name}: {result.samples} samples over {seconds:g} s "
+          f"({len(trajectory.joint_names)} actuated joints, --traj {ns.traj})")
+    if plan.bag_dir is not None:
+        print(f"wrote {plan.bag_dir}/  (rosbag2: metadata.yaml + {plan.mcap.name if plan.mcap else ''})")
+    elif plan.mcap is not None:
+        print(f"wrote {plan.mcap}")
+    if plan.rrd is not None:
+        print(f"wrote {plan.rrd}")
+    hints = []
+    if plan.rrd is not None:
+        hints.append(f"rerun {plan.rrd}")
+    target = plan.bag_dir or plan.mcap
+    if target is not None:
+        hints.append(f"tfrec info {target}")
+    if hints:
+        print("open with: " + "   |   ".join(hints))
+    return 0
+
+
+def _cmd_info(ns: argparse.Namespace) -> int:
+    from .mcap_io import format_summary, summarize
+
+    summary = summarize(ns.file)
+    if ns.json:
+        json.dump(summary, sys.stdout, indent=2)
+        sys.stdout.write("\n")
+    else:
+        sys.stdout.write(format_summary(summary).rstrip("\n") + "\n")
     return 0
 
 
