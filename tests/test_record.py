@@ -12,11 +12,17 @@ import pytest
 
 from tfrec.cli import main
 from tfrec.errors import RecordingError
+from tfrec.model import Robot
 from tfrec.recording import plan_outputs, record
 from tfrec.trajectory import make_trajectory
 
 from .conftest import ROBOTS
-from .recording_helpers import load_robot
+
+
+def load_robot(name: str) -> Robot:
+    from tfrec.description import load_description
+
+    return load_description(ROBOTS / f"{name}.xacro")
 
 MARM = str(ROBOTS / "marm.xacro")
 
