@@ -20,10 +20,11 @@ $(VENV)/.installed-test: pyproject.toml | $(BIN)/python
 	@touch $@ $(VENV)/.installed
 
 demo: $(VENV)/.installed
-	$(BIN)/tfrec inspect robots/mbot.xacro
+	$(BIN)/tfrec record robots/mbot.xacro --traj sine
 	@echo
-	@echo "Loaded robots/mbot.xacro (xacro expanded in-process, validated)."
-	@echo "Try: $(BIN)/tfrec inspect robots/marm.xacro --json   or   $(BIN)/tfrec inspect robots/mbot.xacro --urdf"
+	@echo "The .mcap is a ROS 2 bag (ros2 bag info/play, Foxglove, rosbags); the .rrd opens in Rerun:"
+	@echo "  $(BIN)/rerun <file>.rrd          (the viewer comes with the pinned rerun-sdk)"
+	@echo "  $(BIN)/tfrec info <file>.mcap    (topics, rates, joints, frames)"
 
 test: $(VENV)/.installed-test
 	$(BIN)/python -m pytest -q

@@ -15,6 +15,7 @@ import uuid
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from .errors import RecordingError
 from .kinematics import DEFAULT_CHUNK_SIZE, iter_dynamic_chunks, static_transforms
@@ -161,6 +162,14 @@ class _Staging:
         self._pairs.clear()
 
 
+def _abort_sinks(sinks: Sequence[Any]) -> None:
+    """Close sinks that hold files open (Rerun's writer) before their temporary files are removed."""
+    for sink in sinks:
+        abort = getattr(sink, "abort", None)
+        if abort is not None:
+            abort()
+
+
 def record(
     robot: Robot,
     trajectory: JointTrajectory,
@@ -198,8 +207,8 @@ def record(
     static = static_transforms(robot, frame_prefix=frame_prefix)
     staging = _Staging()
     streams = []
+    sinks: list[Any] = []
     try:
-        sinks = []
         mcap_temp: Path | None = None
         bag_temp: Path | None = None
         if plan.bag_dir is not None and plan.mcap is not None:
@@ -240,9 +249,11 @@ def record(
             write_bag_metadata(bag_temp, mcap_temp, final_mcap_name=plan.mcap.name if plan.mcap else mcap_temp.name)
         staging.commit()
     except OSError as err:
+        _abort_sinks(sinks)
         staging.abort()
         raise RecordingError(f"{err.filename or 'output'}: cannot write: {err.strerror or err}") from None
     except BaseException:
+        _abort_sinks(sinks)
         staging.abort()
         raise
     finally:

@@ -1,0 +1,83 @@
+"""Log-diff regression tests: record again with the arguments that made tests/golden/*.mcap and
+compare by meaning. A change in FK, trajectories or encoding fails here with diff's readable
+report; a different library version in a file header does not (the header is not compared).
+
+To accept an intended change, re-run the commands in tests/golden/README.md and commit the files.
+"""
+
+from __future__ import annotations
+
+import shlex
+import struct
+from pathlib import Path
+
+import pytest
+
+from tfrec import cli
+from tfrec.diff import FLOAT32_TOL, assert_recordings_match
+from tfrec.readers import read_recording
+
+from .conftest import REPO
+
+GOLDEN = Path(__file__).parent / "golden"
+
+# file name → the `tfrec record` arguments that made it (run from the repository root)
+COMMANDS = {
+    "mbot-sine-2s.mcap": "record robots/mbot.xacro --traj sine --duration 2 --rate 50",
+    "marm-random-2s.mcap": "record robots/marm.xacro --traj random --duration 2 --rate 50 --seed 7",
+}
+TOLERANCE = {"pos_tol": 1e-9, "rot_tol": 1e-9, "joint_tol": 1e-9}
+
+
+def _record(tmp_path: Path, name: str, *extra: str) -> int:
+    argv = shlex.split(COMMANDS[name])
+    argv[1] = str(REPO / argv[1])
+    return cli.main([*argv, *extra])
+
+
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_record_again_matches_golden(tmp_path: Path, name: str, capsys: pytest.CaptureFixture[str]) -> None:
+    fresh = tmp_path / name
+    assert _record(tmp_path, name, "-o", str(fresh), "--rrd", str(fresh.with_suffix(".rrd"))) == 0
+    capsys.readouterr()
+    report = assert_recordings_match(GOLDEN / name, fresh, **TOLERANCE)
+    assert report.a.topics == report.b.topics
+    # the .rrd of the same command matches too, at float32 tolerance
+    assert_recordings_match(GOLDEN / name, fresh.with_suffix(".rrd"), pos_tol=FLOAT32_TOL, rot_tol=FLOAT32_TOL,
+                            joint_tol=TOLERANCE["joint_tol"])
+
+
+def test_header_is_not_compared(tmp_path: Path) -> None:
+    """Rewrite the MCAP header's library string (same length): still identical by meaning."""
+    golden = GOLDEN / "marm-random-2s.mcap"
+    data = bytearray(golden.read_bytes())
+    profile_len = struct.unpack_from("<I", data, 8 + 9)[0]
+    at = 8 + 9 + 4 + profile_len
+    library_len = struct.unpack_from("<I", data, at)[0]
+    data[at + 4 : at + 4 + library_len] = b"x" * library_len
+    other = tmp_path / "other.mcap"
+    other.write_bytes(bytes(data))
+    assert other.read_bytes() != golden.read_bytes()
+    assert_recordings_match(golden, other, **TOLERANCE)
+
+
+def test_goldens_are_small_and_documented() -> None:
+    readme = (GOLDEN / "README.md").read_text()
+    assert sorted(p.name for p in GOLDEN.glob("*.mcap")) == sorted(COMMANDS)
+    for name, command in COMMANDS.items():
+        assert f"tfrec {command} -o tests/golden/{name} --no-rrd" in readme
+        assert (GOLDEN / name).stat().st_size < 200_000
+        rec = read_recording(GOLDEN / name)
+        assert rec.read_error is None and rec.duration_ns == 2_000_000_000
+
+
+def test_a_regression_shows_as_a_readable_failure(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """What a regression looks like here: frame ids that changed (a frame prefix, as if by mistake)."""
+    fresh = tmp_path / "fresh.mcap"
+    assert _record(tmp_path, "marm-random-2s.mcap", "--frame-prefix", "arm/", "-o", str(fresh), "--no-rrd") == 0
+    capsys.readouterr()
+    with pytest.raises(AssertionError) as info:
+        assert_recordings_match(GOLDEN / "marm-random-2s.mcap", fresh, **TOLERANCE)
+    text = str(info.value)
+    assert text.splitlines()[0] == "recordings differ: 18 differences"
+    assert "link0 → link1 only in A (/tf)" in text and "arm/link0 → arm/link1 only in B (/tf)" in text

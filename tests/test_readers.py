@@ -1,0 +1,377 @@
+"""Reading recordings back: tfrec's MCAP, rosbag2 folders and ROS 1 bags written by rosbags,
+and tfrec's .rrd — checked against independent readers (mcap_ros2, rosbags)."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tfrec.readers import JointStates, Recording, read_recording, recording_format
+from tfrec.errors import RecordingError
+from tfrec.mcap_io import DEFAULT_START_TIME_NS
+from tfrec.model import Robot
+from tfrec.ros_decode import JointStateAccumulator, TFAccumulator, message_layout
+from tfrec.trajectory import JointTrajectory
+
+from .recording_helpers import (
+    cdr_messages,
+    deserializer,
+    load_robot,
+    marm_trajectory,
+    write_mcap,
+    write_rosbag1,
+    write_rosbag2,
+)
+
+GOLDEN = Path(__file__).parent / "golden"
+
+
+@pytest.fixture(scope="module")
+def marm() -> Robot:
+    return load_robot("marm")
+
+
+@pytest.fixture(scope="module")
+def traj(marm: Robot) -> JointTrajectory:
+    return marm_trajectory(marm)
+
+
+@pytest.fixture(scope="module")
+def marm_mcap(tmp_path_factory: pytest.TempPathFactory, marm: Robot, traj: JointTrajectory) -> Path:
+    return write_mcap(tmp_path_factory.mktemp("rec") / "marm.mcap", marm, traj)
+
+
+@pytest.fixture(scope="module")
+def marm_rec(marm_mcap: Path) -> Recording:
+    return read_recording(marm_mcap)
+
+
+def test_mcap_matches_mcap_ros2(marm_mcap: Path, marm_rec: Recording, marm: Robot, traj: JointTrajectory) -> None:
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    rec = marm_rec
+    assert rec.format == "mcap" and rec.read_error is None and not rec.float32
+    assert rec.robot_description == marm.urdf
+    assert rec.start_ns == DEFAULT_START_TIME_NS and rec.duration_ns == 2_000_000_000
+    assert {name: info.count for name, info in rec.topics.items()} == {
+        "/robot_description": 1, "/tf_static": 1, "/joint_states": 101, "/tf": 101}
+    assert rec.topics["/tf"].type == "tf2_msgs/msg/TFMessage"
+    assert rec.topics["/tf"].first_ns == DEFAULT_START_TIME_NS
+    assert rec.topics["/tf"].last_ns == DEFAULT_START_TIME_NS + 2_000_000_000
+
+    js: list[tuple[int, list[str], list[float]]] = []
+    tf: dict[tuple[str, str], list[tuple[int, list[float]]]] = {}
+    static = {}
+    with open(marm_mcap, "rb") as stream:
+        for _, channel, _, msg in make_reader(stream, decoder_factories=[DecoderFactory()]).iter_decoded_messages():
+            if channel.topic == "/joint_states":
+                js.append((msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec, list(msg.name), list(msg.position)))
+            elif channel.topic in ("/tf", "/tf_static"):
+                for t in msg.transforms:
+                    tr, q = t.transform.translation, t.transform.rotation
+                    value = [tr.x, tr.y, tr.z, q.x, q.y, q.z, q.w]
+                    if channel.topic == "/tf":
+                        stamp = t.header.stamp.sec * 10**9 + t.header.stamp.nanosec
+                        tf.setdefault((t.header.frame_id, t.child_frame_id), []).append((stamp, value))
+                    else:
+                        static[(t.header.frame_id, t.child_frame_id)] = value
+    assert rec.joint_states is not None
+    assert rec.joint_states.names == tuple(js[0][1])
+    np.testing.assert_array_equal(rec.joint_states.time_ns, [t for t, _, _ in js])
+    np.testing.assert_array_equal(rec.joint_states.positions, [p for _, _, p in js])
+    assert list(rec.tf) == list(tf)
+    for pair, series in tf.items():
+        np.testing.assert_array_equal(rec.tf[pair].time_ns, [t for t, _ in series])
+        np.testing.assert_array_equal(np.hstack([rec.tf[pair].translation, rec.tf[pair].rotation]),
+                                      [v for _, v in series])
+    assert set(rec.tf_static) == set(static)
+    for pair, value in static.items():
+        np.testing.assert_array_equal(np.hstack(rec.tf_static[pair]), value)
+
+
+@pytest.mark.parametrize("compression", ["lz4", "none"])
+def test_mcap_compressions(tmp_path: Path, marm: Robot, traj: JointTrajectory, marm_rec: Recording,
+                           compression: str) -> None:
+    rec = read_recording(write_mcap(tmp_path / "x.mcap", marm, traj, compression=compression))
+    _assert_same(rec, marm_rec)
+
+
+def _assert_same(rec: Recording, ref: Recording, *, exact_types: bool = False) -> None:
+    assert rec.robot_description == ref.robot_description
+    assert {k: v.count for k, v in rec.topics.items()} == {k: v.count for k, v in ref.topics.items()}
+    assert rec.start_ns == ref.start_ns and rec.end_ns == ref.end_ns
+    assert rec.joint_states is not None and ref.joint_states is not None
+    assert rec.joint_states.names == ref.joint_states.names
+    np.testing.assert_array_equal(rec.joint_states.time_ns, ref.joint_states.time_ns)
+    np.testing.assert_array_equal(rec.joint_states.positions, ref.joint_states.positions)
+    assert list(rec.tf) == list(ref.tf)
+    for pair, series in ref.tf.items():
+        np.testing.assert_array_equal(rec.tf[pair].time_ns, series.time_ns)
+        np.testing.assert_array_equal(rec.tf[pair].translation, series.translation)
+        np.testing.assert_array_equal(rec.tf[pair].rotation, series.rotation)
+    assert {k: np.hstack(v).tolist() for k, v in rec.tf_static.items()} == {
+        k: np.hstack(v).tolist() for k, v in ref.tf_static.items()}
+
+
+@pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
+def test_rosbag2_folder(tmp_path: Path, marm_rec: Recording, storage: str) -> None:
+    bag = write_rosbag2(marm_rec, tmp_path / "bag", storage=storage)
+    assert recording_format(bag) == "rosbag2"
+    rec = read_recording(bag)
+    assert rec.format == "rosbag2"
+    _assert_same(rec, marm_rec)
+    if storage == "sqlite3":  # the .db3 itself names the bag too
+        (db3,) = bag.glob("*.db3")
+        assert read_recording(db3).topics == rec.topics
+
+
+def test_tfrec_bag_folder(tmp_path: Path, marm: Robot, traj: JointTrajectory, marm_rec: Recording) -> None:
+    from tfrec.recording import plan_outputs, record
+
+    plan = plan_outputs(stem="marm", bag=tmp_path / "marm_bag", no_rrd=True)
+    record(marm, traj, plan)
+    rec = read_recording(tmp_path / "marm_bag")
+    assert rec.format == "rosbag2" and rec.path == str(tmp_path / "marm_bag")
+    _assert_same(rec, marm_rec)
+
+
+def test_ros1_bag(tmp_path: Path, marm_rec: Recording) -> None:
+    bag = write_rosbag1(marm_rec, tmp_path / "marm.bag")
+    rec = read_recording(bag)
+    assert rec.format == "rosbag1"
+    _assert_same(rec, marm_rec)
+    assert rec.topics["/tf"].type == "tf2_msgs/msg/TFMessage"
+
+
+def test_rrd(tmp_path: Path, marm: Robot, traj: JointTrajectory, marm_rec: Recording) -> None:
+    from tfrec.recording import plan_outputs, record
+
+    plan = plan_outputs(stem="marm", out=tmp_path / "marm.mcap")
+    record(marm, traj, plan)
+    assert plan.rrd is not None
+    rec = read_recording(plan.rrd)
+    assert rec.format == "rrd" and rec.float32
+    assert rec.robot_description == marm.urdf
+    assert {k: v.count for k, v in rec.topics.items()} == {
+        "/robot_description": 1, "/tf_static": 1, "/joint_states": 101, "/tf": 101}
+    assert rec.start_ns == marm_rec.start_ns and rec.end_ns == marm_rec.end_ns
+    assert rec.joint_states is not None and marm_rec.joint_states is not None
+    assert set(rec.joint_states.names) == set(marm_rec.joint_states.names)
+    assert set(rec.tf) == set(marm_rec.tf) and set(rec.tf_static) == set(marm_rec.tf_static)
+    for pair, series in marm_rec.tf.items():
+        np.testing.assert_array_equal(rec.tf[pair].time_ns, series.time_ns)
+        np.testing.assert_allclose(rec.tf[pair].translation, series.translation, atol=1e-7)
+        np.testing.assert_allclose(rec.tf[pair].rotation, series.rotation, atol=1e-7)
+        assert not np.array_equal(rec.tf[pair].rotation, series.rotation) or pair[0] == "gripper_link"
+    for name in marm_rec.joint_states.names:  # Scalars are float64
+        np.testing.assert_array_equal(rec.joint_states.positions[:, rec.joint_states.names.index(name)],
+                                      marm_rec.joint_states.positions[:, marm_rec.joint_states.names.index(name)])
+
+
+def test_topics_filter(marm_mcap: Path) -> None:
+    rec = read_recording(marm_mcap, topics=["/tf"])
+    assert set(rec.topics) == {"/robot_description", "/tf_static", "/joint_states", "/tf"}
+    assert rec.joint_states is None and rec.robot_description is None and not rec.tf_static
+    assert len(rec.tf) == 8
+
+
+def test_truncated_mcap(tmp_path: Path, marm: Robot) -> None:
+    from tfrec.trajectory import make_trajectory
+
+    long = make_trajectory(marm, "sine", duration_s=20.0, rate_hz=100.0)
+    full = write_mcap(tmp_path / "full.mcap", marm, long)
+    data = full.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) // 2])
+    rec = read_recording(cut)
+    assert rec.read_error is not None and "\n" not in rec.read_error
+    assert rec.read_error.startswith(f"{cut}: reading stopped at byte ")
+    assert "the file ends inside a chunk record" in rec.read_error
+    whole = read_recording(full)
+    assert rec.joint_states is not None and whole.joint_states is not None
+    n = len(rec.joint_states)
+    assert 0 < n < len(whole.joint_states)
+    assert rec.topics["/joint_states"].count == n == rec.topics["/tf"].count
+    np.testing.assert_array_equal(rec.joint_states.positions, whole.joint_states.positions[:n])
+    assert rec.end_ns == int(rec.joint_states.time_ns[-1])
+
+    # a damaged summary loses nothing: reading stops at the data section's end
+    cut.write_bytes(data[: len(data) - 10])
+    assert read_recording(cut).read_error is None
+
+    # the file ends cleanly after the last chunk
+    data_end = data.rfind(b"\x0f" + (4).to_bytes(8, "little"))
+    cut.write_bytes(data[:data_end])
+    rec = read_recording(cut)
+    assert rec.read_error is not None and rec.read_error.endswith(
+        f"the file ends without a footer; {2 + 2 * len(whole.joint_states):,} messages read")
+
+    cut.write_bytes(data[:12])
+    with pytest.raises(RecordingError, match=r"cut\.mcap: unreadable MCAP: the file ends"):
+        read_recording(cut)
+
+
+def test_damaged_chunk(tmp_path: Path, marm_mcap: Path) -> None:
+    data = bytearray(marm_mcap.read_bytes())
+    index = data.index(b"zstd")
+    data[index + 20 : index + 40] = bytes(20)  # garbage inside the compressed data
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(bytes(data))
+    rec = read_recording(bad)
+    assert rec.read_error is not None and "a damaged chunk record" in rec.read_error
+
+
+def test_not_a_recording(tmp_path: Path) -> None:
+    garbage = tmp_path / "notes.mcap"
+    garbage.write_text("hello\n")
+    with pytest.raises(RecordingError, match=r"^.*notes\.mcap: not a recording \(neither MCAP"):
+        read_recording(garbage)
+    with pytest.raises(RecordingError, match=r"nothing\.mcap: no such file or folder$"):
+        read_recording(tmp_path / "nothing.mcap")
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    with pytest.raises(RecordingError, match=r"folder: a folder without metadata.yaml"):
+        read_recording(folder)
+    empty = tmp_path / "empty.bag"
+    empty.write_bytes(b"")
+    with pytest.raises(RecordingError, match="not a recording"):
+        read_recording(empty)
+
+
+def test_damaged_rrd(tmp_path: Path) -> None:
+    rrd = tmp_path / "x.rrd"
+    rrd.write_bytes(b"RRF2" + bytes(40))
+    with pytest.raises(RecordingError, match=r"x\.rrd: unreadable Rerun recording: ") as info:
+        read_recording(rrd)
+    assert "\n" not in str(info.value)
+
+
+def test_damaged_rosbag2(tmp_path: Path, marm_rec: Recording) -> None:
+    bag = write_rosbag2(marm_rec, tmp_path / "bag")
+    (bag / "metadata.yaml").write_text("not: [a, rosbag2")
+    with pytest.raises(RecordingError, match=r"bag: cannot read rosbag2 bag: "):
+        read_recording(bag)
+
+
+# -- the bulk decoder -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("ros1", [False, True])
+def test_decoder_fast_path_matches_rosbags(marm_rec: Recording, ros1: bool) -> None:
+    messages = cdr_messages(marm_rec, ros1=ros1)
+    js = JointStateAccumulator(deserializer("sensor_msgs/msg/JointState", ros1=ros1), ros1=ros1)
+    js.add(messages["/joint_states"])
+    assert js.layout is not None  # the numpy path was taken
+    time, names, positions = js.result()
+    assert marm_rec.joint_states is not None
+    np.testing.assert_array_equal(time, marm_rec.joint_states.time_ns)
+    assert names == marm_rec.joint_states.names
+    np.testing.assert_array_equal(positions, marm_rec.joint_states.positions)
+
+    tf = TFAccumulator(deserializer("tf2_msgs/msg/TFMessage", ros1=ros1), ros1=ros1)
+    tf.add(messages["/tf"])
+    assert tf.layout is not None
+    result = tf.result()
+    assert list(result) == list(marm_rec.tf)
+    for pair, (time, values) in result.items():
+        np.testing.assert_array_equal(time, marm_rec.tf[pair].time_ns)
+        np.testing.assert_array_equal(values[:, :3], marm_rec.tf[pair].translation)
+
+
+def test_joint_set_varies(marm_rec: Recording) -> None:
+    """Messages with other names go through rosbags; the result is the union, NaN where absent."""
+    assert marm_rec.joint_states is not None
+    js = marm_rec.joint_states
+    names = js.names
+    varied = Recording(path="x", format="mcap", start_ns=marm_rec.start_ns, joint_states=JointStates(
+        js.time_ns, names, js.positions))
+    full = cdr_messages(varied)["/joint_states"]
+    # every third message lacks the fingers and has an extra joint
+    partial = Recording(path="y", format="mcap", start_ns=marm_rec.start_ns, joint_states=JointStates(
+        js.time_ns, names[:6] + ("extra",), np.hstack([js.positions[:, :6], np.full((len(js), 1), 7.0)])))
+    other = cdr_messages(partial)["/joint_states"]
+    mixed = [other[i] if i % 3 == 1 else full[i] for i in range(len(full))]
+    acc = JointStateAccumulator(deserializer("sensor_msgs/msg/JointState"), ros1=False)
+    acc.add(mixed[:50])
+    acc.add(mixed[50:])
+    time, got_names, positions = acc.result()
+    assert got_names == names + ("extra",)
+    np.testing.assert_array_equal(time, js.time_ns)
+    odd = np.arange(len(js)) % 3 == 1
+    np.testing.assert_array_equal(positions[~odd, :8], js.positions[~odd])
+    assert np.isnan(positions[~odd, 8]).all()
+    assert np.isnan(positions[odd, 6:8]).all()
+    np.testing.assert_array_equal(positions[odd, 8], 7.0)
+    np.testing.assert_array_equal(positions[odd, :6], js.positions[odd, :6])
+
+
+def test_layout_learnt_after_an_odd_first_message(marm_rec: Recording) -> None:
+    assert marm_rec.joint_states is not None
+    js = marm_rec.joint_states
+    odd = Recording(path="o", format="mcap", start_ns=marm_rec.start_ns, joint_states=JointStates(
+        js.time_ns[:1] - 1, ("only",), np.ones((1, 1))))
+    messages = cdr_messages(odd)["/joint_states"] + cdr_messages(marm_rec)["/joint_states"]
+    acc = JointStateAccumulator(deserializer("sensor_msgs/msg/JointState"), ros1=False)
+    acc.add(messages)
+    assert acc.layout is not None and acc.layout.names == js.names
+    time, names, positions = acc.result()
+    assert names == ("only",) + js.names and len(time) == len(js) + 1
+    np.testing.assert_array_equal(positions[1:, 1:], js.positions)
+
+
+def test_tf_layout_varies(marm_rec: Recording) -> None:
+    """TF messages that carry other frames are decoded one by one and merged per pair."""
+    messages = cdr_messages(marm_rec)["/tf"]
+    pairs = list(marm_rec.tf)
+    first = pairs[0]
+    one = Recording(path="z", format="mcap", tf={first: marm_rec.tf[first]})
+    single = cdr_messages(one)["/tf"]
+    mixed = [single[i] if i % 2 else messages[i] for i in range(len(messages))]
+    acc = TFAccumulator(deserializer("tf2_msgs/msg/TFMessage"), ros1=False)
+    acc.add(mixed)
+    result = acc.result()
+    np.testing.assert_array_equal(result[first][0], marm_rec.tf[first].time_ns)
+    np.testing.assert_array_equal(result[first][1][:, 3:], marm_rec.tf[first].rotation)
+    np.testing.assert_array_equal(result[pairs[1]][0], marm_rec.tf[pairs[1]].time_ns[::2])
+
+
+def test_rrd_entity_names_unescape() -> None:
+    import rerun as rr
+
+    from tfrec.rrd_read import _unescape
+
+    for name in ("joint 1", "a/b", "x.y", "ü", "a\\b"):
+        assert _unescape(rr.escape_entity_path_part(name)) == name
+
+
+def test_message_layout_refuses_other_bytes() -> None:
+    with pytest.raises(ValueError, match="not little-endian CDR"):
+        message_layout("tf", b"\x00\x00\x00\x00" + bytes(8), ros1=False)
+    with pytest.raises(ValueError, match="too short"):
+        message_layout("joint_states", b"\x00\x01\x00\x00" + bytes(6), ros1=False)
+
+
+def test_unordered_stamps_are_sorted(tmp_path: Path, marm: Robot, traj: JointTrajectory) -> None:
+    rec = read_recording(write_mcap(tmp_path / "a.mcap", marm, traj))
+    assert rec.joint_states is not None
+    shuffled = Recording(path="s", format="mcap", start_ns=rec.start_ns, joint_states=JointStates(
+        rec.joint_states.time_ns[::-1].copy(), rec.joint_states.names, rec.joint_states.positions[::-1].copy()))
+    acc = JointStateAccumulator(deserializer("sensor_msgs/msg/JointState"), ros1=False)
+    acc.add(cdr_messages(shuffled)["/joint_states"])
+    time, _, positions = acc.result()
+    np.testing.assert_array_equal(time, rec.joint_states.time_ns)
+    np.testing.assert_array_equal(positions, rec.joint_states.positions)
+
+
+def test_golden_files_read(tmp_path: Path) -> None:
+    for golden in sorted(GOLDEN.glob("*.mcap")):
+        rec = read_recording(golden)
+        assert rec.read_error is None and rec.robot_description
+        copy = tmp_path / golden.name
+        shutil.copy(golden, copy)
+        assert read_recording(copy).topics == rec.topics
+

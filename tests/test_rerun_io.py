@@ -1,0 +1,444 @@
+"""The Rerun sink, read back with Rerun's own reader and checked against yourdfpy's FK."""
+
+from __future__ import annotations
+
+import functools
+import io
+import subprocess
+import sys
+import warnings
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import rerun as rr
+
+from tfrec.description import load_description, parse_urdf
+from tfrec.errors import RecordingError
+from tfrec.kinematics import iter_dynamic_chunks, static_transforms
+from tfrec.model import Box, Cylinder, Mesh, Robot, Sphere
+from tfrec.rerun_io import (
+    APPLICATION_ID,
+    TIMELINE,
+    RerunSink,
+    joint_entity,
+    link_entity,
+    tf_entity,
+    tf_static_entity,
+    velocity_entity,
+    visual_entity,
+)
+from tfrec.rotations import matrix_from_quaternion
+from tfrec.trajectory import make_trajectory
+
+REPO = Path(__file__).resolve().parents[1]
+CORPUS = REPO.parent / "shared" / "corpus"
+RERUN = Path(sys.executable).with_name("rerun")
+START_NS = 1_700_000_000_000_000_000
+
+
+@functools.cache
+def load_robot(name: str, **args: str) -> Robot:
+    """A robot of robots/ or the corpus, once per session; mbot's legacy-macro warning is expected."""
+    path = REPO / "robots" / f"{name}.xacro" if "/" not in name else CORPUS / name
+    if "/" in name and not CORPUS.is_dir():
+        pytest.skip("../shared/corpus is absent")
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*legacy macro calls")
+        return load_description(path, args=args, package_paths=[CORPUS] if CORPUS.is_dir() else [])
+
+
+def write_rrd(
+    path: Path,
+    robot: Robot,
+    *,
+    duration_s: float = 2.0,
+    rate_hz: float = 50.0,
+    chunk_size: int = 40,
+    frame_prefix: str = "",
+    recording_id: str = "test-recording",
+) -> Path:
+    """Record ``robot`` along a sine trajectory with the sink, in several chunks."""
+    trajectory = make_trajectory(robot, "sine", duration_s=duration_s, rate_hz=rate_hz)
+    sink = RerunSink(path, robot=robot, recording_id=recording_id, frame_prefix=frame_prefix,
+                     package_paths=[CORPUS] if CORPUS.is_dir() else [])
+    sink.begin(static=static_transforms(robot, frame_prefix=frame_prefix), start_time_ns=START_NS,
+               robot_description=robot.urdf)
+    for chunk in iter_dynamic_chunks(robot, trajectory, chunk_size=chunk_size, frame_prefix=frame_prefix):
+        sink.write_chunk(time_ns=chunk.time_ns + START_NS, joint_names=chunk.names, positions=chunk.positions,
+                         velocities=chunk.velocities, transforms=chunk.transforms)
+    sink.finish()
+    return path
+
+
+class Rrd:
+    """A recording read back with ``rerun.chunk.RrdReader``: rows by entity, static and temporal."""
+
+    def __init__(self, path: Path) -> None:
+        reader = rr.chunk.RrdReader(path)
+        (self.store,) = reader.recordings()
+        self.static: dict[str, dict[str, Any]] = defaultdict(dict)
+        self.temporal: dict[str, list[dict[str, Any]]] = defaultdict(list)
+        for chunk in reader.stream():
+            rows = _rows(chunk)
+            if chunk.is_static:
+                for row in rows:
+                    self.static[chunk.entity_path].update(row)
+            else:
+                self.temporal[chunk.entity_path].extend(rows)
+        self.blueprint_chunks = [_rows(chunk) for store in reader.blueprints() for chunk in reader.stream(store=store)]
+
+    def series(self, entity: str, column: str) -> tuple[np.ndarray, list[Any]]:
+        """(int64 stamps in ns, values) of one temporal column, in time order."""
+        rows = sorted((row for row in self.temporal[entity] if row.get(column) is not None),
+                      key=lambda row: row[TIMELINE])
+        stamps = np.array([row[TIMELINE] for row in rows], dtype=np.int64)
+        return stamps, [row[column] for row in rows]
+
+
+def _rows(chunk: Any) -> list[dict[str, Any]]:
+    """A chunk's rows as dicts; timestamps as int64 nanoseconds (datetime has only microseconds)."""
+    import pyarrow as pa
+
+    batch = chunk.to_record_batch()
+    columns = [column.cast(pa.int64()) if pa.types.is_timestamp(column.type) else column for column in batch.columns]
+    rows: list[dict[str, Any]] = pa.RecordBatch.from_arrays(columns, names=batch.schema.names).to_pylist()
+    return rows
+
+
+@functools.cache
+def recorded(name: str, tmp_root: str) -> Rrd:
+    return Rrd(write_rrd(Path(tmp_root) / f"{name.replace('/', '_')}.rrd", load_robot(name)))
+
+
+@pytest.fixture(scope="module")
+def tmp_root(tmp_path_factory: pytest.TempPathFactory) -> str:
+    return str(tmp_path_factory.mktemp("rrd"))
+
+
+def fk_reference(robot: Robot, configs: dict[str, float]) -> Any:
+    """yourdfpy's model of the same URDF at one configuration of the actuated joints."""
+    model = _yourdfpy_model(robot.urdf)
+    model.update_cfg({name: configs[name] for name in model.actuated_joint_names})
+    return model
+
+
+@functools.cache
+def _yourdfpy_model(urdf: str) -> Any:
+    import yourdfpy
+
+    return yourdfpy.URDF.load(io.BytesIO(urdf.encode()), load_meshes=False, build_collision_scene_graph=False)
+
+
+def homogeneous(translation: list[float], quaternion: list[float]) -> np.ndarray:
+    out = np.eye(4)
+    out[:3, :3] = matrix_from_quaternion(np.array(quaternion, dtype=np.float64))
+    out[:3, 3] = translation
+    return out
+
+
+# -- geometry ---------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", ["mbot", "marm"])
+def test_every_visual_has_a_geometry_entity_in_its_link_frame(name: str, tmp_root: str) -> None:
+    robot = load_robot(name)
+    rrd = recorded(name, tmp_root)
+    reference = _yourdfpy_model(robot.urdf)
+    for link in robot.links:
+        entity = rrd.static[link_entity(link.name)]
+        assert entity["CoordinateFrame:frame"] == [link.name]
+        assert entity["TransformAxes3D:axis_length"][0] > 0
+        reference_visuals = reference.link_map[link.name].visuals
+        assert len(reference_visuals) == len(link.visuals)
+        for index, (visual, expected) in enumerate(zip(link.visuals, reference_visuals)):
+            row = rrd.static[visual_entity(link.name, index)]
+            assert row["CoordinateFrame:frame"] == [link.name]
+            origin = homogeneous(row["InstancePoses3D:translations"][0], row["InstancePoses3D:quaternions"][0])
+            expected_origin = expected.origin if expected.origin is not None else np.eye(4)
+            np.testing.assert_allclose(origin, expected_origin, atol=2e-7)
+            geometry = visual.geometry
+            if isinstance(geometry, Box):
+                np.testing.assert_allclose(row["Boxes3D:half_sizes"][0], np.array(expected.geometry.box.size) / 2,
+                                           rtol=1e-6)
+                colours = row["Boxes3D:colors"]
+            elif isinstance(geometry, Cylinder):
+                assert row["Cylinders3D:radii"][0] == pytest.approx(expected.geometry.cylinder.radius, rel=1e-6)
+                assert row["Cylinders3D:lengths"][0] == pytest.approx(expected.geometry.cylinder.length, rel=1e-6)
+                colours = row["Cylinders3D:colors"]
+            else:
+                assert isinstance(geometry, Sphere)
+                np.testing.assert_allclose(row["Ellipsoids3D:half_sizes"][0],
+                                           [expected.geometry.sphere.radius] * 3, rtol=1e-6)
+                colours = row["Ellipsoids3D:colors"]
+            assert visual.material is not None and visual.material.rgba is not None
+            assert colours == [_packed(visual.material.rgba)]
+
+
+def _packed(rgba: tuple[float, float, float, float]) -> int:
+    r, g, b, a = (round(c * 255) for c in rgba)
+    return (r << 24) | (g << 16) | (b << 8) | a
+
+
+def test_colours_of_materials_defined_at_robot_level(tmp_root: str) -> None:
+    rrd = recorded("mbot", tmp_root)
+    # <material name="yellow"> (1 0.4 0 1) is defined once at robot level and referenced by name
+    assert rrd.static[visual_entity("base_link", 0)]["Cylinders3D:colors"] == [0xFF6600FF]
+    # "black" (0 0 0 0.95) keeps its alpha
+    assert rrd.static[visual_entity("front_caster_link", 0)]["Ellipsoids3D:colors"] == [0x000000F2]
+
+
+# -- transforms and joint states --------------------------------------------------------------
+
+@pytest.mark.parametrize("name", ["mbot", "marm"])
+def test_joint_transforms_equal_fk_at_sampled_times(name: str, tmp_root: str) -> None:
+    robot = load_robot(name)
+    rrd = recorded(name, tmp_root)
+    trajectory = make_trajectory(robot, "sine", duration_s=2.0, rate_hz=50.0)
+    stamps = trajectory.time_ns + START_NS
+    for sample in (0, 1, 37, 60, len(trajectory) - 1):
+        configs = dict(zip(trajectory.joint_names, trajectory.positions[sample]))
+        reference = fk_reference(robot, configs)
+        for joint in robot.moving_joints:
+            times, translations = rrd.series(tf_entity(joint.name), "Transform3D:translation")
+            _, quaternions = rrd.series(tf_entity(joint.name), "Transform3D:quaternion")
+            np.testing.assert_array_equal(times, stamps)
+            got = homogeneous(translations[sample][0], quaternions[sample][0])
+            expected = reference.get_transform(frame_to=joint.child, frame_from=joint.parent)
+            np.testing.assert_allclose(got, expected, atol=2e-6, err_msg=f"{joint.name} at sample {sample}")
+    for joint in robot.joints:
+        if joint.type.moves:
+            _, parents = rrd.series(tf_entity(joint.name), "Transform3D:parent_frame")
+            _, children = rrd.series(tf_entity(joint.name), "Transform3D:child_frame")
+            assert {p[0] for p in parents} == {joint.parent} and {c[0] for c in children} == {joint.child}
+            assert tf_static_entity(joint.name) not in rrd.static
+        else:
+            row = rrd.static[tf_static_entity(joint.name)]
+            assert (row["Transform3D:parent_frame"], row["Transform3D:child_frame"]) == ([joint.parent], [joint.child])
+            got = homogeneous(row["Transform3D:translation"][0], row["Transform3D:quaternion"][0])
+            expected = _yourdfpy_model(robot.urdf).get_transform(frame_to=joint.child, frame_from=joint.parent)
+            np.testing.assert_allclose(got, expected, atol=2e-7)
+            assert tf_entity(joint.name) not in rrd.temporal
+
+
+@pytest.mark.parametrize("name", ["mbot", "marm"])
+def test_one_scalar_series_per_joint_on_integer_nanosecond_stamps(name: str, tmp_root: str) -> None:
+    robot = load_robot(name)
+    rrd = recorded(name, tmp_root)
+    trajectory = make_trajectory(robot, "sine", duration_s=2.0, rate_hz=50.0)
+    series = {entity.removeprefix("/joints/") for entity in rrd.temporal if entity.startswith("/joints/")}
+    assert series == {joint.name for joint in robot.moving_joints}
+    for j, name_ in enumerate(trajectory.joint_names):
+        times, values = rrd.series(joint_entity(name_), "Scalars:scalars")
+        np.testing.assert_array_equal(times, trajectory.time_ns + START_NS)
+        np.testing.assert_array_equal(np.array(values)[:, 0], trajectory.positions[:, j])
+        _, velocities = rrd.series(velocity_entity(name_), "Scalars:scalars")
+        np.testing.assert_array_equal(np.array(velocities)[:, 0], trajectory.velocities[:, j])
+
+
+def test_recording_identity_properties_and_blueprint(tmp_root: str) -> None:
+    rrd = recorded("marm", tmp_root)
+    assert (rrd.store.application_id, rrd.store.recording_id) == (APPLICATION_ID, "test-recording")
+    assert rrd.static["/robot"]["CoordinateFrame:frame"] == ["link0"]
+    assert "ViewCoordinates:xyz" in rrd.static["/"]
+    assert rrd.static["/robot_description"]["TextDocument:text"][0].startswith("<")
+    rows = [row for chunk in rrd.blueprint_chunks for row in chunk]
+    views = {(row["ViewBlueprint:class_identifier"][0], row["ViewBlueprint:space_origin"][0])
+             for row in rows if row.get("ViewBlueprint:class_identifier")}
+    assert views == {("3D", "/robot"), ("TimeSeries", "/joints"), ("TimeSeries", "/joint_velocities")}
+    assert any(row.get("EyeControls3D:position") for row in rows)
+
+
+def test_frame_prefix_goes_on_frames_not_on_entity_paths(tmp_path: Path) -> None:
+    robot = load_robot("marm")
+    rrd = Rrd(write_rrd(tmp_path / "prefixed.rrd", robot, duration_s=0.2, frame_prefix="left/"))
+    assert rrd.static[link_entity("link3")]["CoordinateFrame:frame"] == ["left/link3"]
+    assert rrd.static["/robot"]["CoordinateFrame:frame"] == ["left/link0"]
+    _, parents = rrd.series(tf_entity("joint3"), "Transform3D:parent_frame")
+    assert parents[0] == ["left/link2"]
+    assert rrd.static[tf_static_entity("gripper_joint")]["Transform3D:child_frame"] == ["left/gripper_link"]
+
+
+# -- the file as rerun's tools see it ---------------------------------------------------------
+
+def test_rerun_rrd_verify_passes(tmp_path: Path) -> None:
+    path = write_rrd(tmp_path / "marm.rrd", load_robot("marm"))
+    result = subprocess.run([RERUN, "rrd", "verify", path], check=False, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+
+
+def test_same_inputs_give_recordings_rerun_finds_identical(tmp_path: Path) -> None:
+    robot = load_robot("marm")
+    first = write_rrd(tmp_path / "a.rrd", robot, recording_id="same")
+    second = write_rrd(tmp_path / "b.rrd", robot, recording_id="same")
+    result = subprocess.run([RERUN, "rrd", "compare", first, second], check=False, capture_output=True, text=True,
+                            timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert not any("log_time" in column for rows in Rrd(first).temporal.values() for column in rows[0])
+
+
+# -- meshes -----------------------------------------------------------------------------------
+
+def test_corpus_meshes_embedded_and_a_missing_one_warned_once(tmp_path: Path) -> None:
+    import trimesh
+
+    robot = load_robot("turtlebot3_description/urdf/turtlebot3_waffle.urdf.xacro")
+    with pytest.warns(UserWarning) as caught:
+        path = write_rrd(tmp_path / "waffle.rrd", robot, duration_s=0.2)
+    messages = [str(w.message) for w in caught]
+    assert messages == [
+        (
+            "package://turtlebot3_description/meshes/bases/waffle_base.stl: mesh for link 'base_link' not found "
+            f"({CORPUS / 'turtlebot3_description/meshes/bases/waffle_base.stl'}); link logged without it"
+        )
+    ]
+    rrd = Rrd(path)
+    for link in robot.links:  # every visual has its entity, meshes found or not
+        for index in range(len(link.visuals)):
+            assert rrd.static[visual_entity(link.name, index)]["CoordinateFrame:frame"] == [link.name]
+    base = rrd.static[visual_entity("base_link", 0)]
+    assert "Asset3D:blob" not in base and base["CoordinateFrame:frame"] == ["base_link"]
+    tire = rrd.static[visual_entity("wheel_left_link", 0)]
+    assert tire["Asset3D:media_type"] == ["model/stl"]
+    stl = (CORPUS / "turtlebot3_description/meshes/wheels/left_tire.stl").read_bytes()
+    assert bytes(tire["Asset3D:blob"][0]) == stl
+    assert tire["InstancePoses3D:scales"] == [[pytest.approx(0.001)] * 3]
+    assert tire["Asset3D:albedo_factor"] == [_packed((0.3, 0.3, 0.3, 1.0))]  # URDF material "dark"
+    camera = rrd.static[visual_entity("camera_link", 0)]  # r200.dae, in inches: converted to metres
+    assert camera["Asset3D:media_type"] == ["model/gltf-binary"]
+    glb = trimesh.load(io.BytesIO(bytes(camera["Asset3D:blob"][0])), file_type="glb", force="scene")
+    assert 0.1 < max(glb.extents) < 0.2  # the RealSense R200 is 13 cm wide
+    assert any(entity.startswith("/tf/") for entity in rrd.temporal)
+
+
+def test_dae_meshes_of_a_mimic_gripper_keep_their_own_colours(tmp_path: Path) -> None:
+    robot = load_robot("franka_description/robots/panda/panda.urdf.xacro", hand="true")
+    with pytest.warns(UserWarning) as caught:
+        rrd = Rrd(write_rrd(tmp_path / "panda.rrd", robot, duration_s=0.2))
+    missing = [f"package://franka_description/meshes/visual/link{i}.dae: mesh for link 'panda_link{i}' not found"
+               for i in range(8)]  # the corpus leaves the arm's visual meshes out
+    assert [str(w.message).split(" (")[0] for w in caught] == missing
+    for link in ("panda_hand", "panda_leftfinger", "panda_rightfinger"):
+        row = rrd.static[visual_entity(link, 0)]
+        assert row["Asset3D:media_type"] == ["model/gltf-binary"]
+        assert row.get("Asset3D:albedo_factor") is None
+    assert tf_entity("panda_finger_joint2") in rrd.temporal  # the mimic finger moves too
+
+
+MESH_URDF = """<robot name="meshy">
+  <material name="green"><color rgba="0 1 0 1"/></material>
+  <link name="base">
+    <visual><geometry><mesh filename="meshes/cube.stl"/></geometry><material name="green"/></visual>
+    <visual><geometry><mesh filename="file://{folder}/meshes/cube.obj" scale="2 2 2"/></geometry></visual>
+    <visual><geometry><mesh filename="package://meshy_description/meshes/cube.stl"/></geometry></visual>
+    <visual><geometry><mesh filename="meshes/nowhere.stl"/></geometry></visual>
+    <visual><geometry><mesh filename="meshes/nowhere.stl"/></geometry></visual>
+  </link>
+  <link name="tip">
+    <visual><geometry><mesh filename="package://no_such_package/meshes/cube.stl"/></geometry></visual>
+  </link>
+  <joint name="slide" type="prismatic">
+    <parent link="base"/><child link="tip"/><axis xyz="0 0 1"/>
+    <limit lower="0" upper="0.1" effort="1" velocity="1"/>
+  </joint>
+</robot>
+"""
+
+
+def test_relative_file_and_package_meshes_and_one_warning_per_file_and_link(tmp_path: Path) -> None:
+    import trimesh
+
+    folder = tmp_path / "meshy_description"
+    (folder / "meshes").mkdir(parents=True)
+    (folder / "package.xml").write_text("<package><name>meshy_description</name></package>")
+    cube = trimesh.creation.box(extents=(0.1, 0.1, 0.1))
+    cube.export(folder / "meshes" / "cube.stl")
+    cube.export(folder / "meshes" / "cube.obj")
+    source = folder / "robot.urdf"
+    text = MESH_URDF.format(folder=folder)
+    source.write_text(text)
+    robot = parse_urdf(text, source=str(source))
+    with pytest.warns(UserWarning) as caught:
+        rrd = Rrd(write_rrd(tmp_path / "meshy.rrd", robot, duration_s=0.1))
+    messages = sorted(str(w.message) for w in caught)
+    assert len(messages) == 2
+    assert messages[0].startswith("meshes/nowhere.stl: mesh for link 'base' not found (")
+    assert messages[1].startswith("package://no_such_package/meshes/cube.stl: mesh for link 'tip' not found "
+                                  "(package 'no_such_package' not found")
+    stl = (folder / "meshes" / "cube.stl").read_bytes()
+    relative, absolute, packaged = (rrd.static[visual_entity("base", i)] for i in range(3))
+    assert bytes(relative["Asset3D:blob"][0]) == stl and relative["Asset3D:albedo_factor"] == [0x00FF00FF]
+    assert absolute["Asset3D:media_type"] == ["model/obj"]
+    assert absolute["InstancePoses3D:scales"] == [[2.0, 2.0, 2.0]]
+    assert bytes(packaged["Asset3D:blob"][0]) == stl
+    assert all("Asset3D:blob" not in rrd.static[visual_entity("base", i)] for i in (3, 4))
+    assert isinstance(robot.link_by_name["tip"].visuals[0].geometry, Mesh)
+
+
+# -- errors -----------------------------------------------------------------------------------
+
+def test_unwritable_path_is_a_recording_error(tmp_path: Path) -> None:
+    with pytest.raises(RecordingError, match="no_such_folder/x.rrd: cannot write"):
+        RerunSink(tmp_path / "no_such_folder" / "x.rrd", robot=load_robot("marm"), recording_id="x")
+
+
+def test_chunk_whose_arrays_do_not_match_is_refused(tmp_path: Path) -> None:
+    robot = load_robot("marm")
+    chunk = next(iter_dynamic_chunks(robot, make_trajectory(robot, "center", duration_s=0.1, rate_hz=50.0)))
+    sink = RerunSink(tmp_path / "x.rrd", robot=robot, recording_id="x")
+    sink.begin(static=static_transforms(robot), start_time_ns=START_NS)
+    with pytest.raises(RecordingError, match=r"chunk of 6 stamps has positions \(5, 8\)"):
+        sink.write_chunk(time_ns=chunk.time_ns, joint_names=chunk.names, positions=chunk.positions[:5],
+                         velocities=chunk.velocities, transforms=chunk.transforms)
+    sink.abort()
+    assert not (tmp_path / "x.rrd").exists()
+
+
+def test_stamps_going_back_in_time_are_refused(tmp_path: Path) -> None:
+    robot = load_robot("marm")
+    chunk = next(iter_dynamic_chunks(robot, make_trajectory(robot, "center", duration_s=0.1, rate_hz=50.0)))
+    sink = RerunSink(tmp_path / "x.rrd", robot=robot, recording_id="x")
+    sink.begin(static=static_transforms(robot), start_time_ns=START_NS)
+
+    def write_again() -> None:
+        sink.write_chunk(time_ns=chunk.time_ns + START_NS, joint_names=chunk.names, positions=chunk.positions,
+                         velocities=chunk.velocities, transforms=chunk.transforms)
+
+    write_again()
+    with pytest.raises(RecordingError, match="chunk stamps go back in time"):
+        write_again()
+    sink.abort()
+
+
+FULL_DISK = """
+import resource, signal, sys
+from tfrec.errors import RecordingError
+from tests.test_rerun_io import load_robot, write_rrd
+robot = load_robot("marm")
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+resource.setrlimit(resource.RLIMIT_FSIZE, (20_000, resource.RLIM_INFINITY))
+try:
+    write_rrd(__import__("pathlib").Path(sys.argv[1]), robot, duration_s=5.0)
+except RecordingError as err:
+    print(err)
+"""
+
+
+def test_a_write_that_fails_midway_is_a_recording_error(tmp_path: Path) -> None:
+    # a file size limit stands in for a full disk: Rerun's writer thread fails after the header
+    target = tmp_path / "big.rrd"
+    result = subprocess.run([sys.executable, "-c", FULL_DISK, target], check=False, capture_output=True, text=True,
+                            cwd=REPO, timeout=120)
+    assert result.stdout.startswith(f"{target}: cannot write: "), result.stdout + result.stderr
+
+
+def test_stamps_that_are_not_int64_nanoseconds_are_refused(tmp_path: Path) -> None:
+    robot = load_robot("marm")
+    chunk = next(iter_dynamic_chunks(robot, make_trajectory(robot, "center", duration_s=0.1, rate_hz=50.0)))
+    sink = RerunSink(tmp_path / "x.rrd", robot=robot, recording_id="x")
+    sink.begin(static=static_transforms(robot), start_time_ns=START_NS)
+    with pytest.raises(RecordingError, match=r"time_ns must be int64 of shape \(n,\), got float64 \(6,\)"):
+        sink.write_chunk(time_ns=chunk.time_ns * 1e-9, joint_names=chunk.names,  # type: ignore[arg-type]
+                         positions=chunk.positions, velocities=chunk.velocities, transforms=chunk.transforms)
+    sink.abort()

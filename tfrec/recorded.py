@@ -1,0 +1,237 @@
+"""What a recording holds, format aside: the :class:`Recording` the readers build.
+
+The readers (:mod:`tfrec.mcap_read`, :mod:`tfrec.rrd_read`, and rosbags in
+:mod:`tfrec.readers`) feed raw messages to a :class:`Collector`, which decodes them in bulk
+(:mod:`tfrec.ros_decode`) and builds the :class:`Recording`.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .errors import RecordingError
+from .ros_decode import JointStateAccumulator, TFAccumulator, transforms_of
+
+__all__ = [
+    "TopicInfo",
+    "JointStates",
+    "FrameSeries",
+    "Recording",
+    "Collector",
+    "deserializer",
+    "JOINT_STATES",
+    "TF",
+    "TF_STATIC",
+    "ROBOT_DESCRIPTION",
+    "DECODED_TOPICS",
+]
+
+Array = NDArray[np.float64]
+
+ROBOT_DESCRIPTION = "/robot_description"
+TF_STATIC = "/tf_static"
+JOINT_STATES = "/joint_states"
+TF = "/tf"
+DECODED_TOPICS = frozenset((ROBOT_DESCRIPTION, TF_STATIC, JOINT_STATES, TF))
+"""The topics whose messages are decoded; every other topic is only counted."""
+
+
+@dataclass(frozen=True, slots=True)
+class TopicInfo:
+    """One topic of a recording.
+
+    Attributes:
+        type: the message type as the recording names it (``tf2_msgs/msg/TFMessage``).
+        count: messages on the topic.
+        first_ns, last_ns: log times (receive times) of the first and last message, ns since
+            the epoch; None for data without a time (static data in an ``.rrd``).
+    """
+
+    type: str
+    count: int
+    first_ns: int | None
+    last_ns: int | None
+
+
+@dataclass(frozen=True, slots=True)
+class JointStates:
+    """Every /joint_states message as one array.
+
+    Attributes:
+        time_ns: int64 (N,) header stamps, non-decreasing.
+        names: the union of the joint names of all messages, in order of first appearance.
+        positions: float64 (N, J); NaN where a message has no position for a joint.
+    """
+
+    time_ns: NDArray[np.int64]
+    names: tuple[str, ...]
+    positions: Array
+
+    def __len__(self) -> int:
+        return len(self.time_ns)
+
+
+@dataclass(frozen=True, slots=True)
+class FrameSeries:
+    """The transforms of one (parent, child) pair on /tf, in time order.
+
+    Attributes:
+        time_ns: int64 (M,) stamps of the transforms.
+        translation: float64 (M, 3), metres.
+        rotation: float64 (M, 4), quaternions (x, y, z, w) as recorded.
+    """
+
+    time_ns: NDArray[np.int64]
+    translation: Array
+    rotation: Array
+
+    def __len__(self) -> int:
+        return len(self.time_ns)
+
+
+@dataclass
+class Recording:
+    """What a recording holds, format aside.
+
+    Attributes:
+        path: the file or folder read.
+        format: ``"mcap"``, ``"rosbag2"``, ``"rosbag1"`` or ``"rrd"``.
+        robot_description: the URDF text of the last /robot_description message, or None.
+        topics: topic name → :class:`TopicInfo`. An ``.rrd`` has no topics: its entities are
+            listed under the topics they stand for.
+        joint_states: /joint_states, or None when the recording has none.
+        tf: (parent, child) → :class:`FrameSeries` of the transforms on /tf.
+        tf_static: (parent, child) → (translation (3,), rotation (4,)) of the last /tf_static
+            transform of that pair.
+        start_ns, end_ns: log times of the first and last message (ns since the epoch), or
+            None for an empty recording.
+        read_error: None, or one line saying where reading stopped in a damaged file; the
+            rest of the recording holds what was read before that point.
+        float32: True when the format stores transforms as float32 (``.rrd``).
+    """
+
+    path: str
+    format: str
+    robot_description: str | None = None
+    topics: dict[str, TopicInfo] = field(default_factory=dict)
+    joint_states: JointStates | None = None
+    tf: dict[tuple[str, str], FrameSeries] = field(default_factory=dict)
+    tf_static: dict[tuple[str, str], tuple[Array, Array]] = field(default_factory=dict)
+    start_ns: int | None = None
+    end_ns: int | None = None
+    read_error: str | None = None
+    float32: bool = False
+
+    @property
+    def duration_ns(self) -> int:
+        return 0 if self.start_ns is None or self.end_ns is None else self.end_ns - self.start_ns
+
+
+# -- decoding -------------------------------------------------------------------------------------
+
+
+def _short_type(msgtype: str) -> str:
+    """``tf2_msgs/msg/TFMessage`` and ``tf2_msgs/TFMessage`` → ``tf2_msgs/TFMessage``."""
+    return msgtype.replace("/msg/", "/")
+
+
+_KINDS = {
+    JOINT_STATES: ("sensor_msgs/JointState",),
+    TF: ("tf2_msgs/TFMessage", "tf/tfMessage"),
+    TF_STATIC: ("tf2_msgs/TFMessage", "tf/tfMessage"),
+    ROBOT_DESCRIPTION: ("std_msgs/String",),
+}
+
+
+def deserializer(store: Any, msgtype: str, *, ros1: bool, where: str, topic: str) -> Callable[[bytes], Any]:
+    """rosbags' deserializer for one topic; a message it cannot decode is a RecordingError."""
+    from rosbags.serde import SerdeError
+
+    full = msgtype if "/msg/" in msgtype else msgtype.replace("/", "/msg/", 1)
+    decode = store.deserialize_ros1 if ros1 else store.deserialize_cdr
+
+    def deserialize(raw: bytes) -> Any:
+        try:
+            return decode(raw, full)
+        except (SerdeError, struct.error, IndexError, KeyError, ValueError, UnicodeDecodeError) as err:
+            raise RecordingError(f"{where}: a {topic} message cannot be decoded as {msgtype}: {err}") from None
+
+    return deserialize
+
+
+class Collector:
+    """Receives raw messages per topic and builds the :class:`Recording`."""
+
+    def __init__(self, recording: Recording, wanted: frozenset[str], *, ros1: bool) -> None:
+        self.recording = recording
+        self.wanted = wanted
+        self.ros1 = ros1
+        self.counts: dict[str, list[Any]] = {}  # topic → [type, count, first, last]
+        self.joint_states: JointStateAccumulator | None = None
+        self.tf: TFAccumulator | None = None
+        self.static: list[bytes] = []
+        self.description: bytes | None = None
+        self.deserializers: dict[str, Callable[[bytes], Any]] = {}
+
+    def decodes(self, topic: str, msgtype: str) -> bool:
+        """Whether messages of this topic are decoded (else only counted)."""
+        return topic in self.wanted and _short_type(msgtype) in _KINDS.get(topic, ())
+
+    def set_deserializer(self, topic: str, deserialize: Callable[[bytes], Any]) -> None:
+        self.deserializers[topic] = deserialize
+        if topic == JOINT_STATES and self.joint_states is None:
+            self.joint_states = JointStateAccumulator(deserialize, ros1=self.ros1)
+        elif topic == TF and self.tf is None:
+            self.tf = TFAccumulator(deserialize, ros1=self.ros1)
+
+    def count(self, topic: str, msgtype: str, count: int, first_ns: int, last_ns: int) -> None:
+        entry = self.counts.get(topic)
+        if entry is None:
+            self.counts[topic] = [msgtype, count, first_ns, last_ns]
+        else:
+            entry[1] += count
+            entry[2] = min(entry[2], first_ns)
+            entry[3] = max(entry[3], last_ns)
+
+    def add(self, topic: str, datas: list[Any]) -> None:
+        """Decode raw messages of a decoded topic, in order."""
+        if topic == JOINT_STATES:
+            assert self.joint_states is not None
+            self.joint_states.add(datas)
+        elif topic == TF:
+            assert self.tf is not None
+            self.tf.add(datas)
+        elif topic == TF_STATIC:
+            self.static.extend(bytes(d) for d in datas)
+        elif topic == ROBOT_DESCRIPTION and datas:
+            self.description = bytes(datas[-1])
+
+    def finish(self) -> Recording:
+        rec = self.recording
+        rec.topics = {
+            topic: TopicInfo(msgtype, count, first, last)
+            for topic, (msgtype, count, first, last) in sorted(self.counts.items())
+        }
+        firsts = [info.first_ns for info in rec.topics.values() if info.first_ns is not None]
+        lasts = [info.last_ns for info in rec.topics.values() if info.last_ns is not None]
+        rec.start_ns = min(firsts) if firsts else None
+        rec.end_ns = max(lasts) if lasts else None
+        if self.description is not None:
+            rec.robot_description = str(self.deserializers[ROBOT_DESCRIPTION](self.description).data)
+        for raw in self.static:
+            for pair, _, values in transforms_of(self.deserializers[TF_STATIC](raw)):
+                rec.tf_static[pair] = (np.array(values[:3]), np.array(values[3:]))
+        if self.joint_states is not None and self.joint_states.messages:
+            time, names, positions = self.joint_states.result()
+            rec.joint_states = JointStates(time, names, positions)
+        if self.tf is not None:
+            for pair, (time, values) in self.tf.result().items():
+                translation, rotation = np.ascontiguousarray(values[:, :3]), np.ascontiguousarray(values[:, 3:])
+                rec.tf[pair] = FrameSeries(time, translation, rotation)
+        return rec
