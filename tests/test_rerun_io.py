@@ -17,7 +17,7 @@ import rerun as rr
 
 from tfrec.description import load_description, parse_urdf
 from tfrec.errors import RecordingError
-from tfrec.kinematics import iter_dynamic_chunks, static_transforms
+from tfrec.kinematics import Transforms, iter_dynamic_chunks, static_transforms
 from tfrec.model import Box, Cylinder, Mesh, Robot, Sphere
 from tfrec.rerun_io import (
     APPLICATION_ID,
@@ -25,6 +25,8 @@ from tfrec.rerun_io import (
     RerunSink,
     joint_entity,
     link_entity,
+    pair_entity,
+    static_pair_entity,
     tf_entity,
     tf_static_entity,
     velocity_entity,
@@ -258,6 +260,132 @@ def test_frame_prefix_goes_on_frames_not_on_entity_paths(tmp_path: Path) -> None
     _, parents = rrd.series(tf_entity("joint3"), "Transform3D:parent_frame")
     assert parents[0] == ["left/link2"]
     assert rrd.static[tf_static_entity("gripper_joint")]["Transform3D:child_frame"] == ["left/gripper_link"]
+
+
+# -- the replay side: pairs with their own stamps, joint logs with gaps ------------------------
+
+def _views(rrd: Rrd) -> set[tuple[str, str]]:
+    rows = [row for chunk in rrd.blueprint_chunks for row in chunk]
+    return {(row["ViewBlueprint:class_identifier"][0], row["ViewBlueprint:space_origin"][0])
+            for row in rows if row.get("ViewBlueprint:class_identifier")}
+
+
+def _eyes(rrd: Rrd) -> list[Any]:
+    return [row["EyeControls3D:position"] for chunk in rrd.blueprint_chunks for row in chunk
+            if row.get("EyeControls3D:position")]
+
+
+def _data(static: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Static rows without their row ids (wall-clock TUIDs)."""
+    return {entity: {k: v for k, v in row.items() if k != "rerun.controls.RowId"} for entity, row in static.items()}
+
+
+def test_pairs_and_positions_logged_separately_land_where_chunks_do(tmp_path: Path) -> None:
+    robot = load_robot("marm")
+    trajectory = make_trajectory(robot, "sine", duration_s=0.5, rate_hz=50.0)
+    chunked = Rrd(write_rrd(tmp_path / "chunked.rrd", robot, duration_s=0.5, chunk_size=1000))
+    sink = RerunSink(tmp_path / "pairs.rrd", robot=robot, recording_id="test-recording")
+    sink.begin(static=static_transforms(robot), start_time_ns=START_NS, robot_description=robot.urdf)
+    (chunk,) = iter_dynamic_chunks(robot, trajectory)
+    stamps = chunk.time_ns + START_NS
+    sink.fit_camera(chunk.transforms)
+    for k, (parent, child) in enumerate(zip(chunk.transforms.parents, chunk.transforms.children)):
+        for part in (slice(0, 7), slice(7, None)):  # every pair on its own, in two pieces
+            sink.write_transforms(parent, child, stamps[part], chunk.transforms.translation[part, k],
+                                  chunk.transforms.rotation[part, k])
+    sink.write_joint_positions(stamps, chunk.names, chunk.positions)
+    sink.finish()
+    pairs = Rrd(tmp_path / "pairs.rrd")
+    assert _data(pairs.static) == _data(chunked.static)  # the same geometry, frames, axes, fixed joints and URDF
+    assert set(pairs.temporal) == {e for e in chunked.temporal if not e.startswith("/joint_velocities/")}
+    for joint in robot.moving_joints:
+        for column in ("Transform3D:translation", "Transform3D:quaternion", "Transform3D:child_frame"):
+            times, values = pairs.series(tf_entity(joint.name), column)
+            np.testing.assert_array_equal(times, stamps)
+            assert values == chunked.series(tf_entity(joint.name), column)[1]
+        times, values = pairs.series(joint_entity(joint.name), "Scalars:scalars")
+        np.testing.assert_array_equal(times, stamps)
+        assert values == chunked.series(joint_entity(joint.name), "Scalars:scalars")[1]
+    # no velocities, no velocity tab; the same camera
+    assert _views(pairs) == {("3D", "/robot"), ("TimeSeries", "/joints")}
+    assert _eyes(pairs) == _eyes(chunked)
+
+
+def test_joint_positions_skip_nan_and_pairs_outside_the_model_keep_their_own_entities(tmp_path: Path) -> None:
+    robot = load_robot("marm")
+    stamps = START_NS + np.arange(3, dtype=np.int64) * 10_000_000
+    sink = RerunSink(tmp_path / "x.rrd", robot=robot, recording_id="x")
+    latched = Transforms(("map",), ("odom",), np.zeros((1, 1, 3)), np.array([[[0.0, 0.0, 0.0, 1.0]]]))
+    sink.begin(static=latched, start_time_ns=START_NS)
+    sink.log_frames(["map", "odom", "link0", "odom"])
+    sink.write_joint_positions(stamps, ["joint1", "joint2"], np.array([[0.1, np.nan], [np.nan, np.nan], [0.3, 0.4]]))
+    sink.write_transforms("odom", "link0", stamps, np.zeros((3, 3)), np.tile([0.0, 0.0, 0.0, 1.0], (3, 1)))
+    sink.finish()
+    rrd = Rrd(tmp_path / "x.rrd")
+    times, values = rrd.series(joint_entity("joint1"), "Scalars:scalars")
+    assert list(times - START_NS) == [0, 20_000_000] and values == [[0.1], [0.3]]
+    times, values = rrd.series(joint_entity("joint2"), "Scalars:scalars")
+    assert list(times - START_NS) == [20_000_000] and values == [[0.4]]
+    _, parents = rrd.series(pair_entity("odom", "link0"), "Transform3D:parent_frame")
+    assert parents == [["odom"]] * 3
+    assert rrd.static[static_pair_entity("map", "odom")]["Transform3D:child_frame"] == ["odom"]
+    for frame in ("map", "odom"):  # frames that are no link get axes of their own
+        assert rrd.static[link_entity(frame)]["CoordinateFrame:frame"] == [frame]
+        assert rrd.static[link_entity(frame)]["TransformAxes3D:axis_length"] == [pytest.approx(0.1)]
+    assert rrd.static[link_entity("link0")]["TransformAxes3D:axis_length"] != [pytest.approx(0.1)]
+
+
+def test_each_pair_keeps_its_own_time(tmp_path: Path) -> None:
+    sink = RerunSink(tmp_path / "x.rrd", robot=load_robot("marm"), recording_id="x")
+    sink.begin(static=static_transforms(load_robot("marm")), start_time_ns=START_NS)
+    identity = np.zeros((2, 3)), np.tile([0.0, 0.0, 0.0, 1.0], (2, 1))
+    later, earlier = np.array([20, 30], dtype=np.int64), np.array([0, 10], dtype=np.int64)
+    sink.write_transforms("link0", "link1", later, *identity)
+    sink.write_transforms("link1", "link2", earlier, *identity)  # another pair may be behind
+    with pytest.raises(RecordingError, match="transforms 'link0' -> 'link1': stamps go back in time"):
+        sink.write_transforms("link0", "link1", earlier, *identity)
+    with pytest.raises(RecordingError, match=r"transforms 'link1' -> 'link2': 2 stamps with translation \(3, 3\)"):
+        sink.write_transforms("link1", "link2", later, np.zeros((3, 3)), identity[1])
+    with pytest.raises(RecordingError, match=r"2 stamps of 1 joints have positions \(2, 2\)"):
+        sink.write_joint_positions(later, ["joint1"], np.zeros((2, 2)))
+    sink.abort()
+    assert not (tmp_path / "x.rrd").exists()
+
+
+def test_a_stream_made_elsewhere(tmp_path: Path) -> None:
+    robot = load_robot("marm")
+    stream = rr.RecordingStream(APPLICATION_ID, recording_id="streamed", send_properties=False)
+    stream.save(tmp_path / "s.rrd")
+    sink = RerunSink.from_stream(stream, target="test stream", robot=robot)
+    assert sink.path is None
+    sink.begin(static=static_transforms(robot), start_time_ns=START_NS, name="replayed")
+    sink.send_blueprint()
+    sink.finish()  # no second blueprint
+    rrd = Rrd(tmp_path / "s.rrd")
+    assert rrd.store.recording_id == "streamed"
+    assert rrd.static["/__properties"]["RecordingInfo:name"] == ["replayed"]
+    assert rrd.static[link_entity("link3")]["CoordinateFrame:frame"] == ["link3"]
+    assert sum(1 for chunk in rrd.blueprint_chunks for row in chunk if row.get("ViewportBlueprint:root_container")) == 1
+    kept = tmp_path / "kept.rrd"
+    other = rr.RecordingStream(APPLICATION_ID, send_properties=False)
+    other.save(kept)
+    RerunSink.from_stream(other, target="test stream", robot=None).abort()
+    assert kept.exists()  # the stream's file is its owner's to delete
+
+
+def test_a_replay_has_the_recordings_layout_and_a_fitted_camera(tmp_path: Path) -> None:
+    from tfrec.playback import replay_to_rerun
+    from tfrec.recording import plan_outputs, record
+    from tfrec.replay import load_replay
+
+    robot = load_robot("marm")
+    source = tmp_path / "marm.mcap"
+    record(robot, make_trajectory(robot, "sine", duration_s=0.5, rate_hz=50.0), plan_outputs(stem="m", out=source))
+    replay_to_rerun(load_replay(source), save=tmp_path / "replay.rrd")
+    recorded_, replayed = Rrd(source.with_suffix(".rrd")), Rrd(tmp_path / "replay.rrd")
+    assert _views(recorded_) == _views(replayed) | {("TimeSeries", "/joint_velocities")}
+    assert len(_eyes(replayed)) == 1
+    assert set(replayed.static) == set(recorded_.static)
 
 
 # -- the file as rerun's tools see it ---------------------------------------------------------

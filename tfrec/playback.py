@@ -36,7 +36,8 @@ class ReplaySink(Protocol):
     """Where a replay goes (:class:`tfrec.rerun_replay.RerunReplaySink`, or a test double)."""
 
     def begin(self, *, start_time_ns: int, name: str, robot_description: str | None,
-              static: dict[Pair, tuple[Array, Array]], frames: Sequence[str], root: str | None) -> None: ...
+              static: dict[Pair, tuple[Array, Array]], frames: Sequence[str], root: str | None,
+              first_pose: dict[Pair, tuple[Array, Array]]) -> None: ...
 
     def write_transforms(self, parent: str, child: str, time_ns: NDArray[np.int64], translation: Array,
                          rotation: Array) -> None: ...
@@ -105,7 +106,8 @@ def play(
     try:
         sink.begin(start_time_ns=replay.start_ns if replay.start_ns is not None else replay.origin_ns, name=name,
                    robot_description=replay.robot_description, static=replay.static, frames=replay.frames(),
-                   root=replay.root_frame())
+                   root=replay.root_frame(),
+                   first_pose={pair: (s.translation[0], s.rotation[0]) for pair, s in replay.tf.items() if len(s)})
         series = [(pair, s) for pair, s in replay.tf.items() if len(s)]
         joints = replay.joint_states if replay.joint_states is not None and len(replay.joint_states) else None
         if replay.start_ns is None:

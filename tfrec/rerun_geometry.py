@@ -8,14 +8,16 @@ file's ``<unit meter>`` and ignoring its up axis, as RViz does. Meshes that brin
 materials keep them; others get the URDF material colour (RViz's rule, too).
 
 Every column built here is static and has one row; :mod:`tfrec.rerun_io` sends them.
+:func:`fit_eye` places the 3D view's camera around the robot.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import os
 import struct
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,13 +25,16 @@ from typing import Any
 
 import numpy as np
 import rerun as rr
+import rerun.blueprint as rrb
+from numpy.typing import NDArray
 
 from .errors import DescriptionError
-from .model import Box, Cylinder, Material, Mesh, Sphere, Visual
+from .kinematics import Transforms
+from .model import Box, Cylinder, Material, Mesh, Robot, Sphere, Visual
 from .packages import PackageFinder
-from .rotations import quaternion_from_rpy
+from .rotations import quaternion_from_rpy, quaternion_rotate
 
-__all__ = ["MeshAsset", "MeshLoader", "rgba8", "visual_columns", "visual_radius"]
+__all__ = ["MeshAsset", "MeshLoader", "fit_eye", "rgba8", "visual_columns", "visual_radius"]
 
 _NATIVE_MEDIA_TYPES = {
     ".stl": "model/stl",
@@ -230,3 +235,46 @@ def visual_radius(visual: Visual, asset: MeshAsset | None = None) -> float:
     return geometry.radius
 
 
+def fit_eye(
+    robot: Robot, world: Transforms, *, frame_prefix: str = "", radii: Mapping[tuple[str, int], float]
+) -> rrb.EyeControls3D | None:
+    """A camera that sees the robot at the poses ``world``, from front-left and above.
+
+    RViz's orbit view starts at 45° yaw and pitch; this looks from 45° yaw, 30° pitch at the
+    middle of the space the links and visuals take up in ``world``, from a distance that fits it.
+
+    Args:
+        robot: the robot.
+        world: root_from_frame at N instants, as from :func:`tfrec.kinematics.world_from_link`.
+        frame_prefix: in front of the link names in ``world``'s frame ids.
+        radii: (link, visual index) → the visual's :func:`visual_radius` (0 when missing).
+
+    Returns:
+        The camera, or None when no link is placed.
+    """
+    by_frame = {child: k for k, child in enumerate(world.children)}
+    points: list[NDArray[np.float64]] = []
+    sizes: list[float] = []
+    for link in robot.links:
+        k = by_frame.get(frame_prefix + link.name)
+        if k is None:
+            continue
+        origin = world.translation[:, k]
+        points.append(origin)
+        sizes.append(0.0)
+        for index, visual in enumerate(link.visuals):
+            points.append(origin + quaternion_rotate(world.rotation[:, k], np.asarray(visual.origin.xyz)))
+            sizes.append(radii.get((link.name, index), 0.0))
+    if not points:
+        return None
+    cloud = np.concatenate(points)
+    pad = np.repeat(sizes, len(world))[:, np.newaxis]
+    low, high = (cloud - pad).min(axis=0), (cloud + pad).max(axis=0)
+    centre = (low + high) / 2.0
+    radius = max(float(np.max(np.linalg.norm(cloud - centre, axis=1) + pad[:, 0])), 0.1)
+    distance = 2.0 * radius
+    yaw, pitch = math.radians(45.0), math.radians(30.0)
+    direction = np.array([math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch)])
+    return rrb.EyeControls3D(
+        position=(centre + distance * direction).tolist(), look_target=centre.tolist(), eye_up=[0.0, 0.0, 1.0]
+    )

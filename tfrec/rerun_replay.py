@@ -1,10 +1,11 @@
 """Replaying into Rerun: a spawned viewer, a running one (``--connect``), or an ``.rrd`` file.
 
-The entities are those of :mod:`tfrec.rerun_io`, so a replayed recording looks like one written by
-``tfrec record``: the robot's geometry under ``/robot/<link>``, a transform pair whose child frame
-is a link of the robot at ``/tf/<joint>`` (``/tf_static/<joint>`` when latched), joint positions at
-``/joints/<joint>``. What the robot model does not name keeps its own entities, so nothing recorded
-is dropped:
+A replay is logged through :class:`tfrec.rerun_io.RerunSink`, the sink ``tfrec record`` writes
+with, so a replayed recording looks like a recorded one: the robot's geometry under
+``/robot/<link>``, a transform pair whose child frame is a link of the robot at ``/tf/<joint>``
+(``/tf_static/<joint>`` when latched), joint positions at ``/joints/<joint>``, the same
+blueprint with the camera fitted to the robot at its first pose. What the robot model does not
+name keeps its own entities, so nothing recorded is dropped:
 
 ================================  =========================================================
 ``/tf/<parent>/<child>``          ``Transform3D`` of a pair on /tf whose child is no link
@@ -12,9 +13,8 @@ is dropped:
 ``/robot/<frame>``                ``CoordinateFrame`` + ``TransformAxes3D`` of such a frame
 ================================  =========================================================
 
-Transforms come per frame pair with their own stamps (a recording's /tf is not one array at
-shared times), so this is a sink of its own rather than :class:`tfrec.rerun_io.RerunSink`, which
-logs all joints of a trajectory at shared stamps into a file.
+:class:`RerunReplaySink` adapts the sink to :class:`tfrec.playback.ReplaySink`;
+:func:`open_rerun_sink` points it at its target.
 """
 
 from __future__ import annotations
@@ -22,85 +22,39 @@ from __future__ import annotations
 import os
 import shutil
 import sys
-import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import rerun as rr
-import rerun.blueprint as rrb
 from numpy.typing import NDArray
 
 from .errors import RecordingError
-from .model import Mesh, Robot
-from .rerun_geometry import MeshLoader, visual_columns
-from .rerun_io import (
-    APPLICATION_ID,
-    TIMELINE,
-    joint_entity,
-    link_entity,
-    tf_entity,
-    tf_static_entity,
-    visual_entity,
-)
+from .kinematics import Transforms
+from .model import Robot
+from .rerun_io import APPLICATION_ID, RerunSink, pair_entity, static_pair_entity
 
 __all__ = ["RerunReplaySink", "check_can_spawn", "open_rerun_sink", "pair_entity", "static_pair_entity"]
 
 Array = NDArray[np.float64]
 Pair = tuple[str, str]
 
-_AXIS_LENGTH_M = 0.1
-"""Length of the TF axes of frames that are not links of the robot."""
-
-
-def pair_entity(parent: str, child: str) -> str:
-    """``/tf/<parent>/<child>``: a pair on /tf that is no joint of the robot."""
-    return f"/tf/{rr.escape_entity_path_part(parent)}/{rr.escape_entity_path_part(child)}"
-
-
-def static_pair_entity(parent: str, child: str) -> str:
-    """``/tf_static/<parent>/<child>``: a pair on /tf_static that is no joint of the robot."""
-    return f"/tf_static/{rr.escape_entity_path_part(parent)}/{rr.escape_entity_path_part(child)}"
-
 
 class RerunReplaySink:
-    """Logs a recording being replayed to one Rerun target.
+    """Logs a recording being replayed to one Rerun target, through a :class:`RerunSink`.
 
     Make one with :func:`open_rerun_sink`; call :meth:`begin` once,
     :meth:`write_transforms` and :meth:`write_joint_positions` for each batch, then
     :meth:`finish` (or :meth:`abort` after an error).
 
     Args:
-        stream: the recording stream, already pointed at its target.
-        target: the target for messages (a path or a URL).
-        live: True for a viewer (the first data is flushed at once, to fail early).
-        robot: the robot model, or None to log transforms alone.
-        frame_prefix: the prefix of the recording's frame ids in front of the link names.
-        package_paths: folders searched first for ``package://`` meshes.
+        sink: the Rerun sink, to a file or to a viewer.
+        live: True for a viewer: the static data is flushed at once, to fail early.
     """
 
-    def __init__(
-        self,
-        stream: rr.RecordingStream,
-        *,
-        target: str,
-        live: bool,
-        robot: Robot | None,
-        frame_prefix: str = "",
-        package_paths: Sequence[str | os.PathLike[str]] = (),
-    ) -> None:
-        self._rec = stream
-        self._target = target
+    def __init__(self, sink: RerunSink, *, live: bool) -> None:
+        self._sink = sink
         self._live = live
-        self._robot = robot
-        self._prefix = frame_prefix
-        self._package_paths = tuple(package_paths)
-        self._joint_of_child = {} if robot is None else {frame_prefix + j.child: j.name for j in robot.joints}
-        self._link_frames = set() if robot is None else {frame_prefix + link.name for link in robot.links}
-        self._frames: set[str] = set()
-
-    # -- logging ----------------------------------------------------------------------------------
 
     def begin(
         self,
@@ -111,8 +65,9 @@ class RerunReplaySink:
         static: Mapping[Pair, tuple[Array, Array]],
         frames: Sequence[str] = (),
         root: str | None = None,
+        first_pose: Mapping[Pair, tuple[Array, Array]] | None = None,
     ) -> None:
-        """Log what does not change: the blueprint, geometry, frames, latched transforms and URDF.
+        """Log what does not change: geometry, frames, latched transforms, the URDF and the blueprint.
 
         Args:
             start_time_ns: the stamp the replay starts at.
@@ -121,58 +76,31 @@ class RerunReplaySink:
             static: /tf_static, (parent, child) → (translation (3,), rotation (4,)).
             frames: every frame id of the replay; those that are not links get TF axes.
             root: the frame the 3D view is drawn in when there is no robot model.
+            first_pose: the first /tf transform of each pair, like ``static``; the 3D view's
+                camera is fitted to the robot there.
 
         Raises:
             RecordingError: a live viewer cannot be reached.
         """
-        self._rec.send_recording_name(name)
-        self._rec.send_recording_start_time_nanos(int(start_time_ns))
-        self._rec.send_blueprint(self._blueprint())
-        self._static("/", rr.ViewCoordinates.columns(xyz=[rr.ViewCoordinates.RIGHT_HAND_Z_UP]))
-        if self._robot is not None:
-            root = self._prefix + self._robot.root
-        if root is not None:
-            self._static("/robot", rr.CoordinateFrame.columns(frame=[root]))
-        if robot_description is not None:
-            self._static("/robot_description",
-                         rr.TextDocument.columns(text=[robot_description], media_type=["text/plain"]))
-        if self._robot is not None:
-            self._log_robot(self._robot)
-        for frame in frames:
-            self._log_frame(frame)
-        for (parent, child), (translation, rotation) in static.items():
-            self._log_frame(parent)
-            self._log_frame(child)
-            joint = self._joint_of_child.get(child)
-            entity = tf_static_entity(joint) if joint is not None else static_pair_entity(parent, child)
-            self._static(entity, rr.Transform3D.columns(
-                translation=np.reshape(translation, (1, 3)), quaternion=np.reshape(rotation, (1, 4)),
-                parent_frame=[parent], child_frame=[child],
-            ))
+        sink = self._sink
+        sink.begin(static=_transforms(static), start_time_ns=start_time_ns, robot_description=robot_description,
+                   name=name, root=root)
+        sink.log_frames([*frames, *(frame for pair in static for frame in pair)])
+        latched = {child for _, child in static}
+        sink.fit_camera(_transforms({pair: pose for pair, pose in (first_pose or {}).items()
+                                     if pair[1] not in latched}))
+        sink.send_blueprint()
         if self._live:
-            self._flush()
+            sink.flush()
 
     def write_transforms(self, parent: str, child: str, time_ns: NDArray[np.int64], translation: Array,
                          rotation: Array) -> None:
         """Log one frame pair's transforms: int64 stamps (n,), translations (n, 3), quaternions (n, 4)."""
-        n = len(time_ns)
-        if not n:
-            return
-        joint = self._joint_of_child.get(child)
-        entity = tf_entity(joint) if joint is not None else pair_entity(parent, child)
-        rr.send_columns(
-            entity, indexes=[_time_column(time_ns)], recording=self._rec, strict=True,
-            columns=rr.Transform3D.columns(translation=translation, quaternion=rotation,
-                                           parent_frame=[parent] * n, child_frame=[child] * n),
-        )
+        self._sink.write_transforms(parent, child, time_ns, translation, rotation)
 
     def write_joint_positions(self, time_ns: NDArray[np.int64], names: Sequence[str], positions: Array) -> None:
         """Log joint positions (n, J) at stamps (n,); NaN (no position in that message) is skipped."""
-        for j, name in enumerate(names):
-            given = np.isfinite(positions[:, j])
-            if given.any():
-                rr.send_columns(joint_entity(name), indexes=[_time_column(time_ns[given])], recording=self._rec,
-                                columns=rr.Scalars.columns(scalars=positions[given, j]), strict=True)
+        self._sink.write_joint_positions(time_ns, names, positions)
 
     def finish(self) -> None:
         """Flush everything and close the target.
@@ -180,73 +108,11 @@ class RerunReplaySink:
         Raises:
             RecordingError: the data could not be written out or sent.
         """
-        try:
-            self._flush()
-        finally:
-            self._rec.disconnect()
+        self._sink.finish()
 
     def abort(self) -> None:
         """Stop logging; a file target is deleted."""
-        self._rec.disconnect()
-        if not self._live:
-            Path(self._target).unlink(missing_ok=True)
-
-    # -- helpers ----------------------------------------------------------------------------------
-
-    def _flush(self) -> None:
-        try:
-            self._rec.flush()
-        except RuntimeError as err:  # Rerun's writer stopped (disk full…) or the viewer is unreachable
-            verb = "send to" if self._live else "write"
-            raise RecordingError(f"{self._target}: cannot {verb} the recording: {err}") from err
-
-    def _static(self, entity: str, columns: Any) -> None:
-        rr.send_columns(entity, indexes=[], columns=columns, recording=self._rec, strict=True)
-
-    def _log_robot(self, robot: Robot) -> None:
-        """Geometry, frames and TF axes of every link, as :class:`tfrec.rerun_io.RerunSink` logs them."""
-        meshes = MeshLoader(self._package_paths, source=robot.source)
-        warned: set[tuple[str, str]] = set()
-        axis_length = _axis_length(robot)
-        for link in robot.links:
-            frame = [self._prefix + link.name]
-            self._static(link_entity(link.name), [
-                *rr.CoordinateFrame.columns(frame=frame),
-                *rr.TransformAxes3D.columns(axis_length=[axis_length], show_frame=[True]),
-            ])
-            for index, visual in enumerate(link.visuals):
-                asset = None
-                if isinstance(visual.geometry, Mesh):
-                    found = meshes.load(visual.geometry.filename)
-                    if isinstance(found, str):
-                        if (visual.geometry.filename, link.name) not in warned:
-                            warned.add((visual.geometry.filename, link.name))
-                            warnings.warn(f"{visual.geometry.filename}: mesh for link '{link.name}' {found}; "
-                                          "link logged without it", stacklevel=3)
-                    else:
-                        asset = found
-                self._static(visual_entity(link.name, index),
-                             [*rr.CoordinateFrame.columns(frame=frame), *visual_columns(visual, asset)])
-
-    def _log_frame(self, frame: str) -> None:
-        """TF axes for a frame that is no link of the robot, once."""
-        if frame in self._frames or frame in self._link_frames:
-            return
-        self._frames.add(frame)
-        self._static(link_entity(frame), [
-            *rr.CoordinateFrame.columns(frame=[frame]),
-            *rr.TransformAxes3D.columns(axis_length=[_AXIS_LENGTH_M], show_frame=[True]),
-        ])
-
-    def _blueprint(self) -> rrb.Blueprint:
-        view3d = rrb.Spatial3DView(name="robot", origin="/robot")
-        plots = rrb.TimeSeriesView(name="joint positions", origin="/joints")
-        return rrb.Blueprint(
-            rrb.Horizontal(view3d, plots, column_shares=[3, 2]),
-            rrb.BlueprintPanel(state="collapsed"),
-            rrb.SelectionPanel(state="collapsed"),
-            rrb.TimePanel(state="collapsed", timeline=TIMELINE),
-        )
+        self._sink.abort()
 
 
 def open_rerun_sink(
@@ -265,39 +131,36 @@ def open_rerun_sink(
         save: write this file (``recording_id`` names the recording in it).
         connect: stream to the viewer (or server) at this URL, ``rerun+http://host:port/proxy``.
         recording_id: the recording id (default: a new one).
-        robot, frame_prefix, package_paths: as for :class:`RerunReplaySink`.
+        robot, frame_prefix, package_paths: as for :class:`tfrec.rerun_io.RerunSink`.
         port: where a spawned viewer listens; a viewer already listening there is reused.
 
     Raises:
         RecordingError: the file cannot be created, the URL is malformed, or no viewer can be
             started (no display, or no ``rerun`` executable).
     """
-    stream = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id, send_properties=save is None)
-    options: dict[str, Any] = {"robot": robot, "frame_prefix": frame_prefix, "package_paths": package_paths}
     if save is not None:
-        target = Path(save)
-        try:
-            with open(target, "wb"):
-                pass  # fail here, with the OS's reason, rather than in Rerun's writer thread
-            stream.save(target)
-        except OSError as err:
-            raise RecordingError(f"{target}: cannot write: {err.strerror or err}") from None
-        except RuntimeError as err:  # Rerun could not write the file's header
-            raise RecordingError(f"{target}: cannot write: {err}") from None
-        return RerunReplaySink(stream, target=os.fspath(target), live=False, **options)
+        return RerunReplaySink(RerunSink(save, robot=robot, recording_id=recording_id, frame_prefix=frame_prefix,
+                                         package_paths=package_paths), live=False)
+    stream = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id)
     if connect is not None:
         try:
             stream.connect_grpc(connect)
         except RuntimeError as err:
             raise RecordingError(f"{connect}: not a Rerun viewer address ({err})") from None
-        return RerunReplaySink(stream, target=connect, live=True, **options)
-    check_can_spawn()
-    executable = shutil.which("rerun") or _bundled_viewer()
-    try:
-        rr.sinks.spawn(port=port, recording=stream, executable_path=executable)
-    except RuntimeError as err:
-        raise RecordingError(f"cannot spawn the Rerun viewer ({err}); use --save OUT.rrd or --connect URL") from None
-    return RerunReplaySink(stream, target=f"the Rerun viewer on port {port}", live=True, **options)
+        target = connect
+    else:
+        check_can_spawn()
+        executable = shutil.which("rerun") or _bundled_viewer()
+        try:
+            rr.sinks.spawn(port=port, recording=stream, executable_path=executable)
+        except RuntimeError as err:
+            raise RecordingError(
+                f"cannot spawn the Rerun viewer ({err}); use --save OUT.rrd or --connect URL"
+            ) from None
+        target = f"the Rerun viewer on port {port}"
+    sink = RerunSink.from_stream(stream, target=target, robot=robot, frame_prefix=frame_prefix,
+                                 package_paths=package_paths)
+    return RerunReplaySink(sink, live=True)
 
 
 def check_can_spawn() -> None:
@@ -313,16 +176,15 @@ def check_can_spawn() -> None:
                              "use --save OUT.rrd or --connect URL")
 
 
-def _time_column(time_ns: NDArray[np.int64]) -> rr.TimeColumn:
-    return rr.TimeColumn(TIMELINE, timestamp=np.asarray(time_ns, dtype=np.int64).astype("datetime64[ns]"))
-
-
-def _axis_length(robot: Robot) -> float:
-    """A tenth of the longest chain of joint offsets from the root, within [2 cm, 25 cm] (as RerunSink)."""
-    reach: dict[str, float] = {robot.root: 0.0}
-    for joint in robot.tree_order:
-        reach[joint.child] = reach.get(joint.parent, 0.0) + float(np.linalg.norm(joint.origin.xyz))
-    return min(max(0.1 * max(reach.values()), 0.02), 0.25)
+def _transforms(pairs: Mapping[Pair, tuple[Array, Array]]) -> Transforms:
+    """Transforms of frame pairs, (parent, child) → (translation (3,), rotation (4,)), as N = 1 Transforms."""
+    k = len(pairs)
+    return Transforms(
+        tuple(parent for parent, _ in pairs),
+        tuple(child for _, child in pairs),
+        np.array([t for t, _ in pairs.values()], dtype=np.float64).reshape(1, k, 3),
+        np.array([r for _, r in pairs.values()], dtype=np.float64).reshape(1, k, 4),
+    )
 
 
 def _has_display() -> bool:

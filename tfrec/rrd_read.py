@@ -37,7 +37,7 @@ def read_rrd(path: Path, wanted: frozenset[str]) -> Recording:
     import rerun as rr
     from rerun.chunk import RrdReader
 
-    from . import rerun_io
+    from . import rerun_paths
 
     where = os.fspath(path)
     recording = Recording(path=where, format="rrd", float32=True)
@@ -45,7 +45,7 @@ def read_rrd(path: Path, wanted: frozenset[str]) -> Recording:
     joint_parts: dict[str, list[tuple[NDArray[np.int64], Array]]] = {}
     static: dict[tuple[str, str], tuple[Array, Array]] = {}
     description: str | None = None
-    timeline = rerun_io.TIMELINE
+    timeline = rerun_paths.TIMELINE
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", getattr(rr, "RerunWarning", UserWarning))
