@@ -3,18 +3,21 @@ and tfrec's .rrd — checked against independent readers (mcap_ros2, rosbags).""
 
 from __future__ import annotations
 
+import re
 import shutil
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
 from tfrec.readers import JointStates, Recording, read_recording, recording_format
 from tfrec.errors import RecordingError
-from tfrec.mcap_io import DEFAULT_START_TIME_NS
+from tfrec.kinematics import iter_dynamic_chunks, static_transforms
+from tfrec.mcap_io import DEFAULT_CHUNK_BYTES, DEFAULT_START_TIME_NS, McapSink, message_definition
 from tfrec.model import Robot
 from tfrec.ros_decode import JointStateAccumulator, TFAccumulator, message_layout
-from tfrec.trajectory import JointTrajectory
+from tfrec.trajectory import JointTrajectory, make_trajectory
 
 from .recording_helpers import (
     cdr_messages,
@@ -222,7 +225,183 @@ def test_damaged_chunk(tmp_path: Path, marm_mcap: Path) -> None:
     bad = tmp_path / "bad.mcap"
     bad.write_bytes(bytes(data))
     rec = read_recording(bad)
-    assert rec.read_error is not None and "a damaged chunk record" in rec.read_error
+    assert rec.read_error is not None and re.fullmatch(
+        rf"{re.escape(str(bad))}: a damaged chunk record at byte [\d,]+ \(zstd: [^)]+\): "
+        r"recovered 0 of its 204 messages; 0 messages read", rec.read_error)
+
+    # the record after the chunk is garbage: the framing is lost there
+    data = bytearray(marm_mcap.read_bytes())
+    chunk = data.index(b"zstd") - 4 - 4 - 8 - 8 - 8 - 9
+    after = chunk + 9 + int.from_bytes(data[chunk + 1 : chunk + 9], "little")
+    data[after] = 0x42
+    bad.write_bytes(bytes(data))
+    assert read_recording(bad).read_error == (
+        f"{bad}: reading stopped at byte {after:,} of {len(data):,}: a damaged record (opcode 0x42); "
+        "204 messages read")
+
+
+# -- partial chunks: a recorder killed mid-write, flipped bytes --------------------------------------
+
+
+def _chunked_mcap(path: Path, robot: Robot, trajectory: JointTrajectory, *, compression: str,
+                  chunk_size: int = DEFAULT_CHUNK_BYTES) -> tuple[Path, list[Any]]:
+    """An MCAP written by tfrec's sink with ``chunk_size`` bytes of records per chunk, and its
+    chunk indexes as mcap's reader sees them."""
+    from mcap.reader import make_reader
+
+    with open(path, "wb") as stream:
+        sink = McapSink(stream, compression=compression, chunk_size=chunk_size)
+        sink.begin(robot_description=robot.urdf, static=static_transforms(robot), start_time_ns=DEFAULT_START_TIME_NS)
+        for chunk in iter_dynamic_chunks(robot, trajectory):
+            sink.write_chunk(time_ns=chunk.time_ns + DEFAULT_START_TIME_NS, joint_names=chunk.names,
+                             positions=chunk.positions, velocities=chunk.velocities, transforms=chunk.transforms)
+        sink.finish()
+    with open(path, "rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None
+    return path, summary.chunk_indexes
+
+
+def _messages(rec: Recording) -> int:
+    return sum(info.count for info in rec.topics.values())
+
+
+def _samples_of(rec: Recording, whole: Recording) -> int:
+    """Check that every /joint_states and /tf sample of ``rec`` is the sample of ``whole`` at the
+    same stamp; returns how many /joint_states and /tf messages ``rec`` has."""
+    if rec.joint_states is None:
+        assert not rec.tf
+        return 0
+    assert whole.joint_states is not None and rec.joint_states.names == whole.joint_states.names
+    at = np.searchsorted(whole.joint_states.time_ns, rec.joint_states.time_ns)
+    np.testing.assert_array_equal(whole.joint_states.time_ns[at], rec.joint_states.time_ns)
+    np.testing.assert_array_equal(whole.joint_states.positions[at], rec.joint_states.positions)
+    assert list(rec.tf) == list(whole.tf)
+    for pair, series in rec.tf.items():
+        ref = whole.tf[pair]
+        at = np.searchsorted(ref.time_ns, series.time_ns)
+        np.testing.assert_array_equal(ref.time_ns[at], series.time_ns)
+        np.testing.assert_array_equal(ref.translation[at], series.translation)
+        np.testing.assert_array_equal(ref.rotation[at], series.rotation)
+    tf = {len(series) for series in rec.tf.values()}
+    assert len(tf) == 1 and len(rec.joint_states) - tf.pop() in (0, 1)  # a cut may fall between the two
+    return rec.topics["/joint_states"].count + rec.topics["/tf"].count
+
+
+@pytest.mark.parametrize("compression", ["zstd", "lz4", "none"])
+def test_cut_inside_the_only_chunk(tmp_path: Path, marm: Robot, compression: str) -> None:
+    """A few seconds fit in one chunk: the complete records of the part that is there are read
+    (zstd and lz4 give them back block by block)."""
+    long = make_trajectory(marm, "sine", duration_s=5.0, rate_hz=100.0)
+    full, chunks = _chunked_mcap(tmp_path / "full.mcap", marm, long, compression=compression)
+    assert len(chunks) == 1
+    whole = read_recording(full)
+    data = full.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    counts = []
+    for fraction in (0.25, 0.5, 0.9):
+        end = chunks[0].chunk_start_offset + int(chunks[0].chunk_length * fraction)
+        cut.write_bytes(data[:end])
+        rec = read_recording(cut)
+        n = _messages(rec)
+        assert rec.read_error == (f"{cut}: reading stopped at byte {end:,} of {end:,}: the file ends inside a chunk "
+                                  f"record (recovered {n:,} messages of it); {n:,} messages read")
+        assert rec.robot_description == marm.urdf and list(rec.tf_static) == list(whole.tf_static)
+        assert n == 2 + _samples_of(rec, whole)
+        counts.append(n)
+    assert 0 < counts[0] <= counts[1] <= counts[2] < _messages(whole)
+
+
+@pytest.mark.parametrize("compression", ["zstd", "lz4", "none"])
+def test_cut_in_the_last_chunk(tmp_path: Path, marm: Robot, compression: str) -> None:
+    long = make_trajectory(marm, "sine", duration_s=10.0, rate_hz=100.0)
+    full, chunks = _chunked_mcap(tmp_path / "full.mcap", marm, long, compression=compression, chunk_size=400_000)
+    assert len(chunks) == 3
+    whole = read_recording(full)
+    assert whole.joint_states is not None
+    last = chunks[-1]
+    in_last = 2 * int(np.sum(whole.joint_states.time_ns >= last.message_start_time))
+    end = last.chunk_start_offset + int(last.chunk_length * 0.9)
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(full.read_bytes()[:end])
+    rec = read_recording(cut)
+    n = _messages(rec)
+    recovered = n - (_messages(whole) - in_last)
+    assert 0 < recovered < in_last
+    assert rec.read_error == (f"{cut}: reading stopped at byte {end:,} of {end:,}: the file ends inside a chunk "
+                              f"record (recovered {recovered:,} messages of it); {n:,} messages read")
+    assert n == 2 + _samples_of(rec, whole)  # the first messages: every earlier chunk, part of the last
+
+
+@pytest.mark.parametrize("compression, flip", [("zstd", "data"), ("lz4", "data"), ("none", "data"), ("zstd", "crc")])
+def test_damaged_chunk_in_the_middle_is_skipped(tmp_path: Path, marm: Robot, compression: str, flip: str) -> None:
+    """A flipped byte mostly decompresses to wrong data without any error: the chunk's CRC tells,
+    so the chunk is skipped, and the chunks after it are read."""
+    long = make_trajectory(marm, "sine", duration_s=3.0, rate_hz=100.0)
+    full, chunks = _chunked_mcap(tmp_path / "full.mcap", marm, long, compression=compression, chunk_size=120_000)
+    assert len(chunks) == 3
+    middle = chunks[1]
+    data = bytearray(full.read_bytes())
+    data[middle.chunk_start_offset + (middle.chunk_length // 2 if flip == "data" else 9 + 24)] ^= 0x08
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(bytes(data))
+    whole, rec = read_recording(full), read_recording(bad)
+    assert whole.joint_states is not None and rec.joint_states is not None
+    stamps = whole.joint_states.time_ns
+    lost = (stamps >= middle.message_start_time) & (stamps <= middle.message_end_time)
+    assert 0 < lost.sum() < len(stamps)
+    n = _messages(rec)
+    assert n == _messages(whole) - 2 * lost.sum()
+    assert rec.read_error is not None and re.fullmatch(
+        rf"{re.escape(str(bad))}: a damaged chunk record at byte {middle.chunk_start_offset:,} "
+        rf"\((CRC mismatch|zstd: .+|lz4: .+)\): recovered 0 of its {2 * lost.sum():,} messages; {n:,} messages read",
+        rec.read_error)
+    _samples_of(rec, whole)
+    np.testing.assert_array_equal(rec.joint_states.time_ns, stamps[~lost])
+
+
+def test_skipped_chunk_with_the_channels(tmp_path: Path, marm_rec: Recording) -> None:
+    """mcap's writer puts the schemas and channels in the first chunk: when that chunk is skipped,
+    the summary's copies of them stand in."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    assert marm_rec.joint_states is not None
+    messages = cdr_messages(marm_rec)
+    path = tmp_path / "other.mcap"
+    with open(path, "wb") as stream:
+        writer = Writer(stream, chunk_size=4096)
+        writer.start(profile="ros2", library="test")
+        channels = {}
+        for topic, msgtype in (("/joint_states", "sensor_msgs/msg/JointState"), ("/tf", "tf2_msgs/msg/TFMessage")):
+            schema = writer.register_schema(name=msgtype, encoding="ros2msg",
+                                            data=message_definition(msgtype)[0].encode())
+            channels[topic] = writer.register_channel(topic=topic, message_encoding="cdr", schema_id=schema)
+        for i, stamp in enumerate(marm_rec.joint_states.time_ns.tolist()):
+            for topic, channel in channels.items():
+                writer.add_message(channel, log_time=stamp, data=messages[topic][i], publish_time=stamp)
+        writer.finish()
+    whole = read_recording(path)
+    with open(path, "rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None
+    first, last = summary.chunk_indexes[0], summary.chunk_indexes[-1]
+    data = bytearray(path.read_bytes())
+    data[first.chunk_start_offset + 9 + 24] ^= 0x01  # its CRC
+    path.write_bytes(bytes(data))
+    rec = read_recording(path)
+    in_first = 2 * int(np.sum(marm_rec.joint_states.time_ns <= first.message_end_time))
+    n = _messages(whole) - in_first
+    assert rec.read_error == (f"{path}: a damaged chunk record at byte {first.chunk_start_offset:,} (CRC mismatch): "
+                              f"recovered 0 of its {in_first:,} messages; {n:,} messages read")
+    assert _messages(rec) == n
+    _samples_of(rec, whole)
+
+    # without a summary, no channel is known
+    path.write_bytes(bytes(data[: last.chunk_start_offset]))
+    with pytest.raises(RecordingError, match=r"other\.mcap: unreadable MCAP: \d+ damaged chunk records, the first at "
+                                             r"byte [\d,]+ \(CRC mismatch\): recovered 0 of their [\d,]+ messages$"):
+        read_recording(path)
 
 
 def test_not_a_recording(tmp_path: Path) -> None:

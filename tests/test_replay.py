@@ -404,13 +404,14 @@ def test_check_needs_joint_states_and_tf(tfrec_main: Callable[[list[str]], int],
 
 
 def test_truncated_mcap_replays_up_to_the_damage(tfrec_main: Callable[[list[str]], int], marm: Robot,
-                                                 traj: JointTrajectory, tmp_path: Path,
-                                                 capsys: pytest.CaptureFixture[str]) -> None:
+                                                 tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A recorder killed mid-write: the file ends inside its only chunk, whose complete records replay."""
+    long = make_trajectory(marm, "sine", duration_s=5.0, rate_hz=100.0)
     full = tmp_path / "full.mcap"
     with open(full, "wb") as stream:
-        sink = McapSink(stream, chunk_size=16_384)
+        sink = McapSink(stream)  # 1 MiB chunks: these 5 s are one chunk
         sink.begin(robot_description=marm.urdf, static=static_transforms(marm), start_time_ns=START_NS)
-        for chunk in iter_dynamic_chunks(marm, traj):
+        for chunk in iter_dynamic_chunks(marm, long):
             sink.write_chunk(time_ns=chunk.time_ns + START_NS, joint_names=chunk.names, positions=chunk.positions,
                              velocities=chunk.velocities, transforms=chunk.transforms)
         sink.finish()
@@ -420,12 +421,15 @@ def test_truncated_mcap_replays_up_to_the_damage(tfrec_main: Callable[[list[str]
     out = tmp_path / "cut.rrd"
     assert tfrec_main(["replay", str(cut), "--save", str(out)]) == 0
     err = capsys.readouterr().err.splitlines()
-    assert len(err) == 1 and err[0].startswith(f"tfrec: warning: {cut}: reading stopped at byte ")
+    assert len(err) == 1 and err[0].startswith(
+        f"tfrec: warning: {cut}: reading stopped at byte {len(data) // 2:,} of {len(data) // 2:,}: "
+        "the file ends inside a chunk record (recovered ")
+    recovered = int(err[0].split("(recovered ")[1].split(" ")[0].replace(",", ""))
     times, translation, _, _ = Rrd(out).transforms(tf_entity("joint3"))
     n = len(times)
-    assert 0 < n < len(traj)
-    assert err[0].endswith(f"; replayed up to t={(n - 1) * 0.02:.3f} s")
-    np.testing.assert_allclose(translation, fk(marm, traj).translation[:n, 2], atol=ATOL32)
+    assert 0 < n < len(long) and n == (recovered - 2) // 2  # the cut may leave a /joint_states without its /tf
+    assert err[0].endswith(f"; replayed up to t={((recovered - 1) // 2 - 1) * 0.01:.3f} s")
+    np.testing.assert_allclose(translation, fk(marm, long).translation[:n, 2], atol=ATOL32)
 
 
 def test_not_a_recording_is_a_one_line_error(tfrec_main: Callable[[list[str]], int], tmp_path: Path,

@@ -5,14 +5,24 @@ lz4 or uncompressed) with ``struct``, keeping each message as a memoryview of it
 Python object is built per message; the messages are then decoded in bulk. mcap's reader
 builds a record object per message and reads ~130k messages/s; this reads ~300k/s.
 
-A file that ends early or has a damaged chunk (a recorder killed mid-write) is read up to the
-damage: :attr:`Recording.read_error` says where reading stopped.
+A damaged file (a recorder killed mid-write, flipped bytes) is read as far as possible, and
+:attr:`Recording.read_error` says what was lost:
+
+- a file that ends inside a chunk keeps the complete records of the part that is there: zstd
+  and lz4 decompress block by block (128 KiB and 64 KiB of records), so the records of every
+  block that is whole are recovered;
+- a whole chunk whose data does not decompress, or does not match its CRC, is skipped, and
+  reading goes on with the next record: a flipped byte mostly decompresses to wrong data
+  without any error, so only the CRC tells which messages can be trusted. The summary's
+  schemas and channels then stand in for the ones the skipped chunk held.
 """
 
 from __future__ import annotations
 
 import os
 import struct
+import zlib
+from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
 
@@ -24,14 +34,23 @@ __all__ = ["read_mcap", "MCAP_MAGIC"]
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 _BATCH = 32768
 """Messages of a topic decoded at once outside chunks."""
+_PIECE = 4096
+"""Compressed bytes fed at a time when salvaging a cut chunk, so the blocks before a corrupt tail come out."""
 
-_OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK, _OP_DATA_END = 1, 2, 3, 4, 5, 6, 15
+_OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 1, 2, 3, 4, 5, 6
+_OP_MESSAGE_INDEX, _OP_DATA_END = 7, 15
 _RECORD_NAMES = {1: "header", 2: "footer", 3: "schema", 4: "channel", 5: "message", 6: "chunk", 7: "message index",
                  8: "chunk index", 9: "attachment", 10: "attachment index", 11: "statistics", 12: "metadata",
                  13: "metadata index", 14: "summary offset", 15: "data end"}
 _RECORD = struct.Struct("<BQ")
 _MESSAGE = struct.Struct("<HIQ")  # channel id, sequence, log time (publish time follows)
 _MESSAGE_HEAD = 2 + 4 + 8 + 8
+_CHUNK_HEAD = struct.Struct("<QQQII")  # start time, end time, uncompressed size and CRC, compression length
+_FOOTER = struct.Struct("<BQQQI")  # opcode, length, summary start, summary offset start, summary CRC
+
+
+def _a(what: str) -> str:
+    return f"a{'n' if what[0] in 'aeiou' else ''} {what}"
 
 
 class _Truncated(Exception):
@@ -56,6 +75,85 @@ class _Channel:
         self.datas: list[memoryview] = []
 
 
+class _Damage:
+    """A skipped (or partly read) chunk in the middle of the file."""
+
+    __slots__ = ("start", "problem", "recovered", "indexed")
+
+    def __init__(self, start: int, problem: str, recovered: int) -> None:
+        self.start = start
+        self.problem = problem
+        self.recovered = recovered
+        self.indexed: int | None = None
+        """Its messages, as its message index records count them (None: no index)."""
+
+
+def _chunk_fields(body: bytes) -> tuple[str, int, int, memoryview, int]:
+    """A chunk record's compression, uncompressed size and CRC, compressed records and their
+    length (the records may be shorter than that in a cut file).
+
+    Raises:
+        struct.error, UnicodeDecodeError: a damaged chunk header.
+    """
+    _, _, size, crc, name_len = _CHUNK_HEAD.unpack_from(body, 0)
+    pos = _CHUNK_HEAD.size
+    compression = body[pos : pos + name_len].decode()
+    pos += name_len
+    (length,) = struct.unpack_from("<Q", body, pos)
+    pos += 8
+    return compression, size, crc, memoryview(body)[pos : pos + length], length
+
+
+def _decompress(compression: str, data: memoryview, size: int) -> bytes | memoryview:
+    """A whole chunk's records, decompressed.
+
+    Raises:
+        ValueError: the data does not decompress, or the compression is unknown.
+    """
+    if compression == "zstd":
+        import zstandard
+
+        try:
+            return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
+        except zstandard.ZstdError as err:
+            raise ValueError(f"zstd: {err}") from None
+    if compression == "lz4":
+        import lz4.frame
+
+        try:
+            return lz4.frame.decompress(data)  # type: ignore[no-any-return]
+        except RuntimeError as err:  # lz4 reports corrupt frames as RuntimeError
+            raise ValueError(f"lz4: {err}") from None
+    if compression:
+        raise ValueError(f"unsupported chunk compression '{compression}'")
+    return data
+
+
+def _salvage(compression: str, data: memoryview) -> bytes | memoryview:
+    """What decompresses of a cut chunk's records: every whole compressed block, up to the end
+    of the data or to the first corrupt block."""
+    if not compression:
+        return data
+    decompress: Callable[[memoryview], bytes]
+    if compression == "zstd":
+        import zstandard
+
+        decompress, error = zstandard.ZstdDecompressor().decompressobj().decompress, zstandard.ZstdError
+    elif compression == "lz4":
+        import lz4.frame
+
+        decompress, error = lz4.frame.LZ4FrameDecompressor().decompress, RuntimeError
+    else:
+        return b""
+    out: list[bytes] = []
+    for at in range(0, len(data), _PIECE):  # pieces, so the blocks before a corrupt one come out
+        try:
+            out.append(decompress(data[at : at + _PIECE]))
+        except error:
+            break
+    return b"".join(out)
+
+
 def _ros2_store() -> Any:
     from rosbags.typesys import Stores, get_typestore
 
@@ -66,17 +164,20 @@ class _McapReader:
     """Sequential MCAP reading: records, then the records inside each chunk, with no per-message objects.
 
     The summary section is not needed (it repeats the data section), so reading stops at the
-    DataEnd record; the CRCs are not checked.
+    DataEnd record. The chunks' CRCs are checked.
     """
 
-    def __init__(self, stream: IO[bytes], collector: Collector, where: str) -> None:
+    def __init__(self, stream: IO[bytes], collector: Collector, where: str, size: int) -> None:
         self.stream = stream
         self.collector = collector
         self.where = where
+        self.size = size
         self.offset = 0
         self.schemas: dict[int, str] = {}
         self.channels: dict[int, _Channel] = {}
         self.pending = 0
+        self.damage: list[_Damage] = []
+        self._indexing: _Damage | None = None  # the damaged chunk whose message index records follow
 
     @property
     def messages(self) -> int:
@@ -85,7 +186,7 @@ class _McapReader:
     def read(self, size: int, what: str) -> bytes:
         data = self.stream.read(size)
         if len(data) < size:
-            raise _Truncated(self.offset, f"the file ends inside a{'n' if what[0] in 'aeiou' else ''} {what} record")
+            raise _Truncated(self.offset, f"the file ends inside {_a(what)} record")
         self.offset += size
         return data
 
@@ -103,21 +204,34 @@ class _McapReader:
             what = _RECORD_NAMES.get(opcode, f"opcode 0x{opcode:02x}")
             if opcode in (_OP_FOOTER, _OP_DATA_END):
                 return  # the summary section repeats what the data section had
-            if opcode in (_OP_CHUNK, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE):
-                body = self.read(length, what)
+            if opcode == 0 or 0x10 <= opcode < 0x80:  # reserved: not a record, the framing is lost
+                raise _Truncated(record_start, f"a damaged record (opcode 0x{opcode:02x})")
+            if self.offset + length > self.size:
+                if opcode == _OP_CHUNK:
+                    recovered = self._cut_chunk(self.stream.read())
+                    reason = f"the file ends inside a chunk record (recovered {recovered:,} messages of it)"
+                    raise _Truncated(self.size, reason)
+                raise _Truncated(self.offset, f"the file ends inside {_a(what)} record")
+            if opcode != _OP_MESSAGE_INDEX:
+                self._indexing = None
+            if opcode == _OP_CHUNK:
+                self._chunk(self.read(length, what), record_start)
+                self.flush()
+            elif opcode in (_OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE):
                 try:
-                    if opcode == _OP_CHUNK:
-                        self._chunk(body)
-                    else:
-                        self._record(memoryview(body), opcode, 0, length)
+                    self._record(memoryview(self.read(length, what)), opcode, 0, length)
                 except (struct.error, ValueError, UnicodeDecodeError) as err:
                     raise _Truncated(record_start, f"a damaged {what} record ({err})") from None
-                if opcode == _OP_CHUNK or self.pending >= _BATCH:
+                if self.pending >= _BATCH:
                     self.flush()
             elif opcode == _OP_HEADER:
                 profile = self._profile(self.read(length, what))
                 if profile not in ("ros2", ""):
                     raise RecordingError(f"{self.where}: MCAP profile '{profile}', not ros2")
+            elif opcode == _OP_MESSAGE_INDEX and self._indexing is not None:
+                body = self.read(length, what)  # count what the damaged chunk held
+                if len(body) >= 6:
+                    self._indexing.indexed = (self._indexing.indexed or 0) + struct.unpack_from("<I", body, 2)[0] // 16
             else:
                 self.stream.seek(length, os.SEEK_CUR)
                 self.offset += length
@@ -127,56 +241,126 @@ class _McapReader:
         (size,) = struct.unpack_from("<I", body, 0)
         return body[4 : 4 + size].decode("utf-8", "replace")
 
-    def _chunk(self, body: bytes) -> None:
-        _, _, uncompressed_size, _, name_len = struct.unpack_from("<QQQII", body, 0)
-        pos = 8 + 8 + 8 + 4 + 4
-        compression = body[pos : pos + name_len].decode()
-        pos += name_len
-        (size,) = struct.unpack_from("<Q", body, pos)
-        pos += 8
-        data = body[pos : pos + size]
-        if len(data) != size:
-            raise ValueError("chunk data shorter than its length")
-        if compression == "zstd":
-            import zstandard
+    def _chunk(self, body: bytes, start: int) -> None:
+        """A whole chunk record at byte ``start``: its records, or none when its data is damaged."""
+        try:
+            compression, size, crc, data, length = _chunk_fields(body)
+        except (struct.error, UnicodeDecodeError):
+            self._damaged(start, "its header is damaged", 0)
+            return
+        try:
+            if len(data) != length:
+                raise ValueError("its records run past its end")
+            records = _decompress(compression, data, size)
+            if len(records) != size:
+                raise ValueError(f"its records decompress to {len(records):,} bytes, not {size:,}")
+            if crc and zlib.crc32(records) != crc:
+                raise ValueError("CRC mismatch")
+        except ValueError as err:
+            self._damaged(start, str(err), 0)
+            return
+        before = self.messages
+        problem = self._chunk_records(records)
+        if problem is not None:
+            self._damaged(start, problem, self.messages - before)
 
-            try:
-                data = zstandard.ZstdDecompressor().decompress(data, max_output_size=uncompressed_size)
-            except zstandard.ZstdError as err:
-                raise ValueError(f"zstd: {err}") from None
-        elif compression == "lz4":
-            import lz4.frame
+    def _cut_chunk(self, body: bytes) -> int:
+        """The complete records in a chunk the file ends inside; returns how many messages they hold."""
+        try:
+            compression, size, _, data, _ = _chunk_fields(body)
+        except (struct.error, UnicodeDecodeError):
+            return 0
+        before = self.messages
+        self._chunk_records(_salvage(compression, data)[:size])  # stops at the first incomplete record
+        return self.messages - before
 
-            try:
-                data = lz4.frame.decompress(data)
-            except RuntimeError as err:  # lz4 reports corrupt frames as RuntimeError
-                raise ValueError(f"lz4: {err}") from None
-        elif compression:
-            raise ValueError(f"unsupported chunk compression '{compression}'")
-        if len(data) != uncompressed_size:
-            raise ValueError("chunk data does not decompress to its size")
+    def _chunk_records(self, data: bytes | memoryview) -> str | None:
+        """Take the records of a chunk's decompressed data.
+
+        Returns:
+            None, or the problem that stopped them (the records before it are taken): a record
+            that runs past the end, a message on an unknown channel, a record that has no place
+            in a chunk.
+        """
         view = memoryview(data)
-        pos, end = 0, len(data)
+        pos, end = 0, len(view)
         record, message, channels = _RECORD.unpack_from, _MESSAGE.unpack_from, self.channels
-        while pos < end:
-            opcode, length = record(data, pos)
-            pos += 9
-            if pos + length > end:
-                raise ValueError("record runs past the end of its chunk")
-            if opcode == _OP_MESSAGE:  # the hot path, inlined from _record
-                channel_id, _, log_time = message(data, pos)
-                channel = channels.get(channel_id)
-                if channel is None:
-                    raise ValueError(f"message on unknown channel {channel_id}")
-                if channel.count == 0:
-                    channel.first = log_time
-                channel.count += 1
-                channel.last = log_time
-                if channel.decoded:
-                    channel.datas.append(view[pos + _MESSAGE_HEAD : pos + length])
-            else:
-                self._record(view, opcode, pos, length)
-            pos += length
+        try:
+            while pos < end:
+                opcode, length = record(view, pos)  # struct.error when its header runs past the end
+                pos += 9
+                if pos + length > end:
+                    return "a record runs past the end of the chunk"
+                if opcode == _OP_MESSAGE:  # the hot path, inlined from _record
+                    channel_id, _, log_time = message(view, pos)
+                    channel = channels.get(channel_id)
+                    if channel is None:
+                        return f"a message on unknown channel {channel_id}"
+                    if channel.count == 0:
+                        channel.first = log_time
+                    channel.count += 1
+                    channel.last = log_time
+                    if channel.decoded:
+                        channel.datas.append(view[pos + _MESSAGE_HEAD : pos + length])
+                elif opcode in (_OP_SCHEMA, _OP_CHANNEL):
+                    self._record(view, opcode, pos, length)
+                elif opcode < 0x80:  # 0x80 and up: private records
+                    return f"{_a(_RECORD_NAMES.get(opcode, f'opcode 0x{opcode:02x}'))} record inside the chunk"
+                pos += length
+        except (struct.error, ValueError, UnicodeDecodeError) as err:
+            return f"a damaged record ({err})"
+        return None
+
+    def _damaged(self, start: int, problem: str, recovered: int) -> None:
+        self._indexing = _Damage(start, problem, recovered)
+        self.damage.append(self._indexing)
+        if len(self.damage) == 1:
+            self._summary_channels()
+
+    def _summary_channels(self) -> None:
+        """Take the schemas and channels of the summary section: a skipped chunk may have held the
+        only other copy of them. Nothing is taken from a summary that fails its CRC."""
+        footer_start = self.size - len(MCAP_MAGIC) - _FOOTER.size
+        if footer_start < self.offset:
+            return
+        here = self.stream.tell()
+        try:
+            self.stream.seek(footer_start)
+            footer = self.stream.read(_FOOTER.size + len(MCAP_MAGIC))
+            opcode, length, summary_start, _, crc = _FOOTER.unpack_from(footer)
+            if (footer[_FOOTER.size :] != MCAP_MAGIC or opcode != _OP_FOOTER or length != _FOOTER.size - 9
+                    or not self.offset <= summary_start <= footer_start):
+                return
+            self.stream.seek(summary_start)
+            section = self.stream.read(footer_start + _FOOTER.size - 4 - summary_start)  # the CRC covers the footer too
+            if crc and zlib.crc32(section) != crc:
+                return
+            view = memoryview(section)
+            pos, end = 0, footer_start - summary_start
+            while pos + 9 <= end:
+                opcode, length = _RECORD.unpack_from(view, pos)
+                pos += 9
+                if opcode in (_OP_SCHEMA, _OP_CHANNEL) and pos + length <= end:
+                    self._record(view, opcode, pos, length)
+                pos += length
+        except (struct.error, ValueError, UnicodeDecodeError):
+            return  # a damaged summary: its channels stay unknown
+        finally:
+            self.stream.seek(here)
+
+    def damage_summary(self) -> str:
+        """The damaged chunks in one phrase: where the first is, why, and what was recovered."""
+        first = self.damage[0]
+        recovered = sum(damage.recovered for damage in self.damage)
+        indexed = [damage.indexed for damage in self.damage if damage.indexed is not None]
+        if len(self.damage) == 1:
+            head, its = f"a damaged chunk record at byte {first.start:,} ({first.problem})", ("its", "it")
+        else:
+            head = f"{len(self.damage)} damaged chunk records, the first at byte {first.start:,} ({first.problem})"
+            its = ("their", "them")
+        if len(indexed) == len(self.damage):
+            return f"{head}: recovered {recovered:,} of {its[0]} {sum(indexed):,} messages"
+        return f"{head}: recovered {recovered:,} messages of {its[1]}"
 
     def _record(self, view: memoryview, opcode: int, pos: int, length: int) -> None:
         """One record's body at ``view[pos : pos + length]``."""
@@ -238,16 +422,22 @@ def read_mcap(path: Path, wanted: frozenset[str]) -> Recording:
     collector = Collector(recording, wanted, ros1=False)
     try:
         with open(path, "rb") as stream:
-            reader = _McapReader(stream, collector, where)
+            size = os.fstat(stream.fileno()).st_size
+            reader = _McapReader(stream, collector, where, size)
+            stop: _Truncated | None = None
             try:
                 reader.run()
-            except _Truncated as stop:
-                if not reader.channels:
-                    raise RecordingError(f"{where}: unreadable MCAP: {stop.reason} at byte {stop.offset:,}") from None
-                recording.read_error = (
-                    f"{where}: reading stopped at byte {stop.offset:,} of {path.stat().st_size:,}: {stop.reason}; "
-                    f"{reader.messages:,} messages read"
-                )
+            except _Truncated as err:
+                stop = err
+            if not reader.channels and reader.damage:
+                raise RecordingError(f"{where}: unreadable MCAP: {reader.damage_summary()}")
+            if not reader.channels and stop is not None:
+                raise RecordingError(f"{where}: unreadable MCAP: {stop.reason} at byte {stop.offset:,}")
+            problems = [reader.damage_summary()] if reader.damage else []
+            if stop is not None:
+                problems.append(f"reading stopped at byte {stop.offset:,} of {size:,}: {stop.reason}")
+            if problems:
+                recording.read_error = f"{where}: {'; '.join(problems)}; {reader.messages:,} messages read"
             reader.flush()
             reader.finish()
     except OSError as err:

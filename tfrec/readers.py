@@ -7,7 +7,8 @@ the topic table, the joint states as one (N, J) array and every TF frame pair as
 How each format is read:
 
 - ``.mcap`` (ROS 2 profile, CDR): :mod:`tfrec.mcap_read`, tfrec's own sequential reader; a
-  damaged file is read up to the damage and :attr:`Recording.read_error` says where it stopped.
+  file cut short is read up to the cut (complete records of a partial chunk included), a damaged
+  chunk is skipped (its CRC fails) and reading goes on; :attr:`Recording.read_error` says what was lost.
 - rosbag2 folders (mcap or sqlite3 storage) and ROS 1 ``.bag`` files: ``rosbags``' ``AnyReader``.
 - ``.rrd``: :mod:`tfrec.rrd_read`, through Rerun's own reader. Rerun stores transforms as float32.
 

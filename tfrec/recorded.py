@@ -111,8 +111,8 @@ class Recording:
             transform of that pair.
         start_ns, end_ns: log times of the first and last message (ns since the epoch), or
             None for an empty recording.
-        read_error: None, or one line saying where reading stopped in a damaged file; the
-            rest of the recording holds what was read before that point.
+        read_error: None, or one line saying what a damaged file lost (where reading stopped,
+            or which chunks were skipped); the rest of the recording holds what was readable.
         float32: True when the format stores transforms as float32 (``.rrd``).
     """
 
