@@ -93,7 +93,8 @@ def test_bad_input_one_line_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture
 
 def test_usage_error_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
     code, _, err = run(capsys, "inspect")
-    assert code == 2 and "usage:" in err
+    assert code == 2 and err == ("tfrec: error: the following arguments are required: ROBOT "
+                                 "(see 'tfrec inspect --help')\n")
 
 
 CORPUS_ROBOTS = [
@@ -162,3 +163,44 @@ def test_python_dash_m() -> None:
     result = subprocess.run([sys.executable, "-m", "tfrec", "inspect", "robots/none.xacro"],
                             capture_output=True, text=True, cwd=REPO)
     assert result.returncode == 2 and result.stderr == "tfrec: error: robots/none.xacro: no such file\n"
+
+
+def test_usage_errors_are_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = run(capsys, "record", str(ROBOTS / "marm.xacro"), "--compression", "foo")
+    assert code == 2
+    assert err == ("tfrec: error: argument --compression: invalid choice: 'foo' (choose from 'none', 'lz4', "
+                   "'zstd') (see 'tfrec record --help')\n")
+    code, _, err = run(capsys, "diff", "a.mcap")
+    assert code == 2 and err.count("\n") == 1 and err.startswith("tfrec: error: the following arguments")
+
+
+def test_tree_of_a_very_long_chain(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    n = 3000  # longer than Python's recursion limit
+    links = "".join(f'<link name="l{i}"/>' for i in range(n + 1))
+    joints = "".join(f'<joint name="j{i}" type="fixed"><parent link="l{i}"/><child link="l{i + 1}"/></joint>'
+                     for i in range(n))
+    f = tmp_path / "chain.urdf"
+    f.write_text(f'<robot name="chain">{links}{joints}</robot>')
+    code, out, err = run(capsys, "inspect", str(f))
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[4] == "└── l1  (j0: fixed)" and lines[-1].endswith(f"└── l{n}  (j{n - 1}: fixed)")
+
+
+def test_write_errors_name_the_target(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    for argv, target in (
+        (["-o", str(blocker / "x.mcap"), "--no-rrd"], blocker / "x.mcap"),
+        (["--no-mcap", "--rrd", str(blocker / "x.rrd")], blocker / "x.rrd"),
+        (["--no-mcap", "--rrd", "/proc/x.rrd"], Path("/proc/x.rrd")),
+        (["-o", "/proc/x.mcap", "--no-rrd"], Path("/proc/x.mcap")),
+    ):
+        if str(target).startswith("/proc"):
+            code, _, err = run(capsys, "record", str(ROBOTS / "marm.xacro"), "--duration", "0.1", *argv)
+            assert code == 2 and err.startswith(f"tfrec: error: {target}: cannot write") and ".tmp-" not in err
+            continue
+        code, _, err = run(capsys, "record", str(ROBOTS / "marm.xacro"), "--duration", "0.1", *argv)
+        assert code == 2 and err.count("\n") == 1
+        assert err.startswith(f"tfrec: error: {blocker}") and ".tmp-" not in err
+        assert not target.exists()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 import re
 import textwrap
 from pathlib import Path
@@ -370,3 +371,26 @@ def test_axis_is_normalized_and_materials_resolve() -> None:
     visual = robot.links[0].visuals[0]
     assert visual.material is not None and visual.material.rgba == (0.1, 0.2, 0.3, 1.0)
     assert visual.geometry.scale == (2.0, 2.0, 2.0)  # type: ignore[union-attr]
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        '<xacro:include filename="self.xacro"/>',
+        '<xacro:macro name="m"><xacro:m/></xacro:macro><xacro:m/>',
+        '<xacro:macro name="m"><m/></xacro:macro><xacro:m/>',
+    ],
+    ids=["include", "macro", "legacy-macro"],
+)
+def test_endless_recursion_is_one_line(tmp_path: Path, body: str) -> None:
+    f = _write(tmp_path, "self.xacro", f'<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">{body}</robot>')
+    with pytest.raises(DescriptionError, match=r"self\.xacro: xacro recursion too deep"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the legacy call warns before it recurses
+            load_description(f)
+
+
+def test_paths_from_the_root_folder_stay_absolute(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir("/")
+    with pytest.raises(DescriptionError, match=rf"^{re.escape(str(tmp_path))}/nope\.urdf: no such file$"):
+        load_description(tmp_path / "nope.urdf")

@@ -12,7 +12,7 @@ import json
 import sys
 import warnings
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any, TextIO
+from typing import TYPE_CHECKING, Any, NoReturn, TextIO
 
 from . import __version__
 from .errors import TfrecError, TrajectoryError
@@ -27,7 +27,7 @@ PROG = "tfrec"
 
 def _add_robot_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("robot", metavar="ROBOT", help="a .urdf, .xacro or .urdf.xacro file")
-    parser.add_argument("xacro_args", metavar="name:=value", nargs="*", help="xacro arguments, as for ROS")
+    parser.add_argument("xacro_args", metavar="name:=value", nargs="*", default=[], help="xacro arguments, as for ROS")
     parser.add_argument(
         "--package-path", metavar="DIR", action="append", default=[],
         help="a package, or a folder of packages, for $(find pkg) and package:// (repeatable; searched "
@@ -40,8 +40,15 @@ def _add_robot_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with usage errors as one line, like every other tfrec error (exit 2)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{PROG}: error: {message} (see '{self.prog} --help')\n")
+
+
 def _build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog=PROG,
         description="Record, replay and compare what a robot description does — headless, without ROS.",
     )
@@ -160,14 +167,15 @@ def _print_tree(robot: Robot, out: TextIO) -> None:
     out.write(f"root link: {robot.root}\n")
     out.write(f"{robot.root}\n")
 
-    def walk(link: str, indent: str) -> None:
-        joints = robot.child_joints[link]
-        for i, joint in enumerate(joints):
-            last = i == len(joints) - 1
-            out.write(f"{indent}{'└── ' if last else '├── '}{joint.child}  ({joint.name}: {_joint_label(joint)})\n")
-            walk(joint.child, indent + ("    " if last else "│   "))
-
-    walk(robot.root, "")
+    # depth-first with an explicit stack: a chain may be longer than Python's recursion limit
+    stack = [(joint, "", i == len(robot.child_joints[robot.root]) - 1)
+             for i, joint in enumerate(robot.child_joints[robot.root])][::-1]
+    while stack:
+        joint, indent, last = stack.pop()
+        out.write(f"{indent}{'└── ' if last else '├── '}{joint.child}  ({joint.name}: {_joint_label(joint)})\n")
+        below = robot.child_joints[joint.child]
+        deeper = indent + ("    " if last else "│   ")
+        stack.extend([(child, deeper, i == len(below) - 1) for i, child in enumerate(below)][::-1])
 
 
 def robot_to_json(robot: Robot) -> dict[str, Any]:

@@ -146,6 +146,22 @@ class _Staging:
         self._pairs.append((temp, target))
         return temp
 
+    def target_of(self, filename: object) -> str:
+        """The output a (temporary) file name stands for, for messages."""
+        if filename is None:
+            return "output"
+        name = Path(os.fsdecode(filename))  # type: ignore[arg-type]
+        for temp, target in self._pairs:
+            if name == temp or temp in name.parents:
+                return str(target)
+        return str(name)
+
+    def with_targets(self, message: str) -> str:
+        """``message`` with every temporary path replaced by its target's."""
+        for temp, target in self._pairs:
+            message = message.replace(str(temp), str(target))
+        return message
+
     def commit(self) -> None:
         for temp, target in self._pairs:
             if target.is_dir() and temp.is_dir():
@@ -249,9 +265,15 @@ def record(
             write_bag_metadata(bag_temp, mcap_temp, final_mcap_name=plan.mcap.name if plan.mcap else mcap_temp.name)
         staging.commit()
     except OSError as err:
+        where = staging.target_of(err.filename)
         _abort_sinks(sinks)
         staging.abort()
-        raise RecordingError(f"{err.filename or 'output'}: cannot write: {err.strerror or err}") from None
+        raise RecordingError(f"{where}: cannot write: {err.strerror or err}") from None
+    except RecordingError as err:  # a sink's message names its temporary file: name the target
+        message = staging.with_targets(str(err))
+        _abort_sinks(sinks)
+        staging.abort()
+        raise RecordingError(message) from None
     except BaseException:
         _abort_sinks(sinks)
         staging.abort()

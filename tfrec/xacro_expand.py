@@ -37,8 +37,11 @@ def display_path(path: str | os.PathLike[str] | None) -> str:
     if path is None:
         return "<string>"
     p = Path(path)
+    cwd = Path.cwd().resolve()
+    if cwd == Path(cwd.anchor):  # from / every path is "relative": keep it as given
+        return str(p)
     try:
-        return str(p.resolve().relative_to(Path.cwd().resolve()))
+        return str(p.resolve().relative_to(cwd))
     except ValueError:
         return str(p)
 
@@ -123,6 +126,11 @@ def expand_xacro(
                 xacro.init_stacks(filename)
                 doc = xacro.parse(None, filename)
                 xacro.process_doc(doc, mappings=mappings)
+        except RecursionError:
+            raise DescriptionError(
+                f"{display_path(filename)}: xacro recursion too deep: a file includes itself or a macro "
+                "calls itself without end"
+            ) from None
         except _LegacyCall as err:
             raise DescriptionError(str(err)) from None
         except DescriptionError as err:  # from $(find): name the file that asked
