@@ -23,6 +23,10 @@ __all__ = [
     "Link",
     "load_description",
     "parse_urdf",
+    "make_trajectory",
+    "read_recording",
+    "compare",
+    "assert_recordings_match",
 ]
 
 from .errors import DescriptionError, KinematicsError, RecordingError, TfrecError, TrajectoryError
@@ -30,11 +34,23 @@ from .model import Joint, JointType, Link, Robot
 
 if TYPE_CHECKING:
     from .description import load_description, parse_urdf
+    from .diff import assert_recordings_match, compare
+    from .readers import read_recording
+    from .trajectory import make_trajectory
+
+_LAZY = {
+    "load_description": "description",
+    "parse_urdf": "description",
+    "make_trajectory": "trajectory",
+    "read_recording": "readers",
+    "compare": "diff",
+    "assert_recordings_match": "diff",
+}
 
 
-def __getattr__(name: str) -> Any:  # lazy: loading descriptions imports xacro
-    if name in ("load_description", "parse_urdf"):
-        from . import description
+def __getattr__(name: str) -> Any:  # lazy: each stage imports its heavy libraries itself
+    if name in _LAZY:
+        import importlib
 
-        return getattr(description, name)
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
     raise AttributeError(f"module 'tfrec' has no attribute {name!r}")
