@@ -153,6 +153,7 @@ def test_non_finite_override_is_an_error(toy: Robot) -> None:
 )
 def test_positions_stay_within_limits(kind, seed, duration_s, rate_hz, period_s, amplitude) -> None:
     robot = parse_urdf(TOY_URDF)
+    period_s = max(period_s, 1.0 / rate_hz)  # at least the sample interval
     trajectory = make_trajectory(
         robot, kind, duration_s=duration_s, rate_hz=rate_hz, seed=seed, period_s=period_s, amplitude=amplitude
     )
@@ -174,11 +175,14 @@ def test_same_seed_same_trajectory_and_longer_duration_extends_it(toy: Robot) ->
 
 
 def test_random_starts_at_center_and_rests_on_a_waypoint_every_period(toy: Robot) -> None:
-    trajectory = make_trajectory(toy, "random", duration_s=6, rate_hz=10, period_s=1.5)
+    trajectory = make_trajectory(toy, "random", duration_s=6, rate_hz=10, period_s=1.5, seed=3)
     np.testing.assert_array_equal(trajectory.positions[0], center_positions(toy))
     at_waypoints = trajectory.velocities[::15]  # t = 0, 1.5, 3, 4.5, 6
     np.testing.assert_allclose(at_waypoints, 0.0, atol=1e-12)
     assert (np.ptp(trajectory.positions[:, :3], axis=0) > 0).all()
+    for j, joint in enumerate(toy.actuated_joints):  # joint j's own stream, default_rng([seed, j])
+        expected = np.random.default_rng([3, j]).uniform(*joint_bounds(joint), size=4)
+        np.testing.assert_allclose(trajectory.positions[15::15, j], expected, rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -201,6 +205,40 @@ def test_sine_reaches_amplitude_times_half_range_around_the_middle(toy: Robot) -
     for i in range(4):
         for j in range(i + 1, 4):
             assert np.abs(normalized[:, i] - normalized[:, j]).max() > 0.1  # not in lockstep
+
+
+def test_sine_joint_j_has_phase_and_period_from_the_golden_ratio_sequence(toy: Robot) -> None:
+    trajectory = make_trajectory(toy, "sine", duration_s=3, rate_hz=20, period_s=1.5, amplitude=0.5)
+    t = trajectory.time_ns * 1e-9
+    for j, joint in enumerate(toy.actuated_joints):
+        lower, upper = joint_bounds(joint)
+        fraction = (j * (1 + math.sqrt(5)) / 2) % 1.0  # frac(j·φ): 0, 0.618…, 0.236…, 0.854…
+        angle = 2 * math.pi * t / (2 * 1.5 * (1 + fraction)) + 2 * math.pi * fraction
+        expected = (lower + upper) / 2 + 0.5 * (upper - lower) / 2 * np.sin(angle)
+        np.testing.assert_allclose(trajectory.positions[:, j], expected, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["center", "random", "sine"])
+def test_appending_a_joint_leaves_the_others_motion_unchanged(toy: Robot, kind: str) -> None:
+    extra = """<link name="h"/><joint name="extra" type="revolute"><parent link="g"/><child link="h"/>
+      <limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"""
+    bigger = parse_urdf(TOY_URDF.replace("</robot>", extra))
+    assert [j.name for j in bigger.actuated_joints] == [*ACTUATED, "extra"]
+    before = make_trajectory(toy, kind, duration_s=7, seed=5)
+    after = make_trajectory(bigger, kind, duration_s=7, seed=5)
+    np.testing.assert_array_equal(after.positions[:, :4], before.positions)
+    np.testing.assert_array_equal(after.velocities[:, :4], before.velocities)
+    assert np.ptp(after.positions[:, 4]) > 0 or kind == "center"
+
+
+@pytest.mark.parametrize("kind", ["random", "sine"])
+def test_panda_arm_moves_the_same_with_and_without_its_hand(corpus: Path, kind: str) -> None:
+    path = corpus / "franka_description" / "robots" / "panda" / "panda.urdf.xacro"
+    arm, with_hand = (load_description(path, args={"hand": hand}, package_paths=[corpus]) for hand in ("false", "true"))
+    assert len(with_hand.actuated_joints) == len(arm.actuated_joints) + 1 == 8
+    alone, handed = make_trajectory(arm, kind, duration_s=5), make_trajectory(with_hand, kind, duration_s=5)
+    np.testing.assert_array_equal(handed.positions[:, :7], alone.positions)
+    np.testing.assert_array_equal(handed.velocities[:, :7], alone.velocities)
 
 
 def test_sine_with_full_amplitude_touches_but_never_passes_the_limits(toy: Robot) -> None:
@@ -255,11 +293,52 @@ def test_robot_without_actuated_joints_gets_empty_columns() -> None:
         ({"amplitude": 1.5}, r"^amplitude 1.5 is not a fraction between 0 and 1$"),
         ({"seed": -1}, r"^seed -1 is not a non-negative integer$"),
         ({"duration_s": 1e6, "rate_hz": 1e3}, r"^duration 1e\+06 s at 1000 Hz gives more than 10,000,000 samples$"),
+        ({"duration_s": 3600, "rate_hz": 1e9}, r"^duration 3600 s at 1e\+09 Hz gives more than 10,000,000 samples$"),
     ],
 )
 def test_bad_options_are_errors(toy: Robot, options: dict, message: str) -> None:
     with pytest.raises(TrajectoryError, match=message):
         make_trajectory(toy, "sine", **options)
+
+
+@pytest.mark.parametrize("kind", ["random", "sine"])
+def test_period_shorter_than_the_sample_interval_is_an_error(toy: Robot, kind: str) -> None:
+    message = r"^period 1e-09 s is shorter than the sample interval 0.02 s of 50 Hz$"
+    with pytest.raises(TrajectoryError, match=message):  # not millions of waypoints
+        make_trajectory(toy, kind, period_s=1e-9)
+    make_trajectory(toy, kind, duration_s=1, period_s=0.02)  # one interval is enough
+    make_trajectory(toy, "sweep", rate_hz=0.25, period_s=2)  # kinds without a period ignore it
+
+
+def test_period_error_is_one_line_from_the_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from tfrec.cli import main
+
+    out = tmp_path / "p.mcap"
+    robot = str(Path(__file__).resolve().parents[1] / "robots" / "marm.xacro")
+    assert main(["record", robot, "--traj", "random", "--period", "1e-9", "-o", str(out), "--no-rrd"]) == 2
+    error = "tfrec: error: period 1e-09 s is shorter than the sample interval 0.02 s of 50 Hz\n"
+    assert capsys.readouterr().err == error
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"duration_s": 1e300}, r"^duration 1e\+300 s is out of range: ROS 2 stamps hold less than 2147483648 s$"),
+        ({"duration_s": 2**31}, r"^duration 2147483648 s is out of range: ROS 2 stamps hold less than 2147483648 s$"),
+        ({"duration_s": 3600, "rate_hz": 1e300}, r"^rate 1e\+300 Hz is more than one sample per nanosecond"),
+        ({"duration_s": 5e-324, "rate_hz": 2e9}, r"^rate 2e\+09 Hz is more than one sample per nanosecond"),
+    ],
+)
+def test_duration_and_rate_beyond_nanosecond_stamps_are_errors(toy: Robot, options: dict, message: str) -> None:
+    with pytest.raises(TrajectoryError, match=message):
+        make_trajectory(toy, "center", **options)
+
+
+def test_tiny_rate_and_long_duration_still_sample() -> None:
+    np.testing.assert_array_equal(sample_times_ns(10, 1e-300), [0])  # the next sample is beyond float64
+    times = sample_times_ns(2**31 - 1, 1e-3)
+    assert times[-1] == 2_147_483_000 * 10**9 and len(times) == 2_147_484  # every 1000 s
 
 
 def test_unknown_kind_is_an_error(toy: Robot) -> None:
@@ -346,11 +425,23 @@ def test_csv_accepts_a_path_object_and_fills_missing_joints_from_overrides(toy: 
         ("wheel\n0\n", r"^traj.csv:1: no 'time' column$"),
         ("time,shoulder\n0,0\n0.1,0\n0.2,0\n0.3,abc\n", r"^traj.csv:5: 'abc' in column 'shoulder' is not a number$"),
         ("time,shoulder\n0,0\n0.1,\n", r"^traj.csv:3: '' in column 'shoulder' is not a number$"),
-        ("time,shoulder\n0,nan\n", r"^traj.csv:2: 'nan' in column 'shoulder' is not finite$"),
+        ("time,shoulder\n0,nan\n", r"^traj.csv:2: 'nan' in column 'shoulder' is not a finite number$"),
+        ("time,shoulder\n0,1_0\n", r"^traj.csv:2: '1_0' in column 'shoulder' is not a number$"),
+        ("time,shoulder\n0,0x10\n", r"^traj.csv:2: '0x10' in column 'shoulder' is not a number$"),
+        ("time,shoulder\n0,\u0661\n", r"^traj.csv:2: '\u0661' in column 'shoulder' is not a number$"),
+        ("time,shoulder\n0,1 0\n", r"^traj.csv:2: '1 0' in column 'shoulder' is not a number$"),
+        ("time,shoulder\n0, -Infinity \n", r"^traj.csv:2: '-Infinity' in column 'shoulder' is not a finite number$"),
+        ("time,shoulder\n0,inf\n", r"^traj.csv:2: 'inf' in column 'shoulder' is not a finite number$"),
+        ("time,shoulder\n1e400,0\n", r"^traj.csv:2: '1e400' in column 'time' is not a finite number$"),
         ("time,shoulder\n0,0\n0.1\n", r"^traj.csv:3: 1 cells, expected 2 as in the header$"),
         ("time,shoulder\n0,0\n0.1,0\n\n0.3,0\n0.3,0\n", r"^traj.csv:6: time 0.3 does not increase \(previous 0.3\)$"),
         ("time,shoulder\n0,0\n0.3,0\n0.2,0\n", r"^traj.csv:4: time 0.2 does not increase \(previous 0.3\)$"),
         ("time,shoulder\n-0.1,0\n", r"^traj.csv:2: time -0.1 is negative$"),
+        ("time,shoulder\n0,0\n1e12,0\n",
+         r"^traj.csv:3: time 1000000000000.0 is out of range: ROS 2 stamps hold less than 2147483648 s$"),
+        ("time,shoulder\n2147483647.9999999999,0\n",  # rounds to 2**31 s
+         r"^traj.csv:2: time 2147483648.0 is out of range: ROS 2 stamps hold less than 2147483648 s$"),
+        ("time,wheel\n0,0\n1e-9,1e300\n", r"^traj.csv:2: wheel changes too fast for a finite velocity$"),
         ("time,lifted\n0,1\n1,1.6\n", r"^traj.csv:3: lifted = 1.6 is beyond its limits \[0.5, 1.5\]$"),
         ("", r"^traj.csv: empty file, expected a header with 'time' and joint names$"),
         ("time,shoulder\n", r"^traj.csv: no samples after the header$"),
@@ -362,6 +453,37 @@ def test_csv_errors_name_file_and_line(toy: Robot, tmp_path: Path, monkeypatch: 
     monkeypatch.chdir(tmp_path)
     with pytest.raises(TrajectoryError, match=message):
         make_trajectory(toy, "traj.csv")
+
+
+def test_csv_numbers_are_plain_decimals_with_spaces_around_allowed(toy: Robot, tmp_path: Path) -> None:
+    path = write(tmp_path, "time,shoulder\n  0 ,-.5\n+1.,1.5E-1\n2e0,\t1 \n")
+    trajectory = make_trajectory(toy, str(path))
+    np.testing.assert_array_equal(trajectory.time_ns, [0, 1_000_000_000, 2_000_000_000])
+    np.testing.assert_array_equal(trajectory.positions[:, 0], [-0.5, 0.15, 1.0])
+
+
+def test_csv_with_byte_order_mark_and_windows_line_endings(toy: Robot, tmp_path: Path) -> None:
+    path = tmp_path / "traj.csv"
+    path.write_bytes("\ufefftime,shoulder\r\n0,0\r\n\r\n0.5,0.25\r\n".encode())
+    trajectory = make_trajectory(toy, str(path))
+    assert trajectory.joint_names == ACTUATED
+    np.testing.assert_array_equal(trajectory.time_ns, [0, 500_000_000])
+    np.testing.assert_array_equal(trajectory.positions[:, 0], [0, 0.25])
+
+
+def test_csv_with_one_row_is_one_sample_at_rest(toy: Robot, tmp_path: Path) -> None:
+    path = write(tmp_path, "time,shoulder,wheel\n2.5,0.5,9\n")
+    trajectory = make_trajectory(toy, str(path))
+    np.testing.assert_array_equal(trajectory.time_ns, [2_500_000_000])
+    np.testing.assert_allclose(trajectory.positions, [[0.5, 1.0, -0.15, 9.0]], rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(trajectory.velocities, 0.0)
+
+
+def test_csv_times_a_nanosecond_apart_far_from_zero_keep_finite_velocities(toy: Robot, tmp_path: Path) -> None:
+    path = write(tmp_path, "time,shoulder\n100000,0\n100000.000000001,1e-9\n100000.000000002,2e-9\n")
+    trajectory = make_trajectory(toy, str(path))
+    assert np.diff(trajectory.time_ns).min() >= 1
+    np.testing.assert_allclose(trajectory.velocities[:, 0], 1.0, rtol=0.1)
 
 
 def test_csv_column_also_overridden_is_an_error(toy: Robot, tmp_path: Path) -> None:

@@ -10,6 +10,10 @@ Sampling rule of the generated kinds: sample ``i`` is at ``time_ns[i] = round(i 
 for every ``i`` with ``time_ns[i] <= round(duration_s * 1e9)``, so both ends are included when
 the duration is a whole number of periods (10 s at 50 Hz gives 501 samples). Positions and
 velocities are evaluated at exactly those times.
+
+In ``center``, ``random`` and ``sine`` a joint's motion depends only on its own index, bounds
+and the options, never on the joints after it: appending a joint (a gripper to an arm) leaves the
+others as they were. (``sweep`` shares the duration among the joints, so it cannot.)
 """
 
 from __future__ import annotations
@@ -45,6 +49,14 @@ __all__ = [
 
 MAX_SAMPLES = 10_000_000
 """Most samples a generated trajectory may have (1 h at 1 kHz is 3.6 million)."""
+
+TIME_LIMIT_NS = 2**31 * 1_000_000_000
+"""Times must be less than this: ROS 2 stamps hold int32 seconds (the recorder checks start + time)."""
+
+_OUT_OF_RANGE = f"out of range: ROS 2 stamps hold less than {TIME_LIMIT_NS // 1_000_000_000} s"
+
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+"""frac(φ) of the golden ratio φ: ``frac(j·φ)`` spreads joints evenly, whatever their number."""
 
 Array = NDArray[np.float64]
 Floats = NDArray[np.floating[Any]]
@@ -122,14 +134,17 @@ def make_trajectory(
         duration_s, rate_hz: length and sample rate of the generated kinds.
         seed: seed of ``random`` (same seed, same trajectory).
         period_s: time between the waypoints of ``random``; sets the periods of ``sine``.
+            At least the sample interval ``1 / rate_hz`` for those two kinds.
         amplitude: fraction of each joint's half-range that ``sine`` uses, in [0, 1].
         overrides: joint name → position, held constant (``--set``). In ``center`` this is
             joint_state_publisher's ``zeros`` parameter; in a CSV file it gives joints
             without a column.
 
     Raises:
-        TrajectoryError: an option is out of range, an override is unknown or beyond its
-            joint's limits, or the CSV file is missing or malformed.
+        TrajectoryError: an option is out of range (the duration reaches past what ROS 2
+            stamps hold, the samples would be more than :data:`MAX_SAMPLES`, the period is
+            shorter than the sample interval), an override is unknown or beyond its joint's
+            limits, or the CSV file is missing or malformed.
     """
     if not (isinstance(duration_s, numbers.Real) and math.isfinite(duration_s) and duration_s > 0):
         raise TrajectoryError(f"duration {duration_s!r} s is not a positive number")
@@ -143,6 +158,10 @@ def make_trajectory(
         raise TrajectoryError(f"seed {seed!r} is not a non-negative integer")
     if isinstance(kind, str) and kind in TrajectoryKind._value2member_map_:
         which = TrajectoryKind(kind)
+        if which in (TrajectoryKind.RANDOM, TrajectoryKind.SINE) and period_s * rate_hz < 1.0:
+            raise TrajectoryError(
+                f"period {period_s!r} s is shorter than the sample interval {1.0 / rate_hz:g} s of {rate_hz:g} Hz"
+            )
         if which is TrajectoryKind.CENTER:
             return center_trajectory(robot, duration_s=duration_s, rate_hz=rate_hz, overrides=overrides)
         if which is TrajectoryKind.RANDOM:
@@ -197,14 +216,25 @@ def center_positions(robot: Robot, *, overrides: Mapping[str, float] = {}) -> Ar
 
 
 def sample_times_ns(duration_s: float, rate_hz: float) -> NDArray[np.int64]:
-    """``round(i * 1e9 / rate_hz)`` for every i whose time is at most the duration."""
+    """``round(i * 1e9 / rate_hz)`` for every i whose time is at most the duration.
+
+    Raises:
+        TrajectoryError: the duration is not below ROS 2's int32 seconds, the rate is above one
+            sample per nanosecond, or the samples would be more than :data:`MAX_SAMPLES`.
+    """
+    if not duration_s * 1e9 < TIME_LIMIT_NS:
+        raise TrajectoryError(f"duration {duration_s!r} s is {_OUT_OF_RANGE}")
+    if rate_hz > 1e9:
+        raise TrajectoryError(f"rate {rate_hz:g} Hz is more than one sample per nanosecond (1e+09 Hz)")
     duration_ns = round(duration_s * 1e9)
-    count = int(duration_ns * rate_hz / 1e9) + 2
-    if count > MAX_SAMPLES + 1:
+    if not duration_ns * rate_hz / 1e9 < MAX_SAMPLES:  # also inf
         raise TrajectoryError(
             f"duration {duration_s:g} s at {rate_hz:g} Hz gives more than {MAX_SAMPLES:,} samples"
         )
-    time_ns = np.rint(np.arange(count, dtype=np.float64) * 1e9 / rate_hz).astype(np.int64)
+    count = int(duration_ns * rate_hz / 1e9) + 2  # one past the end, dropped below
+    with np.errstate(over="ignore"):  # that one may overflow at a tiny rate
+        candidates = np.rint(np.arange(count, dtype=np.float64) * 1e9 / rate_hz)
+    time_ns = candidates[candidates < TIME_LIMIT_NS].astype(np.int64)
     return time_ns[time_ns <= duration_ns]
 
 
@@ -234,22 +264,24 @@ def random_trajectory(
     """The Randomize button pressed every ``period_s`` seconds, with smooth motion between.
 
     Waypoint 0 (t = 0) is the center; waypoint k (t = k·period) is uniform within each
-    joint's bounds (:func:`joint_bounds`), drawn row by row from ``numpy.random.default_rng(seed)``
-    so a longer duration extends the same trajectory. Between waypoints each joint follows
-    a minimum-jerk (quintic) segment: continuous velocity, at rest on every waypoint, never
-    beyond either end.
+    joint's bounds (:func:`joint_bounds`). Joint j draws its waypoints in order from its own
+    stream, ``numpy.random.default_rng([seed, j])``, so a longer duration extends the same
+    trajectory and adding a joint leaves the others' waypoints as they were. Between waypoints
+    each joint follows a minimum-jerk (quintic) segment: continuous velocity, at rest on every
+    waypoint, never beyond either end.
     """
     pinned = _pinned(robot, overrides)
     center = center_positions(robot, overrides=overrides)
     lower, upper = _bounds_arrays(robot)
     time_ns = sample_times_ns(duration_s, rate_hz)
     count = math.ceil(duration_s / period_s) + 1
-    rng = np.random.default_rng(seed)
     waypoints = np.empty((count, len(center)))
     waypoints[0] = center
-    waypoints[1:] = rng.uniform(lower, upper, size=(count - 1, len(center)))
-    for i, value in pinned.items():
-        waypoints[:, i] = value
+    for j in range(len(center)):
+        if j in pinned:
+            waypoints[:, j] = pinned[j]
+        else:
+            waypoints[1:, j] = np.random.default_rng([seed, j]).uniform(lower[j], upper[j], size=count - 1)
     knot_s = np.arange(count) * period_s
     positions, velocities = _min_jerk(time_ns * 1e-9, knot_s, waypoints)
     return _trajectory(robot, time_ns, positions, velocities)
@@ -266,17 +298,17 @@ def sine_trajectory(
 ) -> JointTrajectory:
     """Every joint oscillates about the middle of its bounds.
 
-    Joint j of J (actuated order) follows ``mid + a·sin(2π t / T_j + 2π j / J)`` with
-    ``a = amplitude · half-range`` (continuous joints: ``amplitude · π``) and
-    ``T_j = 2·period_s·(1 + j / J)``, so no two joints move in lockstep.
+    Joint j (actuated order, from 0) follows ``mid + a·sin(2π t / T_j + 2π f_j)`` with
+    ``a = amplitude · half-range`` (continuous joints: ``amplitude · π``),
+    ``T_j = 2·period_s·(1 + f_j)`` and ``f_j = frac(j·φ)``, φ the golden ratio: no two joints
+    share a period and phase, and a joint's motion does not depend on how many joints follow it.
     """
     pinned = _pinned(robot, overrides)
     lower, upper = _bounds_arrays(robot)
     time_ns = sample_times_ns(duration_s, rate_hz)
-    count = len(lower)
-    index = np.arange(count)
-    omega = 2.0 * np.pi / (2.0 * period_s * (1.0 + index / max(count, 1)))
-    phase = 2.0 * np.pi * index / max(count, 1)
+    fraction = np.mod(np.arange(len(lower)) * _GOLDEN, 1.0)
+    omega = 2.0 * np.pi / (2.0 * period_s * (1.0 + fraction))
+    phase = 2.0 * np.pi * fraction
     middle = (lower + upper) / 2.0
     reach = amplitude * (upper - lower) / 2.0
     angle = np.outer(time_ns * 1e-9, omega) + phase
@@ -405,7 +437,7 @@ def _min_jerk(t: Floats, knot_s: Floats, knot_q: Floats) -> tuple[Array, Array]:
         knot_q: (K, J) waypoints.
 
     Each segment is the minimum-jerk blend ``s(τ) = 10τ³ − 15τ⁴ + 6τ⁵``: it starts and ends
-    at rest and stays between its two waypoints.
+    at rest and stays between its two waypoints. Every waypoint is reached exactly.
     """
     if len(knot_s) < 2:
         return np.broadcast_to(knot_q[0], (len(t), knot_q.shape[1])).copy(), np.zeros((len(t), knot_q.shape[1]))
@@ -416,7 +448,9 @@ def _min_jerk(t: Floats, knot_s: Floats, knot_q: Floats) -> tuple[Array, Array]:
     rate = 30.0 * tau**2 * (1.0 - tau) ** 2 / span
     start = knot_q[k]
     delta = knot_q[k + 1] - start
-    return start + delta * blend[:, np.newaxis], delta * rate[:, np.newaxis]
+    positions = start + delta * blend[:, np.newaxis]
+    positions[t >= knot_s[-1]] = knot_q[-1]  # exactly, as the next segment would start: a longer path extends this one
+    return positions, delta * rate[:, np.newaxis]
 
 
 def _trajectory(robot: Robot, time_ns: NDArray[np.int64], positions: Array, velocities: Array) -> JointTrajectory:

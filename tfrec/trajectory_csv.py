@@ -6,6 +6,10 @@ Example (joints without a column stay at their center)::
     0.0,0.0,0.0
     0.5,0.2,-0.1
     1.0,0.4,-0.2
+
+Cells are plain decimal numbers, optionally in scientific notation (``-1.5``, ``.5``, ``2e-3``),
+with spaces around them allowed; Python's other float spellings (``1_0``, ``nan``, ``inf``,
+``0x10``) are refused. A UTF-8 byte-order mark and Windows line endings are accepted.
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ from __future__ import annotations
 import csv
 import math
 import os
+import re
 from collections.abc import Iterator, Mapping
 from typing import IO
 
@@ -20,9 +25,14 @@ import numpy as np
 
 from tfrec.errors import TrajectoryError
 from tfrec.model import JointType, Robot
-from tfrec.trajectory import JointTrajectory, center_positions, joint_bounds
+from tfrec.trajectory import TIME_LIMIT_NS, JointTrajectory, center_positions, joint_bounds
 
 __all__ = ["read_csv_trajectory"]
+
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+"""A plain decimal number, optionally in scientific notation (ASCII digits only)."""
+
+_NOT_FINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
 
 
 def read_csv_trajectory(
@@ -34,14 +44,18 @@ def read_csv_trajectory(
     """Read a trajectory from CSV: a ``time`` column in seconds and one column per joint.
 
     Samples are at the file's own times (``time_ns = round(time * 1e9)``, which must be
-    non-negative and increasing). Joints without a column stay at their center (or their
-    override). Velocities are ``numpy.gradient`` of the positions over the times.
+    non-negative, less than :data:`~tfrec.trajectory.TIME_LIMIT_NS` and increasing). A single
+    row is a trajectory of one sample. Joints without a column stay at their center (or their
+    override). Velocities are ``numpy.gradient`` of the positions over the times (0 for a
+    single sample).
 
     Raises:
         TrajectoryError: the file cannot be read; a column is not an actuated joint, repeated,
-            or also overridden; a cell is not a finite number; a row has the wrong number of
-            cells; times do not increase; a position is beyond its joint's limits
-            (continuous joints excepted). The message starts with ``file:line:``.
+            or also overridden; there is no row after the header; a cell is not a plain finite
+            number; a row has the wrong number of cells; a time is negative, out of range or
+            does not increase; a position is beyond its joint's limits (continuous joints
+            excepted) or changes too fast for a finite velocity. The message starts with
+            ``file:line:``.
     """
     name = os.fspath(path)
     center = center_positions(robot, overrides=overrides)  # checks the overrides first
@@ -85,20 +99,18 @@ def read_csv_trajectory(
         if len(row) != len(columns):
             raise TrajectoryError(f"{name}:{number}: {len(row)} cells, expected {len(columns)} as in the header")
         for c, cell in enumerate(row):
-            try:
-                value = float(cell)
-            except ValueError:
-                raise TrajectoryError(f"{name}:{number}: '{cell}' in column '{columns[c]}' is not a number") from None
-            if not math.isfinite(value):
-                raise TrajectoryError(f"{name}:{number}: '{cell.strip()}' in column '{columns[c]}' is not finite")
-            values[r, c] = value
+            values[r, c] = _number(cell, f"{name}:{number}", columns[c])
 
     seconds = values[:, columns.index("time")]
-    time_ns = np.rint(seconds * 1e9).astype(np.int64)
-    negative = np.flatnonzero(time_ns < 0)
-    if negative.size:
-        r = negative[0]
-        raise TrajectoryError(f"{name}:{lines[r]}: time {float(seconds[r])!r} is negative")
+    with np.errstate(over="ignore"):  # beyond float64: inf, refused below
+        rounded_ns = np.rint(seconds * 1e9)
+    bad = np.flatnonzero(~((rounded_ns >= 0) & (rounded_ns < TIME_LIMIT_NS)))
+    if bad.size:
+        r = bad[0]
+        limit_s = TIME_LIMIT_NS // 1_000_000_000
+        problem = "negative" if seconds[r] < 0 else f"out of range: ROS 2 stamps hold less than {limit_s} s"
+        raise TrajectoryError(f"{name}:{lines[r]}: time {float(seconds[r])!r} is {problem}")
+    time_ns = rounded_ns.astype(np.int64)
     stuck = np.flatnonzero(np.diff(time_ns) <= 0)
     if stuck.size:
         r = stuck[0] + 1
@@ -121,11 +133,29 @@ def read_csv_trajectory(
             raise TrajectoryError(
                 f"{name}:{lines[r]}: {column} = {float(values[r, c])!r} is beyond its limits [{lower!r}, {upper!r}]"
             )
+    velocities = np.zeros_like(positions)
     if len(time_ns) > 1 and positions.shape[1]:
-        velocities = np.gradient(positions, time_ns * 1e-9, axis=0)
-    else:
-        velocities = np.zeros_like(positions)
+        with np.errstate(over="ignore", invalid="ignore"):  # refused below
+            # integer spacings: times 1 ns apart stay apart even far from 0; a still joint gets exactly 0
+            velocities = np.gradient(positions - positions[0], time_ns, axis=0) * 1e9
+        fast = np.argwhere(~np.isfinite(velocities))
+        if fast.size:
+            r, j = fast[0]
+            column = robot.actuated_joints[j].name
+            raise TrajectoryError(f"{name}:{lines[r]}: {column} changes too fast for a finite velocity")
     return JointTrajectory(tuple(actuated), time_ns, positions, velocities)
+
+
+def _number(cell: str, where: str, column: str) -> float:
+    """The value of a cell: a plain finite decimal number, spaces around it allowed."""
+    text = cell.strip()
+    if _NUMBER.fullmatch(text):
+        value = float(text)
+        if math.isfinite(value):
+            return value
+    elif not _NOT_FINITE.fullmatch(text):
+        raise TrajectoryError(f"{where}: '{text}' in column '{column}' is not a number")
+    raise TrajectoryError(f"{where}: '{text}' in column '{column}' is not a finite number")
 
 
 def _numbered_rows(stream: IO[str]) -> Iterator[tuple[int, list[str]]]:
