@@ -200,14 +200,31 @@ def test_other_rate_is_interpolated() -> None:
     assert any("interpolated at A's times" in note and "(A 50 Hz, B 100 Hz)" in note for note in report.notes)
     assert report.largest["translation"].value < 1e-12 and report.largest["rotation"].value < 1e-12
     # B at odd times: still interpolated exactly
-    c = _synthetic(np.arange(3, 1000, 7))
-    c.start_ns = 0  # the same start as A, so A's samples at 0 ms and 1000 ms are outside C's span
-    report = compare(a, c, pos_tol=1e-9, rot_tol=1e-9, joint_tol=1e-9)
+    c = _synthetic(np.arange(3, 1000, 7))  # on A's time base: A's samples at 0 and 1000 ms are outside C's span
+    report = compare(a, c, pos_tol=1e-9, rot_tol=1e-9, joint_tol=1e-9, absolute=True)
     kinds = {(d.kind, d.what) for d in report.differences}
     assert ("tf", "a → b") in kinds and ("joint_states", "/joint_states") in kinds
     coverage = [d.detail for d in report.differences if "no data in B" in d.detail]
     assert "a → b: 2 sample(s) of A from t=0.000 to 1.000 s have no data in B" in coverage
     assert report.largest["translation"].value < 1e-9
+
+
+def test_an_early_latched_description_does_not_shift_the_alignment(tmp_path: Path, marm_rec: Recording,
+                                                                   marm_mcap: Path) -> None:
+    early = _copy(marm_rec)
+    assert early.start_ns is not None
+    early.start_ns -= 5 * 10**9  # rosbags writes /robot_description and /tf_static 5 s before the data
+    bag = write_rosbag2(early, tmp_path / "early")
+    report = compare(bag, marm_mcap)
+    assert [d.detail for d in report.differences] == [
+        "/robot_description: messages from t=-5.000 to -5.000 s in A, from t=0.000 to 0.000 s in B",
+        "/tf_static: messages from t=-5.000 to -5.000 s in A, from t=0.000 to 0.000 s in B",
+    ]  # the samples line up: no /joint_states or /tf differences
+    assert report.origins == (marm_rec.start_ns, marm_rec.start_ns)
+    assert "times are s since each recording's start (its first /joint_states or /tf stamp)" in report.to_text()
+    assert json.loads(report.to_json())["a"]["origin_ns"] == marm_rec.start_ns
+    # the same with --topics: the start does not depend on which topics are compared
+    assert compare(bag, marm_mcap, topics=["/robot_description"]).differences == report.differences[:1]
 
 
 def test_shorter_recording(marm_rec: Recording) -> None:
@@ -344,6 +361,16 @@ def test_unreadable_file_is_one_line(tmp_path: Path, marm_mcap: Path) -> None:
     assert str(info.value).startswith(f"{bad}: unreadable MCAP") and "\n" not in str(info.value)
     with pytest.raises(ValueError, match="pos_tol must be a finite number >= 0"):
         compare(marm_mcap, marm_mcap, pos_tol=-1.0)
+
+
+def test_topics_in_neither_recording_are_an_error(marm_mcap: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    message = (f"--topics /nothing: in neither {marm_mcap} nor {marm_mcap} "
+               "(their topics: /joint_states, /robot_description, /tf, /tf_static)")
+    with pytest.raises(RecordingError) as info:
+        compare(marm_mcap, marm_mcap, topics=["/tf", "/nothing"])
+    assert str(info.value) == message
+    assert cli.main(["diff", str(marm_mcap), str(marm_mcap), "--topics", "/nothing"]) == 2
+    assert capsys.readouterr().err == f"tfrec: error: {message}\n"
 
 
 def test_damaged_file_warns_and_compares(tmp_path: Path, marm_mcap: Path) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import json
+import re
 import struct
 import zlib
 from pathlib import Path
@@ -354,13 +355,13 @@ def test_summarize_errors(tmp_path: Path, marm_mcap: Path) -> None:
 
     text = tmp_path / "notes.mcap"
     text.write_text("not a recording\n")
-    with pytest.raises(RecordingError, match=r"notes\.mcap: not an MCAP file"):
+    with pytest.raises(RecordingError, match=r"notes\.mcap: not a recording \(neither MCAP"):
         summarize(text)
     with pytest.raises(RecordingError, match=r"missing\.mcap: no such file"):
         summarize(tmp_path / "missing.mcap")
     truncated = tmp_path / "truncated.mcap"
-    truncated.write_bytes(marm_mcap.read_bytes()[:5000])
-    with pytest.raises(RecordingError, match=r"truncated\.mcap: unreadable MCAP"):
+    truncated.write_bytes(marm_mcap.read_bytes()[:12])
+    with pytest.raises(RecordingError, match=r"truncated\.mcap: unreadable MCAP: the file ends"):
         summarize(truncated)
     garbled = tmp_path / "garbled.mcap"
     with open(garbled, "wb") as stream:
@@ -374,12 +375,84 @@ def test_summarize_errors(tmp_path: Path, marm_mcap: Path) -> None:
         summarize(garbled)
     folder = tmp_path / "folder"
     folder.mkdir()
-    with pytest.raises(RecordingError, match=r"folder: a folder without metadata\.yaml is not a rosbag2 bag"):
+    with pytest.raises(RecordingError, match=r"folder: a folder without metadata\.yaml"):
         summarize(folder)
     (folder / "metadata.yaml").write_text(
         "rosbag2_bagfile_information:\n  storage_identifier: sqlite3\n  relative_file_paths: [folder_0.db3]\n")
-    with pytest.raises(RecordingError, match=r"folder: storage 'sqlite3' is not supported"):
+    with pytest.raises(RecordingError, match=r"folder: metadata\.yaml lists folder_0\.db3, which is missing$"):
         summarize(folder)
+
+
+def test_summarize_damaged_mcap(tmp_path: Path, marm: Robot, capsys: pytest.CaptureFixture[str]) -> None:
+    """A file cut short (no summary section, the last chunk cut) is summarized as far as it is
+    readable, with one warning saying where reading stopped."""
+    from tfrec import cli
+
+    full = tmp_path / "full.mcap"
+    with open(full, "wb") as stream:
+        record(stream, marm, make_trajectory(marm, "sine", duration_s=10.0, rate_hz=100.0))
+    whole = summarize(full)
+    data = full.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) // 2])
+    with pytest.warns(UserWarning, match=rf"^{re.escape(str(cut))}: reading stopped at byte") as caught:
+        info = summarize(cut)
+    assert len(caught) == 1 and info["read_error"] == str(caught[0].message) and "\n" not in info["read_error"]
+    assert info["format"] == "mcap" and info["profile"] == "ros2" and info["library"] == LIBRARY
+    assert info["compression"] == "zstd" and info["robot_name"] == "marm" and info["joints"] == whole["joints"]
+    assert info["tf_frames"] == whole["tf_frames"] and info["start_time_ns"] == whole["start_time_ns"]
+    counts = {t["name"]: t["count"] for t in info["topics"]}
+    assert set(counts) == set(TOPICS) and counts["/robot_description"] == counts["/tf_static"] == 1
+    assert 0 < counts["/joint_states"] < len(make_trajectory(marm, "sine", duration_s=10.0, rate_hz=100.0))
+    assert info["message_count"] == sum(counts.values()) < whole["message_count"]
+    assert whole["read_error"] is None
+    assert "Robot:       marm" in format_summary(info)
+
+    assert cli.main(["info", str(cut)]) == 0
+    out, err = capsys.readouterr()
+    assert err.splitlines() == [f"tfrec: warning: {info['read_error']}"] and "Robot:       marm" in out
+
+
+def test_summarize_every_format(tmp_path: Path, marm_mcap: Path) -> None:
+    """info reads what read_recording reads: rosbag2 folders of either storage, ROS 1 bags and
+    .rrd files, with the durability the format records."""
+    from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from tfrec.readers import read_recording
+
+    from .recording_helpers import write_rosbag1, write_rosbag2
+
+    rec = read_recording(marm_mcap)
+    ref = summarize(marm_mcap)
+    for path, fmt, storage in ((write_rosbag2(rec, tmp_path / "sq", storage="sqlite3"), "rosbag2", "sqlite3"),
+                               (write_rosbag2(rec, tmp_path / "mc", storage="mcap"), "rosbag2", "mcap"),
+                               (write_rosbag1(rec, tmp_path / "one.bag"), "rosbag1", None)):
+        info = summarize(path)
+        assert (info["format"], info["storage"], info["read_error"]) == (fmt, storage, None)
+        for key in ("message_count", "start_time_ns", "end_time_ns", "robot_name", "joints"):
+            assert info[key] == ref[key], (path, key)
+        assert sorted(map(str, info["tf_frames"])) == sorted(map(str, ref["tf_frames"]))
+        assert {t["name"]: t["count"] for t in info["topics"]} == {t["name"]: t["count"] for t in ref["topics"]}
+        assert format_summary(info).splitlines()[1].startswith(
+            {"sqlite3": "Format:      rosbag2 folder (sqlite3 storage)", "mcap": "Format:      rosbag2 folder (MCAP",
+             None: "Format:      ROS 1 bag, uncompressed chunks"}[storage])
+
+    zero = QosTime(sec=0, nsec=0)
+    latched = Qos(history=QosHistory.KEEP_LAST, depth=1, reliability=QosReliability.RELIABLE,
+                  durability=QosDurability.TRANSIENT_LOCAL, deadline=zero, lifespan=zero,
+                  liveliness=QosLiveliness.AUTOMATIC, liveliness_lease_duration=zero,
+                  avoid_ros_namespace_conventions=False)
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    bag = tmp_path / "qos"
+    with Writer(bag, version=9, storage_plugin=StoragePlugin.SQLITE3) as writer:
+        conn = writer.add_connection("/robot_description", "std_msgs/msg/String", typestore=store,
+                                     offered_qos_profiles=[latched])
+        text = store.types["std_msgs/msg/String"](data="<robot name='qos'/>")
+        writer.write(conn, 5, store.serialize_cdr(text, "std_msgs/msg/String"))
+    info = summarize(bag)
+    assert info["robot_name"] == "qos" and info["topics"][0]["durability"] == "transient_local"
 
 
 def test_stamp_range() -> None:

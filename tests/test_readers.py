@@ -430,10 +430,137 @@ def test_damaged_rrd(tmp_path: Path) -> None:
 
 
 def test_damaged_rosbag2(tmp_path: Path, marm_rec: Recording) -> None:
+    """A malformed metadata.yaml is one line naming the file and the line (YAML's own message has several)."""
+    from tfrec.info import summarize
+
     bag = write_rosbag2(marm_rec, tmp_path / "bag")
-    (bag / "metadata.yaml").write_text("not: [a, rosbag2")
-    with pytest.raises(RecordingError, match=r"bag: cannot read rosbag2 bag: "):
+    (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: [\n")
+    for read in (read_recording, summarize):
+        with pytest.raises(RecordingError, match=r"^.*bag/metadata\.yaml:2: not valid YAML: expected the node "
+                                                 r"content, but found '<stream end>'$") as info:
+            read(bag)
+        assert "\n" not in str(info.value)
+    (bag / "metadata.yaml").write_text("- just\n- a list\n")
+    with pytest.raises(RecordingError, match=r"metadata\.yaml: not a rosbag2 metadata file"):
         read_recording(bag)
+
+
+def test_cut_sqlite3_bag(tmp_path: Path, marm: Robot) -> None:
+    """SQLite refuses a .db3 cut short as malformed: with the page count in its header lowered to
+    the pages the file has, the rows before the first missing page are read."""
+    long = read_recording(write_mcap(tmp_path / "long.mcap", marm, make_trajectory(marm, "sine", duration_s=10.0,
+                                                                                   rate_hz=100.0)))
+    bag = write_rosbag2(long, tmp_path / "bag")
+    (db3,) = bag.glob("*.db3")
+    data = db3.read_bytes()
+    db3.write_bytes(data[: len(data) // 2])
+    rec = read_recording(bag)
+    n = _messages(rec)
+    assert rec.read_error is not None and re.fullmatch(
+        rf"{re.escape(str(bag))}: reading {db3.name} stopped after {n:,} messages: database disk image is malformed "
+        rf"\(the file holds {len(data) // 2:,} of the {len(data):,} bytes its header gives\); {n:,} messages read",
+        rec.read_error)
+    assert rec.robot_description == marm.urdf and 2 < n < _messages(long)
+    assert n == 2 + _samples_of(rec, long)
+
+
+def _ros1_bag(path: Path, rec: Recording, *, compression: str, chunk_bytes: int) -> Path:
+    """The recording as a ROS 1 bag of small chunks, written by rosbags; latched topics marked."""
+    from rosbags.rosbag1 import Writer
+
+    from .recording_helpers import _Messages, _typestore, recording_messages
+
+    store = _typestore(ros1=True)
+    writer = Writer(path)
+    if compression != "none":
+        writer.set_compression(Writer.CompressionFormat[compression.upper()])
+    writer.chunk_threshold = chunk_bytes
+    with writer:
+        connections: dict[str, Any] = {}
+        for topic, msgtype, time_ns, msg in recording_messages(rec, _Messages(store, ros1=True)):
+            if topic not in connections:
+                latching = 1 if topic in ("/robot_description", "/tf_static") else None
+                connections[topic] = writer.add_connection(topic, msgtype, typestore=store, latching=latching)
+            writer.write(connections[topic], time_ns, bytes(store.serialize_ros1(msg, msgtype)))
+    return path
+
+
+@pytest.mark.parametrize("compression", ["none", "bz2", "lz4"])
+def test_cut_ros1_bag(tmp_path: Path, marm_rec: Recording, compression: str) -> None:
+    """rosbags refuses a ROS 1 bag without its index: it is read record by record, up to the cut."""
+    full = _ros1_bag(tmp_path / "full.bag", marm_rec, compression=compression, chunk_bytes=8192)
+    whole = read_recording(full)
+    assert whole.read_error is None and whole.details == {"compression": compression}
+    _assert_same(whole, marm_rec)
+    data = full.read_bytes()
+    cut = tmp_path / "cut.bag"
+    cut.write_bytes(data[: len(data) // 2])
+    rec = read_recording(cut)
+    n = _messages(rec)
+    assert rec.format == "rosbag1" and rec.read_error is not None and re.fullmatch(
+        rf"{re.escape(str(cut))}: reading stopped at byte [\d,]+ of {len(data) // 2:,}: the file ends inside "
+        rf"(a chunk record \(recovered [\d,]+ messages of it\)|an? [a-z ]+ record); {n:,} messages read",
+        rec.read_error)
+    assert rec.robot_description == marm_rec.robot_description and list(rec.tf_static) == list(marm_rec.tf_static)
+    assert rec.topics["/tf"].type == "tf2_msgs/msg/TFMessage" and rec.topics["/tf_static"].durability == "latched"
+    assert 2 < n < _messages(whole)
+    assert n == 2 + _samples_of(rec, whole)
+
+    # a recorder killed after its last chunk: no index at all
+    header_len = int.from_bytes(data[13:17], "little")
+    header = data[17 : 17 + header_len]
+    at = header.index(b"index_pos=") + len(b"index_pos=")
+    cut.write_bytes(data[: int.from_bytes(header[at : at + 8], "little")])
+    rec = read_recording(cut)
+    assert rec.read_error is not None and rec.read_error.endswith(
+        f": the file ends without an index; {_messages(whole):,} messages read")
+    _assert_same(rec, marm_rec)
+
+
+def test_damaged_ros1_chunk(tmp_path: Path, marm_rec: Recording) -> None:
+    """A bz2 chunk that does not decompress makes rosbags stop; it is skipped and the rest read."""
+    full = _ros1_bag(tmp_path / "full.bag", marm_rec, compression="bz2", chunk_bytes=8192)
+    whole = read_recording(full)
+    data = bytearray(full.read_bytes())
+    chunks = [m.start() for m in re.finditer(b"compression=bz2", data)]
+    assert len(chunks) > 4
+    data[chunks[2] + 100 : chunks[2] + 110] = bytes(10)
+    bad = tmp_path / "bad.bag"
+    bad.write_bytes(bytes(data))
+    rec = read_recording(bad)
+    n = _messages(rec)
+    assert rec.read_error is not None and re.fullmatch(
+        rf"{re.escape(str(bad))}: a damaged chunk record at byte [\d,]+ \(bz2: .+\) was skipped; {n:,} messages read",
+        rec.read_error)
+    assert 2 < n < _messages(whole) and rec.joint_states is not None and whole.joint_states is not None
+    at = np.searchsorted(whole.joint_states.time_ns, rec.joint_states.time_ns)
+    np.testing.assert_array_equal(whole.joint_states.positions[at], rec.joint_states.positions)
+    assert rec.start_ns == whole.start_ns and rec.end_ns == whole.end_ns
+
+
+@pytest.mark.parametrize("summary", [True, False])
+def test_damaged_first_chunk_keeps_the_start(tmp_path: Path, marm: Robot, summary: bool) -> None:
+    """Messages lost at the start do not move the recording's start to the first one read: it
+    comes from the summary's statistics, or without a summary from the damaged chunk's header."""
+    long = make_trajectory(marm, "sine", duration_s=3.0, rate_hz=100.0)
+    full, chunks = _chunked_mcap(tmp_path / "full.mcap", marm, long, compression="zstd", chunk_size=120_000)
+    assert len(chunks) == 3
+    first, last = chunks[0], chunks[-1]
+    data = bytearray(full.read_bytes())
+    middle = first.chunk_start_offset + first.chunk_length // 2
+    data[middle : middle + 200] = bytes(200)
+    if summary:  # the chunk header's start time is damaged too: only the statistics tell
+        data[first.chunk_start_offset + 9 : first.chunk_start_offset + 17] = bytes(8)
+    else:
+        data = data[: last.chunk_start_offset + last.chunk_length]
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(bytes(data))
+    whole, rec = read_recording(full), read_recording(bad)
+    assert rec.read_error is not None and rec.read_error.startswith(
+        f"{bad}: a damaged chunk record at byte {first.chunk_start_offset:,} ")
+    assert rec.joint_states is not None and int(rec.joint_states.time_ns[0]) > first.message_end_time
+    assert rec.start_ns == whole.start_ns == DEFAULT_START_TIME_NS
+    assert rec.end_ns == whole.end_ns
 
 
 # -- the bulk decoder -----------------------------------------------------------------------------

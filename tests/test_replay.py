@@ -127,11 +127,13 @@ def assert_rrd_moves_like_fk(rrd: Rrd, robot: Robot, traj: JointTrajectory, *, f
 
 
 def write_joint_log(path: Path, robot: Robot, traj: JointTrajectory, *, kind: str,
-                    joints: Sequence[str] | None = None, description: bool = True) -> Path:
+                    joints: Sequence[str] | None = None, description: bool = True,
+                    description_ns: int = START_NS) -> Path:
     """/robot_description + /joint_states only, written with rosbags: a joint log from a real robot.
 
     ``kind`` is ``mcap`` or ``sqlite3`` (rosbag2 folders) or ``ros1`` (a ROS 1 bag). The joint
-    states hold the actuated joints (no mimic joints, as a robot driver publishes them).
+    states hold the actuated joints (no mimic joints, as a robot driver publishes them); the
+    latched description is logged at ``description_ns``.
     """
     from rosbags.typesys import Stores, get_typestore
 
@@ -142,7 +144,7 @@ def write_joint_log(path: Path, robot: Robot, traj: JointTrajectory, *, kind: st
     columns = [traj.joint_names.index(name) for name in names]
     messages: list[tuple[str, str, int, Any]] = []
     if description:
-        messages.append(("/robot_description", "std_msgs/msg/String", START_NS,
+        messages.append(("/robot_description", "std_msgs/msg/String", description_ns,
                          t["std_msgs/msg/String"](data=robot.urdf)))
     for i, time_ns in enumerate(traj.time_ns + START_NS):
         stamp = t["builtin_interfaces/msg/Time"](sec=int(time_ns // 10**9), nanosec=int(time_ns % 10**9))
@@ -230,7 +232,8 @@ def test_joint_log_replays_with_tf_computed_from_the_joints(
     source = write_joint_log(tmp_path / ("log.bag" if kind == "ros1" else "log"), marm, traj, kind=kind)
     out = tmp_path / "log.rrd"
     assert tfrec_main(["replay", str(source), "--save", str(out)]) == 0
-    assert "TF of 9 frames computed from the joint states" in capsys.readouterr().out
+    assert ("TF of 8 frames computed from the joint states and of 1 fixed frame taken from the robot "
+            "description") in capsys.readouterr().out
     rrd = Rrd(out)
     # finger_joint2 is not in the log: it mimics finger_joint1, as robot_state_publisher derives it
     assert_rrd_moves_like_fk(rrd, marm, traj)
@@ -279,7 +282,9 @@ def test_pairs_outside_the_model_keep_their_own_entities(marm: Robot, tmp_path: 
                     rotation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)))])
             writer.write(connection, time_ns, bytes(store.serialize_cdr(msg, "tf2_msgs/msg/TFMessage")))
     out = tmp_path / "odom.rrd"
-    replay = load_replay(source)
+    with pytest.warns(UserWarning, match="odom: no /robot_description in the recording and no --robot: TF is "
+                                         r"replayed without robot geometry \(give --robot FILE\)"):
+        replay = load_replay(source)
     assert replay.robot is None and replay.root_frame() == "odom"
     replay_to_rerun(replay, save=out)
     rrd = Rrd(out)
@@ -675,3 +680,82 @@ def test_check_report_of_the_library(recorded: Path) -> None:
     assert report.passed and len(report.frames) == 9
     link3 = next(f for f in report.frames if f.frame == "link3")
     assert link3.samples == 76 and link3.topic == "/tf" and link3.joint == "joint3"
+
+
+# -- replays that would do nothing, and what the summary says ---------------------------------------
+
+
+def test_connect_to_no_viewer_is_one_line_error_at_once(tfrec_main: Callable[[list[str]], int], recorded: Path,
+                                                        capfd: pytest.CaptureFixture[str]) -> None:
+    import socket
+    import time
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]  # closed again: nothing listens there
+    url = f"rerun+http://127.0.0.1:{port}/proxy"
+    began = time.monotonic()
+    assert tfrec_main(["replay", "--connect", url, str(recorded)]) == 2
+    assert time.monotonic() - began < 5.0  # Rerun alone retries for 6 s, then waits 5 s more at exit
+    out, err = capfd.readouterr()
+    assert err.startswith(f"tfrec: error: cannot connect to the Rerun viewer at {url}: ")
+    assert err.count("\n") == 1 and "\x1b[" not in err and not out  # no Rerun log lines
+
+
+def test_joint_log_without_a_description_warns(marm: Robot, traj: JointTrajectory, tmp_path: Path) -> None:
+    source = write_joint_log(tmp_path / "bare", marm, traj, kind="mcap", description=False)
+    with pytest.warns(UserWarning, match=r"bare: no /robot_description in the recording and no --robot: only the "
+                                         r"joint positions are replayed, with no robot model to move"):
+        replay = load_replay(source)
+    assert replay.robot is None and not replay.tf and replay.joint_states is not None
+
+
+def test_an_rrd_not_written_by_tfrec_is_an_error(tfrec_main: Callable[[list[str]], int], tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    import rerun as rr
+
+    other = tmp_path / "other.rrd"
+    stream = rr.RecordingStream("someone-else")
+    stream.save(other)
+    stream.set_time("frame", sequence=0)
+    stream.log("points", rr.Points3D([[0.0, 0.0, 0.0]]))
+    stream.flush()
+    stream.disconnect()
+    message = (f"{other}: no /robot_description, /tf_static, /joint_states or /tf in the recording "
+               "(an .rrd not written by tfrec?); nothing to replay")
+    with pytest.raises(RecordingError) as info:
+        load_replay(other)
+    assert str(info.value) == message
+    assert tfrec_main(["replay", str(other), "--save", str(tmp_path / "out.rrd")]) == 2
+    assert capsys.readouterr().err == f"tfrec: error: {message}\n"
+    assert not (tmp_path / "out.rrd").exists()
+
+
+def test_start_beyond_the_end_is_an_error_and_an_empty_window_warns(recorded: Path) -> None:
+    with pytest.raises(RecordingError, match=r"marm.mcap: --start 100 s is beyond the recording's end \(2 s\)$"):
+        load_replay(recorded, start_s=100.0)
+    assert load_replay(recorded, start_s=2.0).start_ns == START_NS + 2 * 10**9  # the last sample
+    with pytest.warns(UserWarning, match=r"marm.mcap: no /joint_states or /tf sample from 1.001 s to 1.002 s; "
+                                         r"only latched data is replayed"):
+        replay = load_replay(recorded, start_s=1.001, end_s=1.002)
+    assert replay.start_ns is None and replay.static
+
+
+def test_summary_tells_fixed_frames_from_computed_ones(recorded: Path) -> None:
+    tf_only = load_replay(recorded, topics=["/tf"])  # /tf_static is not replayed: its fixed joint comes from the model
+    assert not tf_only.derived_dynamic and tf_only.derived_static == {("link6", "gripper_link")}
+    assert tf_only.derived_summary() == "TF of 1 fixed frame taken from the robot description"
+    joints = load_replay(recorded, topics=["/joint_states", "/robot_description"])
+    assert len(joints.derived_dynamic) == 8 and joints.derived_static == {("link6", "gripper_link")}
+    assert joints.derived_summary() == ("TF of 8 frames computed from the joint states and of 1 fixed frame "
+                                        "taken from the robot description")
+    assert load_replay(recorded).derived_summary() == ""
+
+
+def test_start_counts_from_the_first_sample_not_an_early_description(marm: Robot, traj: JointTrajectory,
+                                                                      tmp_path: Path) -> None:
+    source = write_joint_log(tmp_path / "early", marm, traj, kind="sqlite3", description_ns=START_NS - 5 * 10**9)
+    replay = load_replay(source, start_s=1.0, end_s=1.5)
+    assert replay.origin_ns == START_NS
+    assert replay.joint_states is not None
+    np.testing.assert_array_equal(replay.joint_states.time_ns, START_NS + np.arange(1000, 1501, 20) * 1_000_000)

@@ -10,12 +10,23 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from .errors import RecordingError
 
-__all__ = ["BAG_VERSION", "ROS_DISTRO", "bag_info", "read_bag_files", "write_bag_metadata", "yaml_dump"]
+__all__ = [
+    "BAG_VERSION",
+    "ROS_DISTRO",
+    "BagMetadata",
+    "bag_info",
+    "one_line",
+    "qos_durability",
+    "read_bag_metadata",
+    "write_bag_metadata",
+    "yaml_dump",
+]
 
 BAG_VERSION = 9
 ROS_DISTRO = "jazzy"
@@ -141,12 +152,27 @@ def yaml_dump(data: Any) -> str:
     return str(yaml.dump(data, Dumper=dumper, sort_keys=False, default_flow_style=False, width=1 << 16))
 
 
-def read_bag_files(folder: Path) -> list[Path]:
-    """The MCAP files of a rosbag2 folder, from its ``metadata.yaml``.
+@dataclass(frozen=True, slots=True)
+class BagMetadata:
+    """What tfrec needs of a rosbag2 folder's ``metadata.yaml``.
+
+    Attributes:
+        storage: the storage plugin, ``mcap`` or ``sqlite3``.
+        files: the bag's files, in order.
+        compression: ``compression_format`` (``zstd`` for a compressed bag), or ``""``.
+    """
+
+    storage: str
+    files: tuple[Path, ...]
+    compression: str
+
+
+def read_bag_metadata(folder: Path) -> BagMetadata:
+    """Read a rosbag2 folder's ``metadata.yaml``.
 
     Raises:
-        RecordingError: no or malformed metadata.yaml, storage other than MCAP, or a listed
-            file that is missing.
+        RecordingError: no or malformed metadata.yaml (one line naming the file, and the line
+            of a YAML syntax error), or a listed file that is missing.
     """
     import yaml
 
@@ -154,15 +180,44 @@ def read_bag_files(folder: Path) -> list[Path]:
     if not meta.is_file():
         raise RecordingError(f"{folder}: a folder without metadata.yaml is not a rosbag2 bag")
     try:
-        info = yaml.safe_load(meta.read_text(encoding="utf-8"))["rosbag2_bagfile_information"]
-        storage = str(info.get("storage_identifier", ""))
-        names = [str(name) for name in info["relative_file_paths"]]
-    except (OSError, UnicodeDecodeError, yaml.YAMLError, KeyError, TypeError, AttributeError) as err:
-        raise RecordingError(f"{meta}: not a rosbag2 metadata file ({type(err).__name__}: {err})") from None
-    if storage != "mcap":
-        raise RecordingError(f"{folder}: storage '{storage}' is not supported; tfrec reads MCAP bags")
-    files = [folder / Path(name).name for name in names]
+        document = yaml.safe_load(meta.read_text(encoding="utf-8"))
+    except OSError as err:
+        raise RecordingError(f"{meta}: cannot read: {err.strerror or err}") from None
+    except UnicodeDecodeError as err:
+        raise RecordingError(f"{meta}: not UTF-8 text (byte {err.start:,})") from None
+    except yaml.MarkedYAMLError as err:
+        line = f":{err.problem_mark.line + 1}" if err.problem_mark is not None else ""
+        raise RecordingError(f"{meta}{line}: not valid YAML: {one_line(err.problem or str(err))}") from None
+    except yaml.YAMLError as err:
+        raise RecordingError(f"{meta}: not valid YAML: {one_line(str(err))}") from None
+    info = document.get("rosbag2_bagfile_information") if isinstance(document, dict) else None
+    if not isinstance(info, dict):
+        raise RecordingError(f"{meta}: not a rosbag2 metadata file (no rosbag2_bagfile_information mapping)")
+    names = info.get("relative_file_paths")
+    if not isinstance(names, list) or not names:
+        raise RecordingError(f"{meta}: rosbag2_bagfile_information lists no relative_file_paths")
+    files = tuple(folder / Path(str(name)).name for name in names)
     for file in files:
         if not file.is_file():
             raise RecordingError(f"{folder}: metadata.yaml lists {file.name}, which is missing")
-    return files
+    return BagMetadata(str(info.get("storage_identifier") or ""), files, str(info.get("compression_format") or ""))
+
+
+def one_line(text: str) -> str:
+    """A library's error message on one line: runs of whitespace (newlines too) become one space."""
+    return " ".join(text.split())
+
+
+_DURABILITY = {0: "system_default", 1: "transient_local", 2: "volatile", 3: "unknown", 4: "best_available"}
+
+
+def qos_durability(offered_qos_profiles: str) -> str | None:
+    """The durability of the first offered QoS profile, from rosbag2's YAML text (the
+    ``offered_qos_profiles`` of MCAP channel metadata, of sqlite3's topics table); None when
+    there is none. Numbers (Humble and older) are named as the strings Jazzy writes."""
+    profiles = _yaml_load(offered_qos_profiles)
+    try:
+        value = profiles[0]["durability"]
+    except (TypeError, KeyError, IndexError):
+        return None
+    return _DURABILITY.get(value, "unknown") if isinstance(value, int) else str(value)

@@ -81,7 +81,8 @@ def _build_parser() -> argparse.ArgumentParser:
     traj.add_argument("--rate", metavar="HZ", type=float, default=50.0, help="samples per second (default 50)")
     traj.add_argument("--seed", metavar="N", type=int, default=0, help="seed of --traj random (default 0)")
     traj.add_argument("--period", metavar="S", type=float, default=2.0,
-                      help="seconds between random waypoints (Randomize presses); sine periods (default 2)")
+                      help="seconds between random waypoints (Randomize presses); sine periods; at least 1/rate "
+                           "(default 2)")
     traj.add_argument("--amplitude", metavar="F", type=float, default=0.8,
                       help="sine amplitude, a fraction of each joint's half-range (default 0.8)")
     traj.add_argument("--set", metavar="JOINT=VALUE", action="append", default=[], dest="overrides",
@@ -103,10 +104,10 @@ def _build_parser() -> argparse.ArgumentParser:
     out.add_argument("--force", action="store_true", help="overwrite existing outputs")
     rec.set_defaults(handler=_cmd_record)
 
-    info = sub.add_parser("info", help="summarize a recording (MCAP file or rosbag2 folder)",
+    info = sub.add_parser("info", help="summarize a recording (MCAP, rosbag2 folder, ROS 1 bag or .rrd)",
                           description="Duration, start and end, topics with type, count and rate, joints, "
                                       "TF frames and the robot's name, of tfrec's or any ROS 2 recording.")
-    info.add_argument("file", metavar="FILE", help="a .mcap file or a rosbag2 folder")
+    info.add_argument("file", metavar="FILE", help="a .mcap file, a rosbag2 folder, a ROS 1 .bag or a tfrec .rrd")
     info.add_argument("--json", action="store_true", help="print the summary as JSON")
     info.set_defaults(handler=_cmd_info)
 
@@ -114,8 +115,8 @@ def _build_parser() -> argparse.ArgumentParser:
         "diff", help="compare two recordings by meaning (description, topics, joint states, TF)",
         description="Compare two recordings — MCAP, rosbag2 folder, ROS 1 bag or tfrec .rrd — by meaning: the "
                     "robot description as URDF, topics, joint positions and transforms, aligned by the time "
-                    "since each recording's start. Exit 0 when identical within tolerance, 1 when different, "
-                    "2 on error.",
+                    "since each recording's start (its first /joint_states or /tf stamp). Exit 0 when "
+                    "identical within tolerance, 1 when different, 2 on error.",
     )
     diff.add_argument("a", metavar="A", help="a recording: .mcap, rosbag2 folder, ROS 1 .bag or .rrd")
     diff.add_argument("b", metavar="B", help="the recording to compare with A")
@@ -360,9 +361,10 @@ def _add_replay_parser(sub: Any) -> argparse.ArgumentParser:
                      help="speed factor of a live replay: 0.5 half speed, 2 twice as fast (default 1)")
     how.add_argument("--loop", action="store_true", help="start again at the end, until Ctrl-C (live only)")
     how.add_argument("--start", metavar="S", type=float, default=None,
-                     help="begin this many seconds after the recording's first stamp (latched data is kept)")
+                     help="begin this many seconds after the recording's start (its first /joint_states or /tf "
+                          "stamp); latched data is re-emitted at the cut")
     how.add_argument("--end", metavar="S", type=float, default=None,
-                     help="stop this many seconds after the recording's first stamp")
+                     help="stop this many seconds after the recording's start")
     how.add_argument("--topics", metavar="TOPIC", nargs="+",
                      help="replay only these of /robot_description /tf_static /joint_states /tf")
     check = rep.add_argument_group("re-simulation")
@@ -407,7 +409,7 @@ def _cmd_replay(ns: argparse.Namespace) -> int:
     replay_to_rerun(replay, save=ns.save, connect=ns.connect, rate=ns.rate, loop=ns.loop,
                              package_paths=ns.package_path, force=ns.force)
     span = 0.0 if replay.start_ns is None or replay.end_ns is None else (replay.end_ns - replay.start_ns) / 1e9
-    derived = f", TF of {len(replay.derived)} frames computed from the joint states" if replay.derived else ""
+    derived = f", {replay.derived_summary()}" if replay.derived else ""
     print(f"replayed {ns.file}: {span:g} s{derived}" + (f"; wrote {ns.save}" if ns.save else ""),
           file=sys.stdout if ns.save and not ns.json else sys.stderr)
     return status

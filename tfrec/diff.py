@@ -6,8 +6,11 @@ counts, time span), the joint positions per joint and the transforms per (parent
 static and dynamic. The result is a :class:`DiffReport`; :func:`assert_recordings_match` turns
 one into a failing test with the readable report.
 
-Time: samples are aligned by time since each recording's start (its first message), so two
-recordings made at different wall-clock times compare; ``absolute=True`` aligns on the stamps.
+Time: samples are aligned by time since each recording's start, so two recordings made at
+different wall-clock times compare; ``absolute=True`` aligns on the stamps. A recording's start
+(:func:`data_start_ns`) is the first stamp of its time series, /joint_states or /tf, whichever
+comes first — not its first message: a latched /robot_description or /tf_static published
+seconds before the data does not shift it. ``tfrec replay --start`` counts from the same start.
 Where B's samples are not at A's times, B is interpolated at A's times — linearly for joint
 positions and translations, by slerp for rotations — and the report says so. A's samples
 outside B's time span have no counterpart and are reported as such.
@@ -30,6 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .diff_report import Difference, DiffReport, Largest, at_time, format_time
+from .errors import RecordingError
 from .readers import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC, FrameSeries, Recording, read_recording
 
 __all__ = [
@@ -41,6 +45,7 @@ __all__ = [
     "DiffReport",
     "compare",
     "assert_recordings_match",
+    "data_start_ns",
     "rotation_error",
 ]
 
@@ -54,6 +59,24 @@ DEFAULT_JOINT_TOL = 1e-9
 """Radians or metres."""
 FLOAT32_TOL = 1e-5
 """A tolerance that absorbs float32 rounding (``.rrd``) for robots of a few metres."""
+
+
+def data_start_ns(rec: Recording) -> int | None:
+    """A recording's start: the first stamp of its /joint_states or /tf, whichever comes first.
+
+    Header stamps, as the samples compared and replayed carry. Latched one-off messages
+    (/robot_description, /tf_static) are left out, so one published long before the data does
+    not shift the start. A recording without either (or without them decoded) starts at its
+    first message; None when it is empty. A damaged file whose first messages were lost starts
+    at its true start (from the MCAP summary or chunk headers), so what was read keeps its time.
+    """
+    firsts = [int(series.time_ns.min()) for series in rec.tf.values() if len(series)]
+    if rec.joint_states is not None and len(rec.joint_states):
+        firsts.append(int(rec.joint_states.time_ns.min()))
+    start = min(firsts) if firsts else rec.start_ns
+    if rec.read_error is not None and rec.start_ns is not None and start is not None:
+        start = min(start, rec.start_ns)  # a damaged file lost its first messages: keep its true start
+    return start
 
 
 def _num(x: float) -> str:
@@ -149,6 +172,8 @@ class _Comparison:
         self.rot_tol = report.tolerances["rot_tol"]
         self.joint_tol = report.tolerances["joint_tol"]
         self.interpolated: dict[str, list[str]] = {}  # "(A 50 Hz, B 100 Hz)" → what
+        self.origin_a = 0 if absolute else data_start_ns(a) or 0
+        self.origin_b = 0 if absolute else data_start_ns(b) or 0
 
     def wants(self, topic: str) -> bool:
         return self.topics is None or topic in self.topics
@@ -157,7 +182,7 @@ class _Comparison:
         self.report.differences.append(Difference(kind, what, detail, time_ns, value))
 
     def origin(self, rec: Recording) -> int:
-        return 0 if self.absolute or rec.start_ns is None else rec.start_ns
+        return self.origin_a if rec is self.a else self.origin_b
 
     def largest(self, quantity: str, value: float, what: str, time_ns: int | None) -> None:
         current = self.report.largest.get(quantity)
@@ -381,14 +406,16 @@ def compare(
         rot_tol: radians: the largest rotation angle that counts as equal.
         joint_tol: the largest joint position difference (rad or m) that counts as equal;
             also used for other numbers of the robot description (limits, mimic factors).
-        topics: compare only these topics (default: all).
-        absolute: align samples on their stamps instead of the time since each start.
+        topics: compare only these topics (default: all); each must be in A or B.
+        absolute: align samples on their stamps instead of the time since each start
+            (:func:`data_start_ns`).
 
     Returns:
         The report; ``report.equal`` is False when anything differs beyond tolerance.
 
     Raises:
-        RecordingError: a path that cannot be read as a recording.
+        RecordingError: a path that cannot be read as a recording, or a topic of ``topics``
+            that is in neither recording.
         ValueError: a negative or non-finite tolerance.
     """
     tolerances = {
@@ -397,14 +424,25 @@ def compare(
         "joint_tol": _check_tolerance("joint_tol", joint_tol),
     }
     wanted = None if topics is None else frozenset(topics)
-    rec_a = a if isinstance(a, Recording) else read_recording(a, topics=wanted)
-    rec_b = b if isinstance(b, Recording) else read_recording(b, topics=wanted)
+    # the time series are read whatever the topics, for each recording's start (data_start_ns)
+    decoded = wanted if wanted is None or absolute else wanted | {JOINT_STATES, TF}
+    rec_a = a if isinstance(a, Recording) else read_recording(a, topics=decoded)
+    rec_b = b if isinstance(b, Recording) else read_recording(b, topics=decoded)
+    if wanted is not None:
+        absent = sorted(topic for topic in wanted if topic not in rec_a.topics and topic not in rec_b.topics)
+        if absent:
+            raise RecordingError(
+                f"--topics {' '.join(absent)}: in neither {rec_a.path} nor {rec_b.path} "
+                f"(their topics: {', '.join(sorted(set(rec_a.topics) | set(rec_b.topics))) or 'none'})"
+            )
     report = DiffReport(rec_a, rec_b, tolerances=tolerances, absolute=absolute)
     for rec in (rec_a, rec_b):
         if rec.read_error is not None:
             warnings.warn(rec.read_error, stacklevel=2)
             report.notes.append(f"damaged file, compared as far as readable: {rec.read_error}")
     cmp = _Comparison(rec_a, rec_b, report, wanted, absolute)
+    if not absolute:
+        report.origins = (cmp.origin_a, cmp.origin_b)
     cmp.description()
     cmp.topic_table()
     cmp.joint_states()

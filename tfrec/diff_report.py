@@ -28,8 +28,9 @@ class Difference:
         kind: ``description``, ``topic``, ``joint_states``, ``tf``, ``tf_static`` or ``frame``.
         what: the element: ``joint 'joint2'``, ``/tf``, ``link1 → link2``.
         detail: one readable line.
-        time_ns: when it first exceeds its tolerance (ns since A's start, or since the epoch
-            with ``absolute``), if it is about samples; ``time_s`` is the same in seconds.
+        time_ns: when it first exceeds its tolerance (ns since A's start, its first
+            /joint_states or /tf stamp; or since the epoch with ``absolute``), if it is about
+            samples; ``time_s`` is the same in seconds.
         value: the largest error (m, rad, or joint units), if it is about values.
     """
 
@@ -69,6 +70,9 @@ class DiffReport:
             within tolerance or not, by quantity.
         tolerances: ``pos_tol``, ``rot_tol``, ``joint_tol`` as used.
         absolute: whether samples were aligned on stamps rather than time since start.
+        origins: each recording's start, the stamp its times count from (ns since the epoch):
+            its first /joint_states or /tf stamp (:func:`tfrec.diff.data_start_ns`); None with
+            ``absolute``.
     """
 
     a: Recording
@@ -78,6 +82,7 @@ class DiffReport:
     largest: dict[str, Largest] = field(default_factory=dict)
     tolerances: dict[str, float] = field(default_factory=dict)
     absolute: bool = False
+    origins: tuple[int | None, int | None] = (None, None)
 
     @property
     def equal(self) -> bool:
@@ -108,7 +113,8 @@ class DiffReport:
             self._side("B", self.b),
             f"tolerances: position {tol['pos_tol']:g} m, rotation {tol['rot_tol']:g} rad, "
             f"joint {tol['joint_tol']:g}; times are "
-            + ("stamps (s since the epoch)" if self.absolute else "s since each recording's start"),
+            + ("stamps (s since the epoch)" if self.absolute
+               else "s since each recording's start (its first /joint_states or /tf stamp)"),
         ]
         for kind, title in _KIND_TITLES.items():
             items = [d for d in self.differences if d.kind == kind]
@@ -131,12 +137,13 @@ class DiffReport:
         return "\n".join(lines) + "\n"
 
     def to_dict(self) -> dict[str, Any]:
-        def side(rec: Recording) -> dict[str, Any]:
+        def side(rec: Recording, origin_ns: int | None) -> dict[str, Any]:
             return {
                 "path": rec.path,
                 "format": rec.format,
                 "start_ns": rec.start_ns,
                 "end_ns": rec.end_ns,
+                "origin_ns": origin_ns,
                 "topics": {
                     name: {"type": info.type, "count": info.count, "first_ns": info.first_ns, "last_ns": info.last_ns}
                     for name, info in rec.topics.items()
@@ -147,8 +154,8 @@ class DiffReport:
         return {
             "equal": self.equal,
             "verdict": self.verdict,
-            "a": side(self.a),
-            "b": side(self.b),
+            "a": side(self.a, self.origins[0]),
+            "b": side(self.b, self.origins[1]),
             "tolerances": dict(self.tolerances),
             "absolute": self.absolute,
             "differences": [d.to_dict() for d in self.differences],

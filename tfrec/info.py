@@ -1,9 +1,15 @@
-"""``tfrec info``: what a recording holds, for tfrec's MCAP files, any ROS 2 MCAP and rosbag2 folders.
+"""``tfrec info``: what a recording holds — MCAP, rosbag2 folder (mcap or sqlite3), ROS 1 bag, ``.rrd``.
 
-Counts and times come from the MCAP summary (Statistics, chunk and message indexes), so a
-one-hour file is summarized without decompressing it; only a few messages are decoded: the first
-/joint_states and /robot_description messages, every /tf_static message and the first
-:data:`TF_MESSAGES_DECODED` /tf messages. Files without a summary are read linearly.
+An intact MCAP (and a rosbag2 folder of them) is summarized from its summary section
+(Statistics, chunk and message indexes), so a one-hour file is summarized without
+decompressing it; only a few messages are decoded: the first /joint_states and
+/robot_description messages, every /tf_static message and the first
+:data:`TF_MESSAGES_DECODED` /tf messages.
+
+Everything else is read whole with :func:`tfrec.readers.read_recording`: an MCAP without a
+valid summary (a recorder killed mid-write, a damaged file), sqlite3 bags, ROS 1 bags and
+``.rrd`` files. A damaged file is summarized as far as it is readable, with one warning saying
+what was lost (:attr:`Recording.read_error`, also in the result's ``read_error``).
 """
 
 from __future__ import annotations
@@ -11,6 +17,7 @@ from __future__ import annotations
 import io
 import os
 import struct
+import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -20,8 +27,9 @@ from typing import IO, Any
 
 import numpy as np
 
-from .bag_metadata import read_bag_files
+from .bag_metadata import BagMetadata, qos_durability, read_bag_metadata
 from .errors import RecordingError
+from .readers import Recording, read_recording, recording_format
 
 __all__ = ["TF_MESSAGES_DECODED", "format_summary", "summarize"]
 
@@ -30,7 +38,7 @@ TF_MESSAGES_DECODED = 1000
 first ones, and decoding all of a long recording would take seconds."""
 
 _MAGIC = b"\x89MCAP0\r\n"
-_DURABILITY = {0: "system_default", 1: "transient_local", 2: "volatile", 3: "unknown", 4: "best_available"}
+_KINDS = {"mcap": "MCAP", "rosbag1": "ROS 1 bag", "rrd": "Rerun recording (.rrd)"}
 
 
 class _DecodeError(ValueError):
@@ -62,42 +70,61 @@ class _Scan:
     robot_name: str | None = None
     joints: list[str] | None = None
     frames: dict[tuple[str, str], bool] = field(default_factory=dict)  # (parent, child) → static
+    start_ns: int | None = None  # the recording's span when messages were lost; else from the topics
+    end_ns: int | None = None
+    read_error: str | None = None
 
 
 def summarize(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """Summarize a recording: an MCAP file or a rosbag2 folder with MCAP storage.
+    """Summarize a recording: whatever :func:`tfrec.readers.read_recording` reads.
+
+    A damaged file is summarized as far as it is readable, with a warning saying what was lost.
 
     Returns:
-        A JSON-ready dict: ``path``, ``format``, ``files``, ``profile``, ``library``,
-        ``compression``, ``message_count``, ``start_time_ns``, ``end_time_ns``, ``duration_ns``,
-        ``duration_s``, ``start_time`` and ``end_time`` (ISO 8601, UTC; None when empty),
-        ``topics`` (name, type, count, rate_hz, durability), ``robot_name``, ``joints`` and
-        ``tf_frames`` (parent, child, static).
+        A JSON-ready dict: ``path``, ``format`` (``mcap``, ``rosbag2``, ``rosbag1``, ``rrd``),
+        ``storage`` (a rosbag2 folder's storage plugin, else None), ``files``, ``profile``,
+        ``library``, ``compression``, ``message_count``, ``start_time_ns``, ``end_time_ns``,
+        ``duration_ns``, ``duration_s``, ``start_time`` and ``end_time`` (ISO 8601, UTC; None
+        when empty), ``topics`` (name, type, count, rate_hz, durability), ``robot_name``,
+        ``joints``, ``tf_frames`` (parent, child, static) and ``read_error`` (None, or what a
+        damaged file lost).
 
     Raises:
-        RecordingError: a missing file, a file that is not MCAP, an unreadable MCAP, or a folder
-            that is not a rosbag2 bag with MCAP storage.
+        RecordingError: a missing file, one that is not a recording, one with nothing readable,
+            or a message that cannot be decoded.
     """
     path = Path(path)
-    if path.is_dir():
-        fmt, files = "rosbag2", read_bag_files(path)
-    elif path.exists():
-        fmt, files = "mcap", [path]
-    else:
-        raise RecordingError(f"{path}: no such file or folder")
-    scan = _Scan()
-    for file in files:
-        _scan_file(file, scan)
-    return _as_dict(path, fmt, files, scan)
+    fmt = recording_format(path)
+    meta: BagMetadata | None = None
+    files = [path]
+    if fmt == "rosbag2":
+        meta = read_bag_metadata(path.parent if path.is_file() else path)
+        files = list(meta.files)
+    if fmt == "mcap" or (meta is not None and meta.storage == "mcap" and not meta.compression):
+        scan = _Scan()
+        if all(_scan_file(file, scan) for file in files):
+            return _as_dict(path, fmt, meta, files, scan)
+    recording = read_recording(path)
+    if recording.read_error is not None:
+        warnings.warn(recording.read_error, stacklevel=2)
+    return _as_dict(path, fmt, meta, files, _scan_recording(recording))
 
 
 def format_summary(summary: dict[str, Any]) -> str:
     """The readable form of :func:`summarize`'s result, like ``ros2 bag info``."""
     lines = [f"File:        {summary['path']}"]
-    kind = "rosbag2 folder (MCAP storage)" if summary["format"] == "rosbag2" else "MCAP"
-    lines.append(f"Format:      {kind}, profile {summary['profile'] or '(none)'}, "
-                 f"{summary['compression']} chunks, written by {summary['library'] or '(unknown)'}")
-    if summary["format"] == "rosbag2":
+    fmt, storage = summary["format"], summary["storage"]
+    compression = summary["compression"].replace("none", "uncompressed")
+    kind = _KINDS.get(fmt) or f"rosbag2 folder ({'MCAP' if storage == 'mcap' else storage} storage)"
+    if fmt == "mcap" or storage == "mcap":
+        kind += (f", profile {summary['profile'] or '(none)'}, {compression} chunks, "
+                 f"written by {summary['library'] or '(unknown)'}")
+    elif fmt == "rosbag1":
+        kind += f", {compression} chunks"
+    elif compression != "no":
+        kind += f", {compression} compression"
+    lines.append(f"Format:      {kind}")
+    if fmt == "rosbag2":
         lines.append(f"Files:       {', '.join(summary['files'])}")
     if summary["robot_name"] is not None:
         lines.append(f"Robot:       {summary['robot_name']}")
@@ -130,61 +157,53 @@ def format_summary(summary: dict[str, Any]) -> str:
 # -- one MCAP file -----------------------------------------------------------------------------
 
 
-def _scan_file(path: Path, scan: _Scan) -> None:
+def _scan_file(path: Path, scan: _Scan) -> bool:
+    """Summarize an MCAP file from its summary section; False when it has no intact one (it is
+    then read whole)."""
     import zstandard
     from mcap.exceptions import McapError
 
     try:
         with open(path, "rb") as stream:
             if stream.read(len(_MAGIC)) != _MAGIC:
-                raise RecordingError(f"{path}: not an MCAP file")
+                return False
             stream.seek(0)
-            _scan_stream(stream, scan)
+            return _scan_stream(stream, scan)
     except OSError as err:
         raise RecordingError(f"{path}: cannot read: {err.strerror or err}") from None
     except _DecodeError as err:
         raise RecordingError(f"{path}: {err}") from None
-    except (McapError, struct.error, ValueError, KeyError, IndexError, zstandard.ZstdError, RuntimeError) as err:
-        raise RecordingError(f"{path}: unreadable MCAP ({type(err).__name__}: {err})") from None
+    except (McapError, struct.error, ValueError, KeyError, IndexError, EOFError, zstandard.ZstdError, RuntimeError):
+        return False  # damaged: read_recording reads what it can and says what was lost
 
 
-def _scan_stream(stream: IO[bytes], scan: _Scan) -> None:
+def _scan_stream(stream: IO[bytes], scan: _Scan) -> bool:
     from mcap.reader import make_reader
 
     reader = make_reader(stream)
     header = reader.get_header()
-    scan.profile = scan.profile or header.profile
-    scan.library = scan.library or header.library
     summary = reader.get_summary()
     if summary is None or summary.statistics is None:
-        _scan_linear(reader, scan)
-    else:
-        stats = summary.statistics
-        scan.compressions.update(index.compression for index in summary.chunk_indexes)
-        for channel_id, channel in sorted(summary.channels.items()):
-            schema = summary.schemas.get(channel.schema_id)
-            topic = _topic(scan, channel.topic, schema.name if schema else "", channel.metadata)
-            topic.count += stats.channel_message_counts.get(channel_id, 0)
-        _channel_times(stream, summary, scan)
+        return False
+    scan.profile = scan.profile or header.profile
+    scan.library = scan.library or header.library
+    stats = summary.statistics
+    scan.compressions.update(index.compression for index in summary.chunk_indexes)
+    for channel_id, channel in sorted(summary.channels.items()):
+        schema = summary.schemas.get(channel.schema_id)
+        topic = _topic(scan, channel.topic, schema.name if schema else "", channel.metadata)
+        topic.count += stats.channel_message_counts.get(channel_id, 0)
+    _channel_times(stream, summary, scan)
     _decode_some(reader, scan)
+    return True
 
 
 def _topic(scan: _Scan, name: str, msgtype: str, metadata: dict[str, str]) -> _Topic:
     topic = scan.topics.get(name)
     if topic is None:
-        topic = scan.topics[name] = _Topic(name, msgtype, durability=_durability(metadata))
+        durability = qos_durability(metadata.get("offered_qos_profiles", ""))
+        topic = scan.topics[name] = _Topic(name, msgtype, durability=durability)
     return topic
-
-
-def _durability(metadata: dict[str, str]) -> str | None:
-    import yaml
-
-    try:
-        profiles = yaml.safe_load(metadata.get("offered_qos_profiles", "") or "null")
-        value = profiles[0]["durability"]
-    except (yaml.YAMLError, TypeError, KeyError, IndexError):
-        return None
-    return _DURABILITY.get(value, "unknown") if isinstance(value, int) else str(value)
 
 
 def _channel_times(stream: IO[bytes], summary: Any, scan: _Scan) -> None:
@@ -204,14 +223,6 @@ def _channel_times(stream: IO[bytes], summary: Any, scan: _Scan) -> None:
             pairs = np.frombuffer(body, dtype="<u8", count=size // 8, offset=6).reshape(-1, 2)
             if len(pairs):
                 scan.topics[summary.channels[channel_id].topic].add_times(int(pairs[:, 0].min()), int(pairs[:, 0].max()))
-
-
-def _scan_linear(reader: Any, scan: _Scan) -> None:
-    """A file without a summary: read every record once."""
-    for schema, channel, message in reader.iter_messages(log_time_order=False):
-        topic = _topic(scan, channel.topic, schema.name if schema else "", channel.metadata)
-        topic.count += 1
-        topic.add_times(message.log_time, message.log_time)
 
 
 def _decode_some(reader: Any, scan: _Scan) -> None:
@@ -268,6 +279,27 @@ def _robot_name(urdf: str) -> str | None:
     return None
 
 
+# -- a recording read whole --------------------------------------------------------------------
+
+
+def _scan_recording(rec: Recording) -> _Scan:
+    scan = _Scan(profile=rec.details.get("profile", ""), library=rec.details.get("library", ""))
+    scan.compressions = {name for name in rec.details.get("compression", "").split(", ") if name}
+    for name, info in rec.topics.items():
+        topic = scan.topics[name] = _Topic(name, info.type, info.count, durability=info.durability)
+        if info.first_ns is not None and info.last_ns is not None:
+            topic.add_times(info.first_ns, info.last_ns)
+    if rec.robot_description is not None:
+        scan.robot_name = _robot_name(rec.robot_description)
+    if rec.joint_states is not None:
+        scan.joints = list(rec.joint_states.names)
+    scan.frames = {pair: True for pair in rec.tf_static}
+    for pair in rec.tf:
+        scan.frames.setdefault(pair, False)
+    scan.start_ns, scan.end_ns, scan.read_error = rec.start_ns, rec.end_ns, rec.read_error
+    return scan
+
+
 # -- result ------------------------------------------------------------------------------------
 
 
@@ -276,9 +308,13 @@ def _iso(time_ns: int) -> str:
     return datetime.fromtimestamp(sec, tz=timezone.utc).strftime("%Y-%m-%dT%H:%M:%S") + f".{frac:09d}Z"
 
 
-def _as_dict(path: Path, fmt: str, files: list[Path], scan: _Scan) -> dict[str, Any]:
+def _as_dict(path: Path, fmt: str, meta: BagMetadata | None, files: list[Path], scan: _Scan) -> dict[str, Any]:
     firsts = [t.first_ns for t in scan.topics.values() if t.first_ns is not None and t.count]
     lasts = [t.last_ns for t in scan.topics.values() if t.last_ns is not None and t.count]
+    if scan.start_ns is not None:
+        firsts.append(scan.start_ns)
+    if scan.end_ns is not None:
+        lasts.append(scan.end_ns)
     start = min(firsts) if firsts else None
     end = max(lasts) if lasts else None
     duration = end - start if start is not None and end is not None else 0
@@ -292,6 +328,7 @@ def _as_dict(path: Path, fmt: str, files: list[Path], scan: _Scan) -> dict[str, 
     return {
         "path": str(path),
         "format": fmt,
+        "storage": meta.storage if meta is not None else None,
         "files": [file.name for file in files],
         "profile": scan.profile,
         "library": scan.library,
@@ -308,4 +345,5 @@ def _as_dict(path: Path, fmt: str, files: list[Path], scan: _Scan) -> dict[str, 
         "joints": scan.joints,
         "tf_frames": [{"parent": parent, "child": child, "static": static}
                       for (parent, child), static in scan.frames.items()],
+        "read_error": scan.read_error,
     }

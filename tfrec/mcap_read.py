@@ -15,6 +15,11 @@ A damaged file (a recorder killed mid-write, flipped bytes) is read as far as po
   reading goes on with the next record: a flipped byte mostly decompresses to wrong data
   without any error, so only the CRC tells which messages can be trusted. The summary's
   schemas and channels then stand in for the ones the skipped chunk held.
+
+When messages were lost, :attr:`Recording.start_ns` (and ``end_ns``) still give the recording's
+true span, so times count from its real start: the summary's Statistics record when the
+summary is intact (its CRC holds), else the message start times in the headers of the chunk
+records read — a chunk's header survives damage to its compressed records.
 """
 
 from __future__ import annotations
@@ -24,8 +29,9 @@ import struct
 import zlib
 from collections.abc import Callable
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, NamedTuple
 
+from .bag_metadata import qos_durability
 from .errors import RecordingError
 from .recorded import Collector, Recording, deserializer
 
@@ -38,7 +44,7 @@ _PIECE = 4096
 """Compressed bytes fed at a time when salvaging a cut chunk, so the blocks before a corrupt tail come out."""
 
 _OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 1, 2, 3, 4, 5, 6
-_OP_MESSAGE_INDEX, _OP_DATA_END = 7, 15
+_OP_MESSAGE_INDEX, _OP_STATISTICS, _OP_DATA_END = 7, 11, 15
 _RECORD_NAMES = {1: "header", 2: "footer", 3: "schema", 4: "channel", 5: "message", 6: "chunk", 7: "message index",
                  8: "chunk index", 9: "attachment", 10: "attachment index", 11: "statistics", 12: "metadata",
                  13: "metadata index", 14: "summary offset", 15: "data end"}
@@ -47,6 +53,8 @@ _MESSAGE = struct.Struct("<HIQ")  # channel id, sequence, log time (publish time
 _MESSAGE_HEAD = 2 + 4 + 8 + 8
 _CHUNK_HEAD = struct.Struct("<QQQII")  # start time, end time, uncompressed size and CRC, compression length
 _FOOTER = struct.Struct("<BQQQI")  # opcode, length, summary start, summary offset start, summary CRC
+_STATISTICS = struct.Struct("<QHIIIIQQ")  # message count, schema … chunk counts, message start and end time
+_COMPRESSIONS = ("", "zstd", "lz4")
 
 
 def _a(what: str) -> str:
@@ -63,12 +71,13 @@ class _Truncated(Exception):
 
 
 class _Channel:
-    __slots__ = ("topic", "type", "decoded", "count", "first", "last", "datas")
+    __slots__ = ("topic", "type", "decoded", "durability", "count", "first", "last", "datas")
 
-    def __init__(self, topic: str, msgtype: str, decoded: bool) -> None:
+    def __init__(self, topic: str, msgtype: str, decoded: bool, durability: str | None) -> None:
         self.topic = topic
         self.type = msgtype
         self.decoded = decoded
+        self.durability = durability
         self.count = 0
         self.first = 0
         self.last = 0
@@ -88,20 +97,35 @@ class _Damage:
         """Its messages, as its message index records count them (None: no index)."""
 
 
-def _chunk_fields(body: bytes) -> tuple[str, int, int, memoryview, int]:
-    """A chunk record's compression, uncompressed size and CRC, compressed records and their
-    length (the records may be shorter than that in a cut file).
+class _ChunkHead(NamedTuple):
+    """A chunk record's fields; ``records`` may be shorter than ``length`` in a cut file."""
+
+    start: int
+    end: int
+    compression: str
+    size: int
+    crc: int
+    records: memoryview
+    length: int
+
+    def plausible(self) -> bool:
+        """Whether the header looks undamaged, so that its message times can be believed."""
+        return self.compression in _COMPRESSIONS and 0 < self.start <= self.end
+
+
+def _chunk_fields(body: bytes) -> _ChunkHead:
+    """A chunk record's header fields and its compressed records.
 
     Raises:
         struct.error, UnicodeDecodeError: a damaged chunk header.
     """
-    _, _, size, crc, name_len = _CHUNK_HEAD.unpack_from(body, 0)
+    start, end, size, crc, name_len = _CHUNK_HEAD.unpack_from(body, 0)
     pos = _CHUNK_HEAD.size
     compression = body[pos : pos + name_len].decode()
     pos += name_len
     (length,) = struct.unpack_from("<Q", body, pos)
     pos += 8
-    return compression, size, crc, memoryview(body)[pos : pos + length], length
+    return _ChunkHead(start, end, compression, size, crc, memoryview(body)[pos : pos + length], length)
 
 
 def _decompress(compression: str, data: memoryview, size: int) -> bytes | memoryview:
@@ -135,6 +159,7 @@ def _salvage(compression: str, data: memoryview) -> bytes | memoryview:
     if not compression:
         return data
     decompress: Callable[[memoryview], bytes]
+    error: type[Exception]
     if compression == "zstd":
         import zstandard
 
@@ -178,6 +203,11 @@ class _McapReader:
         self.pending = 0
         self.damage: list[_Damage] = []
         self._indexing: _Damage | None = None  # the damaged chunk whose message index records follow
+        self.profile = self.library = ""
+        self.compressions: set[str] = set()
+        self.chunks_start: int | None = None  # the earliest message start time of the chunk headers read
+        self._summary: memoryview | None = None  # the summary section, once read, if it holds its CRC
+        self._summary_read = False
 
     @property
     def messages(self) -> int:
@@ -225,9 +255,9 @@ class _McapReader:
                 if self.pending >= _BATCH:
                     self.flush()
             elif opcode == _OP_HEADER:
-                profile = self._profile(self.read(length, what))
-                if profile not in ("ros2", ""):
-                    raise RecordingError(f"{self.where}: MCAP profile '{profile}', not ros2")
+                self._header(self.read(length, what))
+                if self.profile not in ("ros2", ""):
+                    raise RecordingError(f"{self.where}: MCAP profile '{self.profile}', not ros2")
             elif opcode == _OP_MESSAGE_INDEX and self._indexing is not None:
                 body = self.read(length, what)  # count what the damaged chunk held
                 if len(body) >= 6:
@@ -236,25 +266,41 @@ class _McapReader:
                 self.stream.seek(length, os.SEEK_CUR)
                 self.offset += length
 
-    @staticmethod
-    def _profile(body: bytes) -> str:
-        (size,) = struct.unpack_from("<I", body, 0)
-        return body[4 : 4 + size].decode("utf-8", "replace")
+    def _header(self, body: bytes) -> None:
+        """The Header record: profile and library."""
+        try:
+            (size,) = struct.unpack_from("<I", body, 0)
+            self.profile = body[4 : 4 + size].decode("utf-8", "replace")
+            (library_size,) = struct.unpack_from("<I", body, 4 + size)
+            self.library = body[8 + size : 8 + size + library_size].decode("utf-8", "replace")
+        except struct.error:
+            pass  # a damaged header: the profile is checked as far as it could be read
+
+    def _chunk_head(self, body: bytes) -> _ChunkHead | None:
+        """A chunk record's header fields (None when damaged), noting its compression and start time."""
+        try:
+            head = _chunk_fields(body)
+        except (struct.error, UnicodeDecodeError):
+            return None
+        if head.plausible():
+            self.compressions.add(head.compression or "none")
+            if self.chunks_start is None or head.start < self.chunks_start:
+                self.chunks_start = head.start
+        return head
 
     def _chunk(self, body: bytes, start: int) -> None:
         """A whole chunk record at byte ``start``: its records, or none when its data is damaged."""
-        try:
-            compression, size, crc, data, length = _chunk_fields(body)
-        except (struct.error, UnicodeDecodeError):
+        head = self._chunk_head(body)
+        if head is None:
             self._damaged(start, "its header is damaged", 0)
             return
         try:
-            if len(data) != length:
+            if len(head.records) != head.length:
                 raise ValueError("its records run past its end")
-            records = _decompress(compression, data, size)
-            if len(records) != size:
-                raise ValueError(f"its records decompress to {len(records):,} bytes, not {size:,}")
-            if crc and zlib.crc32(records) != crc:
+            records = _decompress(head.compression, head.records, head.size)
+            if len(records) != head.size:
+                raise ValueError(f"its records decompress to {len(records):,} bytes, not {head.size:,}")
+            if head.crc and zlib.crc32(records) != head.crc:
                 raise ValueError("CRC mismatch")
         except ValueError as err:
             self._damaged(start, str(err), 0)
@@ -266,12 +312,12 @@ class _McapReader:
 
     def _cut_chunk(self, body: bytes) -> int:
         """The complete records in a chunk the file ends inside; returns how many messages they hold."""
-        try:
-            compression, size, _, data, _ = _chunk_fields(body)
-        except (struct.error, UnicodeDecodeError):
+        head = self._chunk_head(body)
+        if head is None:
             return 0
         before = self.messages
-        self._chunk_records(_salvage(compression, data)[:size])  # stops at the first incomplete record
+        records = _salvage(head.compression, head.records)[: head.size]
+        self._chunk_records(records)  # stops at the first incomplete record
         return self.messages - before
 
     def _chunk_records(self, data: bytes | memoryview) -> str | None:
@@ -317,12 +363,26 @@ class _McapReader:
         if len(self.damage) == 1:
             self._summary_channels()
 
-    def _summary_channels(self) -> None:
-        """Take the schemas and channels of the summary section: a skipped chunk may have held the
-        only other copy of them. Nothing is taken from a summary that fails its CRC."""
+    def _summary_records(self) -> tuple[memoryview, list[tuple[int, int, int]]]:
+        """The summary section and its records (opcode, position, length); no records when the
+        file has no intact summary (one that holds its CRC)."""
+        if not self._summary_read:
+            self._summary, self._summary_read = self._read_summary(), True
+        view = self._summary if self._summary is not None else memoryview(b"")
+        records, pos, end = [], 0, len(view)
+        while pos + 9 <= end:
+            opcode, length = _RECORD.unpack_from(view, pos)
+            pos += 9
+            if pos + length > end:
+                break
+            records.append((opcode, pos, length))
+            pos += length
+        return view, records
+
+    def _read_summary(self) -> memoryview | None:
         footer_start = self.size - len(MCAP_MAGIC) - _FOOTER.size
         if footer_start < self.offset:
-            return
+            return None
         here = self.stream.tell()
         try:
             self.stream.seek(footer_start)
@@ -330,23 +390,38 @@ class _McapReader:
             opcode, length, summary_start, _, crc = _FOOTER.unpack_from(footer)
             if (footer[_FOOTER.size :] != MCAP_MAGIC or opcode != _OP_FOOTER or length != _FOOTER.size - 9
                     or not self.offset <= summary_start <= footer_start):
-                return
+                return None
             self.stream.seek(summary_start)
             section = self.stream.read(footer_start + _FOOTER.size - 4 - summary_start)  # the CRC covers the footer too
             if crc and zlib.crc32(section) != crc:
-                return
-            view = memoryview(section)
-            pos, end = 0, footer_start - summary_start
-            while pos + 9 <= end:
-                opcode, length = _RECORD.unpack_from(view, pos)
-                pos += 9
-                if opcode in (_OP_SCHEMA, _OP_CHANNEL) and pos + length <= end:
-                    self._record(view, opcode, pos, length)
-                pos += length
-        except (struct.error, ValueError, UnicodeDecodeError):
-            return  # a damaged summary: its channels stay unknown
+                return None
+            return memoryview(section)[: footer_start - summary_start]
+        except struct.error:
+            return None
         finally:
             self.stream.seek(here)
+
+    def _summary_channels(self) -> None:
+        """Take the schemas and channels of the summary section: a skipped chunk may have held the
+        only other copy of them. Nothing is taken from a summary that fails its CRC."""
+        view, records = self._summary_records()
+        try:
+            for opcode, pos, length in records:
+                if opcode in (_OP_SCHEMA, _OP_CHANNEL):
+                    self._record(view, opcode, pos, length)
+        except (struct.error, ValueError, UnicodeDecodeError):
+            return  # a damaged summary: its channels stay unknown
+
+    def true_start(self) -> int | None:
+        """The recording's first log time, had nothing been lost: from the summary's statistics,
+        else the earliest message start time of the chunk headers read."""
+        view, records = self._summary_records()
+        for opcode, pos, length in records:
+            if opcode == _OP_STATISTICS and length >= _STATISTICS.size:
+                count, *_, start, _ = _STATISTICS.unpack_from(view, pos)
+                if count:
+                    return int(start)
+        return self.chunks_start
 
     def damage_summary(self) -> str:
         """The damaged chunks in one phrase: where the first is, why, and what was recovered."""
@@ -387,6 +462,7 @@ class _McapReader:
             (enc_len,) = struct.unpack_from("<I", view, at)
             encoding = bytes(view[at + 4 : at + 4 + enc_len]).decode()
             if channel_id not in self.channels:
+                metadata = self._metadata(view, at + 4 + enc_len, pos + length)
                 msgtype = self.schemas.get(schema_id, "")
                 decoded = self.collector.decodes(topic, msgtype)
                 if decoded and encoding != "cdr":
@@ -395,7 +471,27 @@ class _McapReader:
                     self.collector.set_deserializer(
                         topic, deserializer(_ros2_store(), msgtype, ros1=False, where=self.where, topic=topic)
                     )
-                self.channels[channel_id] = _Channel(topic, msgtype, decoded)
+                durability = qos_durability(metadata.get("offered_qos_profiles", ""))
+                self.channels[channel_id] = _Channel(topic, msgtype, decoded, durability)
+
+    @staticmethod
+    def _metadata(view: memoryview, pos: int, end: int) -> dict[str, str]:
+        """A channel record's metadata map (from ``pos``); empty when it is missing or damaged."""
+        out: dict[str, str] = {}
+        try:
+            (size,) = struct.unpack_from("<I", view, pos)
+            pos += 4
+            stop = min(pos + size, end)
+            while pos < stop:
+                (key_len,) = struct.unpack_from("<I", view, pos)
+                key = bytes(view[pos + 4 : pos + 4 + key_len]).decode()
+                pos += 4 + key_len
+                (value_len,) = struct.unpack_from("<I", view, pos)
+                out[key] = bytes(view[pos + 4 : pos + 4 + value_len]).decode()
+                pos += 4 + value_len
+        except (struct.error, UnicodeDecodeError):
+            return {}
+        return out
 
     def flush(self) -> None:
         """Decode the messages collected so far."""
@@ -408,7 +504,8 @@ class _McapReader:
     def finish(self) -> None:
         for channel in self.channels.values():
             if channel.count:
-                self.collector.count(channel.topic, channel.type, channel.count, channel.first, channel.last)
+                self.collector.count(channel.topic, channel.type, channel.count, channel.first, channel.last,
+                                     channel.durability)
 
 
 def read_mcap(path: Path, wanted: frozenset[str]) -> Recording:
@@ -440,6 +537,14 @@ def read_mcap(path: Path, wanted: frozenset[str]) -> Recording:
                 recording.read_error = f"{where}: {'; '.join(problems)}; {reader.messages:,} messages read"
             reader.flush()
             reader.finish()
+            true_start = reader.true_start() if problems else None
+            recording.details = {"profile": reader.profile, "library": reader.library,
+                                 "compression": ", ".join(sorted(reader.compressions))}
     except OSError as err:
         raise RecordingError(f"{where}: cannot read: {err.strerror or err}") from None
-    return collector.finish()
+    collector.finish()
+    if true_start is not None and (recording.start_ns is None or true_start < recording.start_ns):
+        recording.start_ns = true_start  # messages before the first one read were lost
+        if recording.end_ns is None:
+            recording.end_ns = true_start
+    return recording

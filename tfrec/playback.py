@@ -170,18 +170,20 @@ def check_play_options(
 
     Raises:
         RecordingError: a rate that is not > 0, --save with --connect or --loop, a --save name
-            that is not ``.rrd``, a --save file that exists (without ``force``), or no viewer to
-            spawn (no display or no ``rerun`` executable).
+            that is not ``.rrd``, a --save file that exists (without ``force``), no viewer at the
+            --connect URL, or no viewer to spawn (no display or no ``rerun`` executable).
     """
     if not (math.isfinite(rate) and rate > 0):
         raise RecordingError(f"--rate {rate:g} is not a speed > 0")
     if save is not None and connect is not None:
         raise RecordingError("--save and --connect exclude each other")
     if save is None:
-        if connect is None:
-            from .rerun_replay import check_can_spawn
+        from .rerun_replay import check_can_connect, check_can_spawn
 
+        if connect is None:
             check_can_spawn()
+        else:
+            check_can_connect(connect)
         return
     if loop:
         raise RecordingError("--loop replays forever; it needs a live viewer, not --save")

@@ -51,12 +51,16 @@ class TopicInfo:
         count: messages on the topic.
         first_ns, last_ns: log times (receive times) of the first and last message, ns since
             the epoch; None for data without a time (static data in an ``.rrd``).
+        durability: the offered QoS durability (``transient_local``, ``volatile``…) where the
+            format records it (MCAP channels, rosbag2 topics); ``latched`` for a latching
+            topic of a ROS 1 bag; else None.
     """
 
     type: str
     count: int
     first_ns: int | None
     last_ns: int | None
+    durability: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -110,10 +114,16 @@ class Recording:
         tf_static: (parent, child) → (translation (3,), rotation (4,)) of the last /tf_static
             transform of that pair.
         start_ns, end_ns: log times of the first and last message (ns since the epoch), or
-            None for an empty recording.
+            None for an empty recording. When a damaged file lost messages, the recording's
+            true start (and end) as far as the file still tells — an MCAP's summary
+            statistics or chunk headers — so times count from the real start, not from the
+            first message that could be read.
         read_error: None, or one line saying what a damaged file lost (where reading stopped,
             or which chunks were skipped); the rest of the recording holds what was readable.
         float32: True when the format stores transforms as float32 (``.rrd``).
+        details: what ``tfrec info`` shows about the container, where known: ``profile``,
+            ``library`` (MCAP header), ``compression`` (chunk or file compression, ``none``),
+            ``storage`` (rosbag2 storage plugin).
     """
 
     path: str
@@ -127,6 +137,7 @@ class Recording:
     end_ns: int | None = None
     read_error: str | None = None
     float32: bool = False
+    details: dict[str, str] = field(default_factory=dict)
 
     @property
     def duration_ns(self) -> int:
@@ -172,7 +183,7 @@ class Collector:
         self.recording = recording
         self.wanted = wanted
         self.ros1 = ros1
-        self.counts: dict[str, list[Any]] = {}  # topic → [type, count, first, last]
+        self.counts: dict[str, list[Any]] = {}  # topic → [type, count, first, last, durability]
         self.joint_states: JointStateAccumulator | None = None
         self.tf: TFAccumulator | None = None
         self.static: list[bytes] = []
@@ -190,14 +201,16 @@ class Collector:
         elif topic == TF and self.tf is None:
             self.tf = TFAccumulator(deserialize, ros1=self.ros1)
 
-    def count(self, topic: str, msgtype: str, count: int, first_ns: int, last_ns: int) -> None:
+    def count(self, topic: str, msgtype: str, count: int, first_ns: int, last_ns: int,
+              durability: str | None = None) -> None:
         entry = self.counts.get(topic)
         if entry is None:
-            self.counts[topic] = [msgtype, count, first_ns, last_ns]
+            self.counts[topic] = [msgtype, count, first_ns, last_ns, durability]
         else:
             entry[1] += count
             entry[2] = min(entry[2], first_ns)
             entry[3] = max(entry[3], last_ns)
+            entry[4] = entry[4] or durability
 
     def add(self, topic: str, datas: list[Any]) -> None:
         """Decode raw messages of a decoded topic, in order."""
@@ -215,8 +228,8 @@ class Collector:
     def finish(self) -> Recording:
         rec = self.recording
         rec.topics = {
-            topic: TopicInfo(msgtype, count, first, last)
-            for topic, (msgtype, count, first, last) in sorted(self.counts.items())
+            topic: TopicInfo(msgtype, count, first, last, durability)
+            for topic, (msgtype, count, first, last, durability) in sorted(self.counts.items())
         }
         firsts = [info.first_ns for info in rec.topics.values() if info.first_ns is not None]
         lasts = [info.last_ns for info in rec.topics.values() if info.last_ns is not None]
@@ -225,8 +238,8 @@ class Collector:
         if self.description is not None:
             rec.robot_description = str(self.deserializers[ROBOT_DESCRIPTION](self.description).data)
         for raw in self.static:
-            for pair, _, values in transforms_of(self.deserializers[TF_STATIC](raw)):
-                rec.tf_static[pair] = (np.array(values[:3]), np.array(values[3:]))
+            for pair, _, fields in transforms_of(self.deserializers[TF_STATIC](raw)):
+                rec.tf_static[pair] = (np.array(fields[:3]), np.array(fields[3:]))
         if self.joint_states is not None and self.joint_states.messages:
             time, names, positions = self.joint_states.result()
             rec.joint_states = JointStates(time, names, positions)

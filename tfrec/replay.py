@@ -17,7 +17,10 @@ Latched data — /tf_static and /robot_description — is logged as static data,
 whatever ``start_s`` cuts away (``ros2 bag play --start-offset`` loses it).
 
 :func:`tfrec.playback.play` sends a prepared replay to a sink in time-ordered batches, paced
-for live viewers; :func:`tfrec.replay_check.check_replay` re-simulates it. Times are header stamps; ``start_s`` and ``end_s`` count from the first one.
+for live viewers; :func:`tfrec.replay_check.check_replay` re-simulates it. Times are header
+stamps; ``start_s`` and ``end_s`` count from the recording's start, its first /joint_states or
+/tf stamp (:func:`tfrec.diff.data_start_ns`, the start ``tfrec diff`` aligns on), whatever
+``topics`` selects.
 """
 
 from __future__ import annotations
@@ -25,16 +28,26 @@ from __future__ import annotations
 import math
 import os
 import warnings
-from collections.abc import Collection, Iterable
+from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
+from .diff import data_start_ns
 from .errors import DescriptionError, RecordingError
 from .kinematics import dynamic_transforms, static_transforms
 from .model import Robot
-from .readers import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC, FrameSeries, JointStates, read_recording
+from .readers import (
+    JOINT_STATES,
+    ROBOT_DESCRIPTION,
+    TF,
+    TF_STATIC,
+    FrameSeries,
+    JointStates,
+    Recording,
+    read_recording,
+)
 
 __all__ = [
     "REPLAYED_TOPICS",
@@ -65,8 +78,10 @@ class Replay:
         static: latched transforms, (parent, child) → (translation (3,), rotation (4,)).
         tf: (parent, child) → transforms within the cut, recorded pairs first.
         joint_states: /joint_states within the cut, or None.
-        derived: the pairs of ``static`` and ``tf`` computed from the model and joint states.
-        origin_ns: the first stamp of the recording: ``start_s`` and reported times count from it.
+        derived_static: the pairs of ``static`` that are fixed joints of the model, not recorded.
+        derived_dynamic: the pairs of ``tf`` computed from the model and the joint states.
+        origin_ns: the recording's start, its first /joint_states or /tf stamp: ``start_s`` and
+            reported times count from it.
         start_ns, end_ns: the first and last stamp replayed (None when no sample is left).
         read_error: where reading a damaged file stopped, or None.
     """
@@ -79,15 +94,36 @@ class Replay:
     static: dict[Pair, tuple[Array, Array]]
     tf: dict[Pair, FrameSeries]
     joint_states: JointStates | None
-    derived: frozenset[Pair]
+    derived_static: frozenset[Pair]
+    derived_dynamic: frozenset[Pair]
     origin_ns: int
     start_ns: int | None
     end_ns: int | None
     read_error: str | None = None
     _damage_reported: bool = field(default=False, repr=False)
 
+    @property
+    def derived(self) -> frozenset[Pair]:
+        """Every pair that robot_state_publisher's part of the replay added (static and dynamic)."""
+        return self.derived_static | self.derived_dynamic
+
+    def derived_summary(self) -> str:
+        """What the model added, for the replay's summary line, or ``""`` when nothing.
+
+        ``TF of 7 frames computed from the joint states and of 12 fixed frames taken from the
+        robot description``.
+        """
+        parts = []
+        if self.derived_dynamic:
+            n = len(self.derived_dynamic)
+            parts.append(f"{n} frame{'s' if n != 1 else ''} computed from the joint states")
+        if self.derived_static:
+            n = len(self.derived_static)
+            parts.append(f"{n} fixed frame{'s' if n != 1 else ''} taken from the robot description")
+        return "TF of " + " and of ".join(parts) if parts else ""
+
     def seconds(self, time_ns: int) -> float:
-        """A stamp as seconds from the recording's first stamp."""
+        """A stamp as seconds from the recording's start (``origin_ns``)."""
         return (time_ns - self.origin_ns) / 1e9
 
     def frames(self) -> list[str]:
@@ -235,6 +271,24 @@ def _robot_of(description: str | None, where: str, *, required: bool) -> Robot |
         return None
 
 
+def _has(rec: Recording, topic: str) -> bool:
+    info = rec.topics.get(topic)
+    return info is not None and info.count > 0
+
+
+def _listed(items: Sequence[str]) -> str:
+    """``a``, ``a or b``, ``a, b or c``."""
+    return ", ".join(items[:-1]) + " or " + items[-1] if len(items) > 1 else "".join(items)
+
+
+def _data_end_ns(rec: Recording) -> int | None:
+    """The last stamp of the recording's /joint_states and /tf, or None without either."""
+    lasts = [int(series.time_ns.max()) for series in rec.tf.values() if len(series)]
+    if rec.joint_states is not None and len(rec.joint_states):
+        lasts.append(int(rec.joint_states.time_ns.max()))
+    return max(lasts) if lasts else None
+
+
 def _cut_series(series: FrameSeries, lo: int, hi: int) -> FrameSeries:
     a = int(np.searchsorted(series.time_ns, lo, side="left"))
     b = int(np.searchsorted(series.time_ns, hi, side="right"))
@@ -285,26 +339,43 @@ def load_replay(
         path: a recording (``.mcap``, rosbag2 folder, ROS 1 ``.bag``, ``.rrd``).
         robot: a robot model that overrides the recording's /robot_description.
         topics: replay only these of /robot_description, /tf_static, /joint_states and /tf.
-        start_s, end_s: replay the samples stamped this many seconds after the first stamp.
+        start_s, end_s: replay the samples stamped this many seconds after the recording's
+            start, its first /joint_states or /tf stamp (:func:`tfrec.diff.data_start_ns`).
         need_robot: raise, rather than warn, when the recording's description is unusable.
 
     Returns:
         The prepared replay; a damaged MCAP gives what was readable, with ``read_error`` set.
 
     Raises:
-        RecordingError: an unknown topic, a bad time window, or a path that is not a recording.
+        RecordingError: an unknown topic, a bad time window, a path that is not a recording, a
+            recording with none of the selected topics, or ``start_s`` past its last sample.
         DescriptionError: ``need_robot`` and a /robot_description that is not a valid URDF.
     """
     _check_window(start_s, end_s)
     selected = _check_topics(topics)
     where = os.fspath(path)
-    rec = read_recording(path, topics=selected | ({ROBOT_DESCRIPTION} if robot is None else set()))
-    if topics is not None:
-        absent = [topic for topic in REPLAYED_TOPICS if topic in selected and topic not in rec.topics]
-        if absent:
-            warnings.warn(f"{where}: no {', '.join(absent)} in the recording", stacklevel=2)
+    # the time series are read whatever is selected: the recording's start counts from them
+    rec = read_recording(path, topics=selected | {JOINT_STATES, TF}
+                         | ({ROBOT_DESCRIPTION} if robot is None else set()))
+    absent = [topic for topic in REPLAYED_TOPICS if topic in selected and not _has(rec, topic)]
+    if len(absent) == len(selected):
+        rec_kind = " (an .rrd not written by tfrec?)" if rec.format == "rrd" and not rec.topics else ""
+        raise RecordingError(f"{where}: no {_listed(absent)} in the recording{rec_kind}; nothing to replay")
+    if topics is not None and absent:
+        warnings.warn(f"{where}: no {', '.join(absent)} in the recording", stacklevel=2)
+    origin = data_start_ns(rec) or 0
+    last = _data_end_ns(rec)
+    if start_s is not None and origin + round(start_s * 1e9) > (origin if last is None else last):
+        end = 0.0 if last is None else (last - origin) / 1e9
+        damaged = "" if rec.read_error is None else f"; the file is damaged: {rec.read_error}"
+        raise RecordingError(f"{where}: --start {start_s:g} s is beyond the recording's end ({end:g} s){damaged}")
     if robot is None:
         robot = _robot_of(rec.robot_description, where, required=need_robot)
+        if rec.robot_description is None and not need_robot:
+            what = ("TF is replayed without robot geometry" if _has(rec, TF) or _has(rec, TF_STATIC)
+                    else "only the joint positions are replayed, with no robot model to move")
+            warnings.warn(f"{where}: no /robot_description in the recording and no --robot: {what} "
+                          "(give --robot FILE)", stacklevel=2)
     description = None
     if ROBOT_DESCRIPTION in selected:
         description = robot.urdf if robot is not None and robot.urdf else rec.robot_description
@@ -315,34 +386,35 @@ def load_replay(
     if robot is not None:
         prefix = detect_frame_prefix(robot, [f for pair in list(recorded_static) + list(recorded_tf) for f in pair])
 
-    firsts = [int(s.time_ns[0]) for s in rec.tf.values() if len(s)]
-    if rec.joint_states is not None and len(rec.joint_states):
-        firsts.append(int(rec.joint_states.time_ns[0]))
-    origin = min(firsts) if firsts else (rec.start_ns or 0)
     lo = origin + (0 if start_s is None else round(start_s * 1e9))
     hi = int(np.iinfo(np.int64).max) if end_s is None else origin + round(end_s * 1e9)
 
+    had_samples = any(len(s) for s in recorded_tf.values()) or (joint_states is not None and len(joint_states) > 0)
     static = recorded_static
     tf = {pair: _cut_series(series, lo, hi) for pair, series in recorded_tf.items()}
     if joint_states is not None:
         rows = (joint_states.time_ns >= lo) & (joint_states.time_ns <= hi)
         if not rows.all():
             joint_states = JointStates(joint_states.time_ns[rows], joint_states.names, joint_states.positions[rows])
-    derived: set[Pair] = set()
+    latched: dict[Pair, tuple[Array, Array]] = {}
+    computed: dict[Pair, FrameSeries] = {}
     if robot is not None:
         covered = {child for _, child in list(recorded_static) + list(recorded_tf)}
         latched, computed = _transforms_not_recorded(robot, prefix, covered, joint_states, where)
         static.update(latched)
         tf.update(computed)
-        derived.update(latched)
-        derived.update(computed)
     stamps = [s.time_ns for s in tf.values() if len(s)]
     if joint_states is not None and len(joint_states):
         stamps.append(joint_states.time_ns)
     start_ns = min(int(s[0]) for s in stamps) if stamps else None
     end_ns = max(int(s[-1]) for s in stamps) if stamps else None
+    if start_ns is None and had_samples:
+        window = f"from {start_s or 0:g} s to " + ("the end" if end_s is None else f"{end_s:g} s")
+        warnings.warn(f"{where}: no /joint_states or /tf sample {window}; only latched data is replayed",
+                      stacklevel=2)
     return Replay(
         path=where, format=rec.format, robot=robot, robot_description=description, frame_prefix=prefix,
-        static=static, tf=tf, joint_states=joint_states, derived=frozenset(derived), origin_ns=origin,
-        start_ns=start_ns, end_ns=end_ns, read_error=rec.read_error,
+        static=static, tf=tf, joint_states=joint_states, derived_static=frozenset(latched),
+        derived_dynamic=frozenset(computed), origin_ns=origin, start_ns=start_ns, end_ns=end_ns,
+        read_error=rec.read_error,
     )

@@ -216,8 +216,8 @@ def check_replay(replay: Replay, *, pos_tol: float = DEFAULT_POS_TOL, rot_tol: f
                              "the recording); give --robot FILE")
     if replay.joint_states is None or not len(replay.joint_states):
         raise RecordingError(f"{replay.path}: no /joint_states to re-simulate")
-    recorded_tf = {pair: s for pair, s in replay.tf.items() if pair not in replay.derived and len(s)}
-    recorded_static = {pair: v for pair, v in replay.static.items() if pair not in replay.derived}
+    recorded_tf = {pair: s for pair, s in replay.tf.items() if pair not in replay.derived_dynamic and len(s)}
+    recorded_static = {pair: v for pair, v in replay.static.items() if pair not in replay.derived_static}
     if not recorded_tf:
         raise RecordingError(f"{replay.path}: no /tf to compare the re-simulation with")
     checker = _Checker(replay)

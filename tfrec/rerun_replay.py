@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import socket
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -34,7 +35,13 @@ from .kinematics import Transforms
 from .model import Robot
 from .rerun_io import APPLICATION_ID, RerunSink, pair_entity, static_pair_entity
 
-__all__ = ["RerunReplaySink", "check_can_spawn", "open_rerun_sink", "pair_entity", "static_pair_entity"]
+__all__ = ["RerunReplaySink", "check_can_connect", "check_can_spawn", "open_rerun_sink", "pair_entity",
+           "static_pair_entity"]
+
+_SCHEMES = ("rerun", "rerun+http", "rerun+https")
+"""The URL schemes of a Rerun viewer's gRPC endpoint."""
+CONNECT_TIMEOUT_S = 3.0
+"""How long :func:`check_can_connect` waits for the viewer to accept a connection."""
 
 Array = NDArray[np.float64]
 Pair = tuple[str, str]
@@ -135,12 +142,14 @@ def open_rerun_sink(
         port: where a spawned viewer listens; a viewer already listening there is reused.
 
     Raises:
-        RecordingError: the file cannot be created, the URL is malformed, or no viewer can be
-            started (no display, or no ``rerun`` executable).
+        RecordingError: the file cannot be created, the URL is malformed, nothing listens at
+            it, or no viewer can be started (no display, or no ``rerun`` executable).
     """
     if save is not None:
         return RerunReplaySink(RerunSink(save, robot=robot, recording_id=recording_id, frame_prefix=frame_prefix,
                                          package_paths=package_paths), live=False)
+    if connect is not None:
+        check_can_connect(connect)
     stream = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id)
     if connect is not None:
         try:
@@ -161,6 +170,38 @@ def open_rerun_sink(
     sink = RerunSink.from_stream(stream, target=target, robot=robot, frame_prefix=frame_prefix,
                                  package_paths=package_paths)
     return RerunReplaySink(sink, live=True)
+
+
+def check_can_connect(url: str) -> None:
+    """Check that something accepts connections at a viewer's URL, before anything is sent.
+
+    Rerun connects in the background and, when nothing listens, logs its own retries to stderr
+    for several seconds before giving up; a plain TCP connection fails at once. A URL without a
+    port is left to Rerun.
+
+    Raises:
+        RecordingError: a URL that is not ``rerun+http://host:port/proxy`` (or ``rerun://``,
+            ``rerun+https://``), or nothing accepting connections at its host and port.
+    """
+    from urllib.parse import urlsplit
+
+    try:
+        parts = urlsplit(url)
+        host, port = parts.hostname, parts.port
+    except ValueError as err:
+        raise RecordingError(f"{url}: not a Rerun viewer address ({err})") from None
+    if parts.scheme not in _SCHEMES or not host:
+        raise RecordingError(f"{url}: not a Rerun viewer address "
+                             "(expected rerun+http://host:port/proxy, rerun+https:// or rerun://)")
+    if port is None:
+        return
+    try:
+        with socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S):
+            pass
+    except OSError as err:
+        reason = "timed out" if isinstance(err, TimeoutError) else err.strerror or str(err)
+        raise RecordingError(f"cannot connect to the Rerun viewer at {url}: {reason} "
+                             "(is the viewer running? start it with `rerun`, or use --save OUT.rrd)") from None
 
 
 def check_can_spawn() -> None:

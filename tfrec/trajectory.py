@@ -158,7 +158,7 @@ def make_trajectory(
         raise TrajectoryError(f"seed {seed!r} is not a non-negative integer")
     if isinstance(kind, str) and kind in TrajectoryKind._value2member_map_:
         which = TrajectoryKind(kind)
-        if which in (TrajectoryKind.RANDOM, TrajectoryKind.SINE) and period_s * rate_hz < 1.0:
+        if which in (TrajectoryKind.RANDOM, TrajectoryKind.SINE) and period_s * rate_hz < 1.0 - 1e-12:
             raise TrajectoryError(
                 f"period {period_s!r} s is shorter than the sample interval {1.0 / rate_hz:g} s of {rate_hz:g} Hz"
             )
