@@ -84,13 +84,13 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  {samples:,} joint states x {len(rec_a.joint_states.names)} joints, "  # type: ignore[union-attr]
           f"{samples:,} x {frames} transforms = {samples * frames:,} transforms per file; "
           f"{(read_a + read_b) / 2 / (2 * samples) * 1e6:.1f} µs per message")
-    cmp_ab, report = _timed("compare A, B (already read)", lambda: compare(rec_a, rec_b))
+    _, report = _timed("compare A, B (already read)", lambda: compare(rec_a, rec_b))
     print(f"  verdict: {report.verdict}")  # type: ignore[attr-defined]
     total, report = _timed("whole diff A B (read both + compare)", lambda: compare(a, b))
     print(f"  verdict: {report.verdict}")  # type: ignore[attr-defined]
     rec_c = read_recording(c)
-    cmp_ac, report = _timed("compare A (100 Hz), C (50 Hz, interpolated at A's times)",
-                            lambda: compare(rec_a, rec_c, pos_tol=1e-3, rot_tol=1e-2, joint_tol=1e-2))
+    _, report = _timed("compare A (100 Hz), C (50 Hz, interpolated at A's times)",
+                       lambda: compare(rec_a, rec_c, pos_tol=1e-3, rot_tol=1e-2, joint_tol=1e-2))
     print(f"  verdict: {report.verdict}; largest: " + ", ".join(  # type: ignore[attr-defined]
         f"{k} {v.value:.2g}" for k, v in report.largest.items()))  # type: ignore[attr-defined]
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024

@@ -10,11 +10,11 @@ from typing import Any
 
 import numpy as np
 
-from tfrec.readers import Recording
 from tfrec.description import load_description
 from tfrec.kinematics import Transforms, iter_dynamic_chunks, static_transforms
 from tfrec.mcap_io import DEFAULT_START_TIME_NS, McapSink
 from tfrec.model import Robot
+from tfrec.readers import Recording
 from tfrec.trajectory import JointTrajectory, make_trajectory
 
 from .conftest import ROBOTS

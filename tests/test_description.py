@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import math
-import warnings
 import re
 import textwrap
+import warnings
 from pathlib import Path
 
 import pytest
@@ -384,10 +384,9 @@ def test_axis_is_normalized_and_materials_resolve() -> None:
 )
 def test_endless_recursion_is_one_line(tmp_path: Path, body: str) -> None:
     f = _write(tmp_path, "self.xacro", f'<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">{body}</robot>')
-    with pytest.raises(DescriptionError, match=r"self\.xacro: xacro recursion too deep"):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # the legacy call warns before it recurses
-            load_description(f)
+    with pytest.raises(DescriptionError, match=r"self\.xacro: xacro recursion too deep"), warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the legacy call warns before it recurses
+        load_description(f)
 
 
 def test_paths_from_the_root_folder_stay_absolute(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 
 from tfrec import cli
-from tfrec.readers import FrameSeries, JointStates, Recording, TopicInfo, read_recording
 from tfrec.diff import FLOAT32_TOL, assert_recordings_match, compare, rotation_error
 from tfrec.errors import RecordingError
 from tfrec.kinematics import Transforms
 from tfrec.mcap_io import DEFAULT_START_TIME_NS
 from tfrec.model import Robot
+from tfrec.readers import FrameSeries, JointStates, Recording, TopicInfo, read_recording
 from tfrec.rotations import quaternion_from_axis_angle, quaternion_multiply
 from tfrec.trajectory import JointTrajectory
 from tfrec.urdf_diff import diff_urdf_texts
@@ -286,7 +286,7 @@ def test_changed_joint_origin_is_a_change_of_that_joint(tmp_path: Path, marm: Ro
     joint2 = marm.joint_by_name["joint2"]
     old = " ".join(f"{v:g}" for v in joint2.origin.xyz)
     text = marm.urdf
-    match = re.search(r'<joint name="joint2".*?</joint>', text, re.S)
+    match = re.search(r'<joint name="joint2".*?</joint>', text, re.DOTALL)
     assert match is not None
     element = re.sub(r'xyz="[^"]*"', 'xyz="-0.1 0 0.01"', match.group(0), count=1)
     changed = text[: match.start()] + element + text[match.end():]

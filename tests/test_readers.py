@@ -11,11 +11,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tfrec.readers import JointStates, Recording, read_recording, recording_format
 from tfrec.errors import RecordingError
 from tfrec.kinematics import iter_dynamic_chunks, static_transforms
 from tfrec.mcap_io import DEFAULT_CHUNK_BYTES, DEFAULT_START_TIME_NS, McapSink, message_definition
 from tfrec.model import Robot
+from tfrec.readers import JointStates, Recording, read_recording, recording_format
 from tfrec.ros_decode import JointStateAccumulator, TFAccumulator, message_layout
 from tfrec.trajectory import JointTrajectory, make_trajectory
 

@@ -3,7 +3,6 @@ TF computed from joint logs, ``--check`` re-simulation, pacing on a fake clock, 
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import subprocess

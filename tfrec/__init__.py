@@ -11,22 +11,22 @@ from typing import TYPE_CHECKING, Any
 __version__ = "0.1.0"
 
 __all__ = [
-    "__version__",
-    "TfrecError",
     "DescriptionError",
-    "TrajectoryError",
-    "KinematicsError",
-    "RecordingError",
-    "Robot",
     "Joint",
     "JointType",
+    "KinematicsError",
     "Link",
-    "load_description",
-    "parse_urdf",
-    "make_trajectory",
-    "read_recording",
-    "compare",
+    "RecordingError",
+    "Robot",
+    "TfrecError",
+    "TrajectoryError",
+    "__version__",
     "assert_recordings_match",
+    "compare",
+    "load_description",
+    "make_trajectory",
+    "parse_urdf",
+    "read_recording",
 ]
 
 from .errors import DescriptionError, KinematicsError, RecordingError, TfrecError, TrajectoryError

@@ -61,9 +61,9 @@ def _build_parser() -> argparse.ArgumentParser:
                     "and link/joint tree with joint types, axes and limits.",
     )
     _add_robot_arguments(inspect)
-    out = inspect.add_mutually_exclusive_group()
-    out.add_argument("--urdf", action="store_true", help="print the expanded URDF")
-    out.add_argument("--json", action="store_true", help="print the model as JSON")
+    printed = inspect.add_mutually_exclusive_group()
+    printed.add_argument("--urdf", action="store_true", help="print the expanded URDF")
+    printed.add_argument("--json", action="store_true", help="print the model as JSON")
     inspect.set_defaults(handler=_cmd_inspect)
 
     rec = sub.add_parser(
@@ -263,7 +263,7 @@ def _cmd_record(ns: argparse.Namespace) -> int:
 
     if ns.start_time is not None and not (math.isfinite(ns.start_time) and ns.start_time >= 0):
         raise TrajectoryError(f"--start-time {ns.start_time} is not a time since the epoch in seconds")
-    start_ns = DEFAULT_START_TIME_NS if ns.start_time is None else int(round(ns.start_time * 1e9))
+    start_ns = DEFAULT_START_TIME_NS if ns.start_time is None else round(ns.start_time * 1e9)
     robot = _load_robot(ns)
     trajectory = make_trajectory(
         robot, ns.traj, duration_s=ns.duration, rate_hz=ns.rate, seed=ns.seed, period_s=ns.period,

@@ -37,14 +37,14 @@ from .errors import RecordingError
 from .readers import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC, FrameSeries, Recording, read_recording
 
 __all__ = [
+    "DEFAULT_JOINT_TOL",
     "DEFAULT_POS_TOL",
     "DEFAULT_ROT_TOL",
-    "DEFAULT_JOINT_TOL",
     "FLOAT32_TOL",
-    "Difference",
     "DiffReport",
-    "compare",
+    "Difference",
     "assert_recordings_match",
+    "compare",
     "data_start_ns",
     "rotation_error",
 ]
@@ -93,7 +93,8 @@ def rotation_error(qa: Array, qb: Array) -> Array:
     vb, wb = qb[..., :3], qb[..., 3:4]
     v = wa * vb - wb * va - np.cross(va, vb)
     w = (wa * wb)[..., 0] + np.einsum("...i,...i->...", va, vb)
-    return 2.0 * np.arctan2(np.linalg.norm(v, axis=-1), np.abs(w))
+    angle: Array = 2.0 * np.arctan2(np.linalg.norm(v, axis=-1), np.abs(w))  # numpy types einsum and norm as Any
+    return angle
 
 
 def _slerp(q0: Array, q1: Array, frac: Array) -> Array:
@@ -110,7 +111,8 @@ def _slerp(q0: Array, q1: Array, frac: Array) -> Array:
     w0 = np.where(small, 1.0 - frac, np.sin((1.0 - frac) * theta) / safe)
     w1 = np.where(small, frac, np.sin(frac * theta) / safe)
     out = w0[:, None] * q0 + w1[:, None] * q1
-    return out / np.linalg.norm(out, axis=-1, keepdims=True)
+    unit: Array = out / np.linalg.norm(out, axis=-1, keepdims=True)  # numpy types norm(axis=...) as Any
+    return unit
 
 
 @dataclass

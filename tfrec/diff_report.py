@@ -8,7 +8,7 @@ from typing import Any
 
 from .readers import Recording
 
-__all__ = ["Difference", "Largest", "DiffReport", "format_time", "at_time"]
+__all__ = ["DiffReport", "Difference", "Largest", "at_time", "format_time"]
 
 _KIND_TITLES = {
     "description": "robot description",

@@ -7,11 +7,11 @@ Library code raises these and never prints; the CLI turns them into one line
 from __future__ import annotations
 
 __all__ = [
-    "TfrecError",
     "DescriptionError",
-    "TrajectoryError",
     "KinematicsError",
     "RecordingError",
+    "TfrecError",
+    "TrajectoryError",
 ]
 
 

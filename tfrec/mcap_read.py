@@ -35,7 +35,7 @@ from .bag_metadata import qos_durability
 from .errors import RecordingError
 from .recorded import Collector, Recording, deserializer
 
-__all__ = ["read_mcap", "MCAP_MAGIC"]
+__all__ = ["MCAP_MAGIC", "read_mcap"]
 
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 _BATCH = 32768
@@ -71,7 +71,7 @@ class _Truncated(Exception):
 
 
 class _Channel:
-    __slots__ = ("topic", "type", "decoded", "durability", "count", "first", "last", "datas")
+    __slots__ = ("count", "datas", "decoded", "durability", "first", "last", "topic", "type")
 
     def __init__(self, topic: str, msgtype: str, decoded: bool, durability: str | None) -> None:
         self.topic = topic
@@ -87,7 +87,7 @@ class _Channel:
 class _Damage:
     """A skipped (or partly read) chunk in the middle of the file."""
 
-    __slots__ = ("start", "problem", "recovered", "indexed")
+    __slots__ = ("indexed", "problem", "recovered", "start")
 
     def __init__(self, start: int, problem: str, recovered: int) -> None:
         self.start = start

@@ -9,23 +9,22 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from enum import Enum
 from functools import cached_property
-from typing import Union
 
 __all__ = [
-    "JointType",
-    "Pose",
-    "Limit",
-    "Mimic",
-    "Joint",
     "Box",
     "Cylinder",
-    "Sphere",
-    "Mesh",
     "Geometry",
-    "Material",
-    "Visual",
+    "Joint",
+    "JointType",
+    "Limit",
     "Link",
+    "Material",
+    "Mesh",
+    "Mimic",
+    "Pose",
     "Robot",
+    "Sphere",
+    "Visual",
 ]
 
 Vec3 = tuple[float, float, float]
@@ -119,7 +118,7 @@ class Mesh:
     scale: Vec3 = (1.0, 1.0, 1.0)
 
 
-Geometry = Union[Box, Cylinder, Sphere, Mesh]
+Geometry = Box | Cylinder | Sphere | Mesh
 
 
 @dataclass(frozen=True, slots=True)

@@ -53,16 +53,16 @@ from .rosbag1_read import ROS1_MAGIC, read_rosbag1_records, ros1_compression
 from .rrd_read import RRD_MAGIC, read_rrd
 
 __all__ = [
-    "TopicInfo",
-    "JointStates",
-    "FrameSeries",
-    "Recording",
-    "read_recording",
-    "recording_format",
     "JOINT_STATES",
+    "ROBOT_DESCRIPTION",
     "TF",
     "TF_STATIC",
-    "ROBOT_DESCRIPTION",
+    "FrameSeries",
+    "JointStates",
+    "Recording",
+    "TopicInfo",
+    "read_recording",
+    "recording_format",
 ]
 
 _BATCH = 32768

@@ -19,17 +19,17 @@ from .errors import RecordingError
 from .ros_decode import JointStateAccumulator, TFAccumulator, transforms_of
 
 __all__ = [
-    "TopicInfo",
-    "JointStates",
-    "FrameSeries",
-    "Recording",
-    "Collector",
-    "deserializer",
+    "DECODED_TOPICS",
     "JOINT_STATES",
+    "ROBOT_DESCRIPTION",
     "TF",
     "TF_STATIC",
-    "ROBOT_DESCRIPTION",
-    "DECODED_TOPICS",
+    "Collector",
+    "FrameSeries",
+    "JointStates",
+    "Recording",
+    "TopicInfo",
+    "deserializer",
 ]
 
 Array = NDArray[np.float64]

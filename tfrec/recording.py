@@ -25,8 +25,8 @@ from .trajectory import JointTrajectory
 
 __all__ = [
     "DEFAULT_START_TIME_NS",
-    "RecordingPlan",
     "RecordResult",
+    "RecordingPlan",
     "default_stem",
     "plan_outputs",
     "record",

@@ -21,12 +21,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
-    "MessageLayout",
-    "message_layout",
     "JointStateAccumulator",
+    "MessageLayout",
     "TFAccumulator",
-    "transforms_of",
+    "message_layout",
     "stamp_ns",
+    "transforms_of",
 ]
 
 Array = NDArray[np.float64]
@@ -125,7 +125,7 @@ class _Walker:
                              np.frombuffer(self.data, dtype=np.uint8))
 
 
-def message_layout(kind: str, data: bytes, *, ros1: bool) -> MessageLayout:
+def message_layout(kind: str, data: bytes | memoryview, *, ros1: bool) -> MessageLayout:
     """The layout of one ``TFMessage`` (kind ``"tf"``) or ``JointState`` (kind ``"joint_states"``).
 
     Raises:
@@ -177,7 +177,7 @@ def _split(
     if len(same) == len(datas):
         rows = _rows(datas, layout.size)
     else:
-        rows = _rows([datas[i] for i in same], layout.size)
+        rows = _rows([datas[i] for i in same.tolist()], layout.size)
     ok = np.ones(len(rows), dtype=bool)
     for start, stop in layout.fixed:
         ok &= (rows[:, start:stop] == layout.template[start:stop]).all(axis=1)
@@ -392,7 +392,7 @@ class TFAccumulator(_Accumulator):
 
 def transforms_of(msg: Any) -> list[tuple[tuple[str, str], int, tuple[float, ...]]]:
     """((parent, child), stamp_ns, (tx, ty, tz, qx, qy, qz, qw)) of each transform of a deserialized TFMessage."""
-    out = []
+    out: list[tuple[tuple[str, str], int, tuple[float, ...]]] = []
     for tf in msg.transforms:
         t, r = tf.transform.translation, tf.transform.rotation
         out.append(((tf.header.frame_id, tf.child_frame_id), stamp_ns(tf.header.stamp),

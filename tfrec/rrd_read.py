@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from .errors import RecordingError
 from .recorded import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC, FrameSeries, JointStates, Recording, TopicInfo
 
-__all__ = ["read_rrd", "RRD_MAGIC"]
+__all__ = ["RRD_MAGIC", "read_rrd"]
 
 Array = NDArray[np.float64]
 

@@ -12,10 +12,12 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any, TypeVar
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .errors import DescriptionError
 from .model import Joint, Limit, Link, Mimic, Pose, Robot, Visual
@@ -23,6 +25,8 @@ from .rotations import quaternion_from_rpy
 from .urdf_parse import parse_urdf
 
 __all__ = ["ElementChange", "diff_robots", "diff_urdf_texts", "rotation_angle"]
+
+_Element = TypeVar("_Element", Link, Joint)
 
 
 @dataclass(frozen=True, slots=True)
@@ -60,7 +64,7 @@ def rotation_angle(rpy_a: Sequence[float], rpy_b: Sequence[float]) -> float:
     return float(2.0 * math.acos(min(1.0, abs(float(np.dot(qa, qb))))))
 
 
-def _differs(a: Sequence[float], b: Sequence[float], tol: float) -> bool:
+def _differs(a: Sequence[float] | NDArray[Any], b: Sequence[float] | NDArray[Any], tol: float) -> bool:
     return bool(np.max(np.abs(np.subtract(a, b))) > tol) if len(a) else False
 
 
@@ -117,7 +121,7 @@ class _Comparer:
         if type(a.geometry) is not type(b.geometry):
             out.append(f"{label} geometry {type(a.geometry).__name__.lower()} → {type(b.geometry).__name__.lower()}")
         else:
-            for name in a.geometry.__slots__:  # type: ignore[union-attr]
+            for name in a.geometry.__slots__:
                 va, vb = getattr(a.geometry, name), getattr(b.geometry, name)
                 if isinstance(va, str):
                     if va != vb:
@@ -163,26 +167,33 @@ def diff_robots(
     out: list[ElementChange] = []
     if a.name != b.name:
         out.append(ElementChange("robot name", f"robot name '{a.name}' → '{b.name}'"))
-    for kind, items_a, items_b, compare in (
-        ("link", a.link_by_name, b.link_by_name, cmp.link),
-        ("joint", a.joint_by_name, b.joint_by_name, cmp.joint),
-    ):
-        for name, item in items_a.items():
+    out += _diff_elements("link", a.link_by_name, b.link_by_name, cmp.link)
+    out += _diff_elements("joint", a.joint_by_name, b.joint_by_name, cmp.joint)
+    return out
+
+
+def _diff_elements(
+    kind: str, items_a: Mapping[str, _Element], items_b: Mapping[str, _Element],
+    compare: Callable[[_Element, _Element], list[str]],
+) -> list[ElementChange]:
+    """The ``kind`` elements removed or changed, in ``a``'s order, then those added, in ``b``'s."""
+    out: list[ElementChange] = []
+    for name, item in items_a.items():
+        what = f"{kind} '{name}'"
+        other = items_b.get(name)
+        if other is None:
+            out.append(ElementChange(what, f"{what} removed (only in A)"))
+            continue
+        changes = compare(item, other)
+        if changes:
+            out.append(ElementChange(what, f"{what} changed: " + "; ".join(changes)))
+    for name, item in items_b.items():
+        if name not in items_a:
             what = f"{kind} '{name}'"
-            other = items_b.get(name)
-            if other is None:
-                out.append(ElementChange(what, f"{what} removed (only in A)"))
-                continue
-            changes = compare(item, other)  # type: ignore[operator]
-            if changes:
-                out.append(ElementChange(what, f"{what} changed: " + "; ".join(changes)))
-        for name, item in items_b.items():
-            if name not in items_a:
-                what = f"{kind} '{name}'"
-                extra = ""
-                if isinstance(item, Joint):
-                    extra = f" ({item.type.value}, {item.parent} → {item.child})"
-                out.append(ElementChange(what, f"{what} added (only in B){extra}"))
+            extra = ""
+            if isinstance(item, Joint):
+                extra = f" ({item.type.value}, {item.parent} → {item.child})"
+            out.append(ElementChange(what, f"{what} added (only in B){extra}"))
     return out
 
 

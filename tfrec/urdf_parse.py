@@ -321,7 +321,7 @@ def _check_tree(p: _Parser, robot: str, links: list[Link], joints: list[Joint],
     unreached = [link.name for link in links if link.name not in reached]
     if unreached:
         order = {joint.name: i for i, joint in enumerate(joints)}
-        cycle = sorted((joint_by_child[name].name for name in unreached if name in joint_by_child), key=order.get)
+        cycle = sorted((joint_by_child[name].name for name in unreached if name in joint_by_child), key=order.__getitem__)
         raise p.fail(elem_of(cycle[0]) if cycle else None,
                      f"joints {', '.join(repr(c) for c in cycle)} form a cycle (links "
                      f"{', '.join(unreached)} are not reachable from root '{roots[0]}')")

@@ -27,7 +27,7 @@ from typing import Any
 from .errors import DescriptionError
 from .packages import PackageFinder
 
-__all__ = ["expand_xacro", "display_path"]
+__all__ = ["display_path", "expand_xacro"]
 
 _LOCK = threading.Lock()  # xacro keeps module-level state: one expansion at a time
 
@@ -181,8 +181,9 @@ def _where(xacro: Any, filename: str) -> str:
 
 def _xacro_message(err: Exception) -> str:
     message = " ".join(str(err).split())
-    if getattr(err, "macros", None):
-        names = [m.body.getAttribute("name") for m in err.macros if getattr(m, "body", None) is not None]
+    macros = getattr(err, "macros", None)
+    if macros:
+        names = [m.body.getAttribute("name") for m in macros if getattr(m, "body", None) is not None]
         if names:
             message += f" (in macro {' < '.join(names)})"
     return message
