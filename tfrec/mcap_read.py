@@ -33,7 +33,7 @@ from typing import IO, Any, NamedTuple
 
 from .bag_metadata import qos_durability
 from .errors import RecordingError
-from .recorded import Collector, Recording, deserializer
+from .recorded import Collector, ReadStopped, Recording, deserializer, with_article
 
 __all__ = ["MCAP_MAGIC", "read_mcap"]
 
@@ -55,19 +55,6 @@ _CHUNK_HEAD = struct.Struct("<QQQII")  # start time, end time, uncompressed size
 _FOOTER = struct.Struct("<BQQQI")  # opcode, length, summary start, summary offset start, summary CRC
 _STATISTICS = struct.Struct("<QHIIIIQQ")  # message count, schema … chunk counts, message start and end time
 _COMPRESSIONS = ("", "zstd", "lz4")
-
-
-def _a(what: str) -> str:
-    return f"a{'n' if what[0] in 'aeiou' else ''} {what}"
-
-
-class _Truncated(Exception):
-    """Reading stopped: the file ends (or is damaged) at ``offset``."""
-
-    def __init__(self, offset: int, reason: str) -> None:
-        super().__init__(reason)
-        self.offset = offset
-        self.reason = reason
 
 
 class _Channel:
@@ -216,7 +203,7 @@ class _McapReader:
     def read(self, size: int, what: str) -> bytes:
         data = self.stream.read(size)
         if len(data) < size:
-            raise _Truncated(self.offset, f"the file ends inside {_a(what)} record")
+            raise ReadStopped(self.offset, f"the file ends inside {with_article(what)} record")
         self.offset += size
         return data
 
@@ -225,9 +212,9 @@ class _McapReader:
         while True:
             head = self.stream.read(9)
             if not head:
-                raise _Truncated(self.offset, "the file ends without a footer")
+                raise ReadStopped(self.offset, "the file ends without a footer")
             if len(head) < 9:
-                raise _Truncated(self.offset, "the file ends inside a record header")
+                raise ReadStopped(self.offset, "the file ends inside a record header")
             record_start = self.offset
             self.offset += 9
             opcode, length = _RECORD.unpack(head)
@@ -235,13 +222,13 @@ class _McapReader:
             if opcode in (_OP_FOOTER, _OP_DATA_END):
                 return  # the summary section repeats what the data section had
             if opcode == 0 or 0x10 <= opcode < 0x80:  # reserved: not a record, the framing is lost
-                raise _Truncated(record_start, f"a damaged record (opcode 0x{opcode:02x})")
+                raise ReadStopped(record_start, f"a damaged record (opcode 0x{opcode:02x})")
             if self.offset + length > self.size:
                 if opcode == _OP_CHUNK:
                     recovered = self._cut_chunk(self.stream.read())
                     reason = f"the file ends inside a chunk record (recovered {recovered:,} messages of it)"
-                    raise _Truncated(self.size, reason)
-                raise _Truncated(self.offset, f"the file ends inside {_a(what)} record")
+                    raise ReadStopped(self.size, reason)
+                raise ReadStopped(self.offset, f"the file ends inside {with_article(what)} record")
             if opcode != _OP_MESSAGE_INDEX:
                 self._indexing = None
             if opcode == _OP_CHUNK:
@@ -251,7 +238,7 @@ class _McapReader:
                 try:
                     self._record(memoryview(self.read(length, what)), opcode, 0, length)
                 except (struct.error, ValueError, UnicodeDecodeError) as err:
-                    raise _Truncated(record_start, f"a damaged {what} record ({err})") from None
+                    raise ReadStopped(record_start, f"a damaged {what} record ({err})") from None
                 if self.pending >= _BATCH:
                     self.flush()
             elif opcode == _OP_HEADER:
@@ -351,7 +338,7 @@ class _McapReader:
                 elif opcode in (_OP_SCHEMA, _OP_CHANNEL):
                     self._record(view, opcode, pos, length)
                 elif opcode < 0x80:  # 0x80 and up: private records
-                    return f"{_a(_RECORD_NAMES.get(opcode, f'opcode 0x{opcode:02x}'))} record inside the chunk"
+                    return f"{with_article(_RECORD_NAMES.get(opcode, f'opcode 0x{opcode:02x}'))} record inside the chunk"
                 pos += length
         except (struct.error, ValueError, UnicodeDecodeError) as err:
             return f"a damaged record ({err})"
@@ -521,10 +508,10 @@ def read_mcap(path: Path, wanted: frozenset[str]) -> Recording:
         with open(path, "rb") as stream:
             size = os.fstat(stream.fileno()).st_size
             reader = _McapReader(stream, collector, where, size)
-            stop: _Truncated | None = None
+            stop: ReadStopped | None = None
             try:
                 reader.run()
-            except _Truncated as err:
+            except ReadStopped as err:
                 stop = err
             if not reader.channels and reader.damage:
                 raise RecordingError(f"{where}: unreadable MCAP: {reader.damage_summary()}")

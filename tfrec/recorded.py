@@ -42,6 +42,20 @@ DECODED_TOPICS = frozenset((ROBOT_DESCRIPTION, TF_STATIC, JOINT_STATES, TF))
 """The topics whose messages are decoded; every other topic is only counted."""
 
 
+class ReadStopped(Exception):
+    """Raised inside a reader: reading stopped at byte ``offset`` of a damaged file, for ``reason``."""
+
+    def __init__(self, offset: int, reason: str) -> None:
+        super().__init__(reason)
+        self.offset = offset
+        self.reason = reason
+
+
+def with_article(what: str) -> str:
+    """``"chunk record"`` → ``"a chunk record"``, ``"index"`` → ``"an index"``."""
+    return f"a{'n' if what[0] in 'aeiou' else ''} {what}"
+
+
 @dataclass(frozen=True, slots=True)
 class TopicInfo:
     """One topic of a recording.

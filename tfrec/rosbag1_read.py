@@ -20,7 +20,7 @@ from typing import IO
 
 from .bag_metadata import one_line
 from .errors import RecordingError
-from .recorded import Collector, Recording, deserializer
+from .recorded import Collector, ReadStopped, Recording, deserializer, with_article
 
 __all__ = ["ROS1_MAGIC", "read_rosbag1_records", "ros1_compression"]
 
@@ -31,19 +31,6 @@ _PIECE = 4096
 """Compressed bytes fed at a time when salvaging a cut chunk."""
 _BATCH = 32768
 """Messages of a topic decoded at once."""
-
-
-def _a(what: str) -> str:
-    return f"a{'n' if what[0] in 'aeiou' else ''} {what}"
-
-
-class _Stop(Exception):
-    """Reading stopped at byte ``offset``."""
-
-    def __init__(self, offset: int, reason: str) -> None:
-        super().__init__(reason)
-        self.offset = offset
-        self.reason = reason
 
 
 def _fields(header: bytes | memoryview) -> dict[str, bytes]:
@@ -185,7 +172,7 @@ class _Ros1Reader:
         """Read records up to the end of the file.
 
         Raises:
-            _Stop: the file ends inside a record, or a record is damaged.
+            ReadStopped: the file ends inside a record, or a record is damaged.
         """
         self._read(len(ROS1_MAGIC))
         while True:
@@ -193,38 +180,38 @@ class _Ros1Reader:
             raw = self._read(4)
             if not raw:
                 if not self.indexed:
-                    raise _Stop(start, "the file ends without an index")
+                    raise ReadStopped(start, "the file ends without an index")
                 return
             if len(raw) < 4:
-                raise _Stop(start, "the file ends inside a record")
+                raise ReadStopped(start, "the file ends inside a record")
             (header_len,) = struct.unpack("<I", raw)
             if header_len > self.size:
-                raise _Stop(start, f"a damaged record (header length {header_len:,})")
+                raise ReadStopped(start, f"a damaged record (header length {header_len:,})")
             if start + 4 + header_len + 4 > self.size:
-                raise _Stop(start, "the file ends inside a record")
+                raise ReadStopped(start, "the file ends inside a record")
             try:
                 fields = _fields(self._read(header_len))
                 op = fields["op"][0]
             except (ValueError, KeyError, IndexError) as err:
-                raise _Stop(start, f"a damaged record header ({err})") from None
+                raise ReadStopped(start, f"a damaged record header ({err})") from None
             what = _RECORD_NAMES.get(op, f"op 0x{op:02x}")
             (data_len,) = struct.unpack("<I", self._read(4))
             if self.offset + data_len > self.size:
                 if op == _OP_CHUNK:
                     recovered = self._chunk(fields, self._read(data_len), start, cut=True)
                     reason = f"the file ends inside a chunk record (recovered {recovered:,} messages of it)"
-                    raise _Stop(self.size, reason)
-                raise _Stop(start, f"the file ends inside {_a(what)} record")
+                    raise ReadStopped(self.size, reason)
+                raise ReadStopped(start, f"the file ends inside {with_article(what)} record")
             if op == _OP_CHUNK:
                 self._chunk(fields, self._read(data_len), start, cut=False)
                 continue
             if op not in _RECORD_NAMES:
-                raise _Stop(start, f"a record with unknown op 0x{op:02x}")
+                raise ReadStopped(start, f"a record with unknown op 0x{op:02x}")
             data = self._read(data_len)
             try:
                 self._record(op, fields, data)
             except ValueError as err:
-                raise _Stop(start, f"a damaged {what} record ({err})") from None
+                raise ReadStopped(start, f"a damaged {what} record ({err})") from None
 
     def _record(self, op: int, fields: dict[str, bytes], data: bytes | memoryview) -> None:
         """One record outside or inside a chunk.
@@ -308,7 +295,7 @@ class _Ros1Reader:
                 fields = _fields(view[pos + 4 : pos + 4 + header_len])
                 op = fields["op"][0]
                 if op not in (_OP_MESSAGE, _OP_CONNECTION):
-                    return f"{_a(_RECORD_NAMES.get(op, f'op 0x{op:02x}'))} record inside the chunk"
+                    return f"{with_article(_RECORD_NAMES.get(op, f'op 0x{op:02x}'))} record inside the chunk"
                 self._record(op, fields, view[body : body + data_len])
             except (ValueError, KeyError, IndexError) as err:
                 return f"a damaged record ({err})"
@@ -367,10 +354,10 @@ def read_rosbag1_records(path: Path, wanted: frozenset[str], *, refused: str) ->
         with open(path, "rb") as stream:
             size = os.fstat(stream.fileno()).st_size
             reader = _Ros1Reader(stream, collector, size)
-            stop: _Stop | None = None
+            stop: ReadStopped | None = None
             try:
                 reader.run()
-            except _Stop as err:
+            except ReadStopped as err:
                 stop = err
     except OSError as err:
         raise RecordingError(f"{where}: cannot read: {err.strerror or err}") from None
