@@ -251,3 +251,28 @@ def test_sink_streams_chunk_by_chunk() -> None:
         sizes.append(stream.tell())
     sink.finish()
     assert 0 < sizes[0] < sizes[len(sizes) // 2] < sizes[-1]
+
+
+def test_progress_bar_only_on_a_terminal_and_after_a_second() -> None:
+    from tfrec.cli import _Progress
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    now = [0.0]
+    term = Terminal()
+    bar = _Progress(term, clock=lambda: now[0])
+    bar(10, 100)
+    assert term.getvalue() == ""  # under a second: nothing
+    now[0] = 1.5
+    bar(50, 100)
+    bar(100, 100)
+    bar.close()
+    assert term.getvalue() == ("\r[###############...............]  50% 50/100 samples"
+                               "\r[##############################] 100% 100/100 samples\n")
+    piped = io.StringIO()  # not a terminal: never
+    bar = _Progress(piped, clock=lambda: 10.0)
+    bar(100, 100)
+    bar.close()
+    assert piped.getvalue() == ""

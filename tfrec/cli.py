@@ -11,7 +11,7 @@ import argparse
 import json
 import sys
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, NoReturn, TextIO
 
 from . import __version__
@@ -230,10 +230,10 @@ def _parse_overrides(items: Sequence[str]) -> dict[str, float]:
 class _Progress:
     """A progress bar on stderr, shown only on a terminal and once a recording takes over a second."""
 
-    def __init__(self, stream: TextIO) -> None:
+    def __init__(self, stream: TextIO, *, clock: Callable[[], float] | None = None) -> None:
         import time
 
-        self._clock = time.monotonic
+        self._clock = time.monotonic if clock is None else clock
         self._start = self._clock()
         self._enabled = stream.isatty()
         self._stream = stream
