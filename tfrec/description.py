@@ -11,11 +11,11 @@ import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from .errors import DescriptionError
+from .errors import DescriptionError, display_path
 from .model import Robot
 from .packages import PackageFinder
 from .urdf_parse import parse_urdf
-from .xacro_expand import display_path, expand_xacro
+from .xacro_expand import expand_xacro
 
 __all__ = ["load_description", "parse_urdf", "parse_xacro_args", "read_description_text"]
 

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from tfrec.conventions import STAMP_LIMIT_NS, STAMP_RANGE
 from tfrec.errors import TrajectoryError
 from tfrec.model import Joint, JointType, Robot
 
@@ -50,10 +51,7 @@ __all__ = [
 MAX_SAMPLES = 10_000_000
 """Most samples a generated trajectory may have (1 h at 1 kHz is 3.6 million)."""
 
-TIME_LIMIT_NS = 2**31 * 1_000_000_000
-"""Times must be less than this: ROS 2 stamps hold int32 seconds (the recorder checks start + time)."""
-
-_OUT_OF_RANGE = f"out of range: ROS 2 stamps hold less than {TIME_LIMIT_NS // 1_000_000_000} s"
+_OUT_OF_RANGE = f"out of range: {STAMP_RANGE}"
 
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 """frac(φ) of the golden ratio φ: ``frac(j·φ)`` spreads joints evenly, whatever their number."""
@@ -222,7 +220,7 @@ def sample_times_ns(duration_s: float, rate_hz: float) -> NDArray[np.int64]:
         TrajectoryError: the duration is not below ROS 2's int32 seconds, the rate is above one
             sample per nanosecond, or the samples would be more than :data:`MAX_SAMPLES`.
     """
-    if not duration_s * 1e9 < TIME_LIMIT_NS:
+    if not duration_s * 1e9 < STAMP_LIMIT_NS:
         raise TrajectoryError(f"duration {duration_s!r} s is {_OUT_OF_RANGE}")
     if rate_hz > 1e9:
         raise TrajectoryError(f"rate {rate_hz:g} Hz is more than one sample per nanosecond (1e+09 Hz)")
@@ -234,7 +232,7 @@ def sample_times_ns(duration_s: float, rate_hz: float) -> NDArray[np.int64]:
     count = int(duration_ns * rate_hz / 1e9) + 2  # one past the end, dropped below
     with np.errstate(over="ignore"):  # that one may overflow at a tiny rate
         candidates = np.rint(np.arange(count, dtype=np.float64) * 1e9 / rate_hz)
-    time_ns = candidates[candidates < TIME_LIMIT_NS].astype(np.int64)
+    time_ns = candidates[candidates < STAMP_LIMIT_NS].astype(np.int64)
     return time_ns[time_ns <= duration_ns]
 
 

@@ -23,9 +23,10 @@ from typing import IO
 
 import numpy as np
 
+from tfrec.conventions import STAMP_LIMIT_NS, STAMP_RANGE
 from tfrec.errors import TrajectoryError
 from tfrec.model import JointType, Robot
-from tfrec.trajectory import TIME_LIMIT_NS, JointTrajectory, center_positions, joint_bounds
+from tfrec.trajectory import JointTrajectory, center_positions, joint_bounds
 
 __all__ = ["read_csv_trajectory"]
 
@@ -44,7 +45,7 @@ def read_csv_trajectory(
     """Read a trajectory from CSV: a ``time`` column in seconds and one column per joint.
 
     Samples are at the file's own times (``time_ns = round(time * 1e9)``, which must be
-    non-negative, less than :data:`~tfrec.trajectory.TIME_LIMIT_NS` and increasing). A single
+    non-negative, less than :data:`~tfrec.conventions.STAMP_LIMIT_NS` and increasing). A single
     row is a trajectory of one sample. Joints without a column stay at their center (or their
     override). Velocities are ``numpy.gradient`` of the positions over the times (0 for a
     single sample).
@@ -104,11 +105,10 @@ def read_csv_trajectory(
     seconds = values[:, columns.index("time")]
     with np.errstate(over="ignore"):  # beyond float64: inf, refused below
         rounded_ns = np.rint(seconds * 1e9)
-    bad = np.flatnonzero(~((rounded_ns >= 0) & (rounded_ns < TIME_LIMIT_NS)))
+    bad = np.flatnonzero(~((rounded_ns >= 0) & (rounded_ns < STAMP_LIMIT_NS)))
     if bad.size:
         r = bad[0]
-        limit_s = TIME_LIMIT_NS // 1_000_000_000
-        problem = "negative" if seconds[r] < 0 else f"out of range: ROS 2 stamps hold less than {limit_s} s"
+        problem = "negative" if seconds[r] < 0 else f"out of range: {STAMP_RANGE}"
         raise TrajectoryError(f"{name}:{lines[r]}: time {float(seconds[r])!r} is {problem}")
     time_ns = rounded_ns.astype(np.int64)
     stuck = np.flatnonzero(np.diff(time_ns) <= 0)

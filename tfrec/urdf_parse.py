@@ -13,7 +13,7 @@ import xml.etree.ElementTree as ET
 import xml.parsers.expat
 from collections.abc import Callable
 
-from .errors import DescriptionError
+from .errors import DescriptionError, display_path
 from .model import (
     Box,
     Cylinder,
@@ -230,8 +230,6 @@ def parse_urdf(text: str, *, source: str | None = None, user_lines: bool = True)
     Raises:
         DescriptionError: malformed XML or an invalid robot, one line naming the element.
     """
-    from .xacro_expand import display_path
-
     where = display_path(source) if source else "<urdf>"
     root, lines = _parse_xml(text, where)
     p = _Parser(where, lines if user_lines else None)

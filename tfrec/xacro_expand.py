@@ -21,29 +21,14 @@ import threading
 import warnings
 import xml.parsers.expat
 from collections.abc import Iterator, Mapping
-from pathlib import Path
 from typing import Any
 
-from .errors import DescriptionError
+from .errors import DescriptionError, display_path, one_line
 from .packages import PackageFinder
 
-__all__ = ["display_path", "expand_xacro"]
+__all__ = ["expand_xacro"]
 
 _LOCK = threading.Lock()  # xacro keeps module-level state: one expansion at a time
-
-
-def display_path(path: str | os.PathLike[str] | None) -> str:
-    """A path as a user would type it: relative to the working folder when inside it."""
-    if path is None:
-        return "<string>"
-    p = Path(path)
-    cwd = Path.cwd().resolve()
-    if cwd == Path(cwd.anchor):  # from / every path is "relative": keep it as given
-        return str(p)
-    try:
-        return str(p.resolve().relative_to(cwd))
-    except ValueError:
-        return str(p)
 
 
 class _LegacyCall(Exception):
@@ -180,7 +165,7 @@ def _where(xacro: Any, filename: str) -> str:
 
 
 def _xacro_message(err: Exception) -> str:
-    message = " ".join(str(err).split())
+    message = one_line(str(err))
     macros = getattr(err, "macros", None)
     if macros:
         names = [m.body.getAttribute("name") for m in macros if getattr(m, "body", None) is not None]
