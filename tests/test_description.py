@@ -393,3 +393,48 @@ def test_paths_from_the_root_folder_stay_absolute(tmp_path: Path, monkeypatch: p
     monkeypatch.chdir("/")
     with pytest.raises(DescriptionError, match=rf"^{re.escape(str(tmp_path))}/nope\.urdf: no such file$"):
         load_description(tmp_path / "nope.urdf")
+
+
+def test_legacy_expansion_leaves_elements_that_do_not_fit_the_macro(tmp_path: Path) -> None:
+    """A Gazebo <camera> with children beside a 'camera' macro is SDF, not a legacy call; nor is an
+    element missing a required parameter, nor anything inside <gazebo>."""
+    f = _write(tmp_path, "c.xacro", """\
+        <robot name="c" xmlns:xacro="http://www.ros.org/wiki/xacro">
+          <xacro:macro name="camera" params="name"><link name="${name}"/>
+            <joint name="${name}_j" type="fixed"><parent link="base"/><child link="${name}"/></joint>
+          </xacro:macro>
+          <xacro:macro name="mark" params="name size"><link name="${name}"/></xacro:macro>
+          <link name="base"/>
+          <xacro:camera name="cam"/>
+          <gazebo reference="cam">
+            <sensor type="camera" name="camera1"><camera name="head"><horizontal_fov>1.39</horizontal_fov></camera>
+            </sensor>
+            <mark name="sdf_mark" size="1"/>
+          </gazebo>
+        </robot>""")
+    for strict in (False, True):
+        robot = load_description(f, strict_xacro=strict)
+        assert [link.name for link in robot.links] == ["base", "cam"]
+    assert '<camera name="head">' in robot.urdf and '<mark name="sdf_mark" size="1"/>' in robot.urdf
+
+
+def test_relative_package_paths_in_the_environment(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    _pkg(tmp_path / "rel", "rel_pkg")
+    _pkg(tmp_path / "pre" / "share", "ament_rel_pkg")
+    main = _main_file(tmp_path, "rel_pkg")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("ROS_PACKAGE_PATH", "rel")
+    assert load_description(main).links[0].name == "from_rel_pkg"
+    monkeypatch.setenv("AMENT_PREFIX_PATH", "pre")
+    monkeypatch.delenv("ROS_PACKAGE_PATH")
+    assert load_description(_main_file(tmp_path, "ament_rel_pkg")).links[0].name == "from_ament_rel_pkg"
+
+
+def test_two_packages_of_one_name_in_a_folder_warn(tmp_path: Path) -> None:
+    _pkg(tmp_path / "ws", "twin_pkg", folder="a_first")
+    second = _pkg(tmp_path / "ws", "twin_pkg", folder="b_second")
+    (second / "urdf" / "part.xacro").write_text(
+        '<robot xmlns:xacro="http://www.ros.org/wiki/xacro"><link name="from_b"/></robot>')
+    with pytest.warns(UserWarning, match=r"package 'twin_pkg' is in .*a_first and .*b_second; using .*a_first"):
+        robot = load_description(_main_file(tmp_path, "twin_pkg"), package_paths=[tmp_path / "ws"])
+    assert robot.links[0].name == "from_twin_pkg"

@@ -13,6 +13,7 @@ this order (first match wins):
 from __future__ import annotations
 
 import os
+import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
@@ -86,8 +87,12 @@ class PackageFinder:
     ) -> None:
         env = os.environ if environ is None else environ
         self._explicit = [Path(p).expanduser().resolve() for p in package_paths]
-        self._ros_package_path = [Path(p) for p in env.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
-        self._ament_prefixes = [Path(p) for p in env.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
+        # relative entries mean the working folder's, as for ROS tools (resolved now: xacro joins a
+        # relative include onto the including file's folder)
+        self._ros_package_path = [Path(p).expanduser().resolve()
+                                  for p in env.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
+        self._ament_prefixes = [Path(p).expanduser().resolve()
+                                for p in env.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
         self._local: list[Path] = []
         if near is not None:
             enclosing = _enclosing_package(Path(near).resolve())
@@ -105,7 +110,11 @@ class PackageFinder:
         if folder not in self._indexes:
             index: dict[str, Path] = {}
             for name, path in _crawl(folder):
-                index.setdefault(name, path)
+                if name in index:
+                    warnings.warn(f"package '{name}' is in {index[name]} and {path}; using {index[name]} "
+                                  "(the first in sorted order)", stacklevel=4)
+                    continue
+                index[name] = path
             self._indexes[folder] = index
         return self._indexes[folder]
 

@@ -49,12 +49,12 @@ def _patched_xacro(finder: PackageFinder, *, strict: bool, legacy: list[tuple[st
 
     def handle_macro_call(node: Any, macros: Any, symbols: Any) -> bool:
         tag = node.tagName
-        if ":" not in tag:
+        if ":" not in tag and not _inside_foreign_block(node):
             try:
-                xacro.resolve_macro(tag, macros, symbols)
+                _, _, macro = xacro.resolve_macro(tag, macros, symbols)
             except KeyError:
-                pass  # not a macro: an ordinary element
-            else:
+                macro = None  # not a macro: an ordinary element
+            if macro is not None and _fits(node, macro):
                 where = _call_site(xacro)
                 if strict:
                     raise _LegacyCall(
@@ -150,6 +150,39 @@ def expand_xacro(
     return text
 
 
+_FOREIGN_BLOCKS = frozenset({"gazebo", "ros2_control", "transmission"})
+"""Elements whose content is for other tools (SDF, controllers): never legacy macro calls."""
+
+
+def _inside_foreign_block(node: Any) -> bool:
+    parent = node.parentNode
+    while parent is not None and getattr(parent, "tagName", None) is not None:
+        if parent.tagName in _FOREIGN_BLOCKS:
+            return True
+        parent = parent.parentNode
+    return False
+
+
+def _fits(node: Any, macro: Any) -> bool:
+    """Whether an un-prefixed element can be a call of ``macro``, as xacro <= 1.13 would expand it.
+
+    Its attributes must be parameters of the macro, every parameter without a default must be
+    given, and its child elements must match the block parameters (``*name``, ``**name``) one to
+    one. An element that does not fit (a Gazebo ``<camera>`` with children beside a ``camera``
+    macro) is an ordinary element, left alone as xacro >= 1.14 does.
+    """
+    params = list(macro.params)
+    plain = {p for p in params if not p.startswith("*")}
+    blocks = [p for p in params if p.startswith("*")]
+    attributes = set(node.attributes.keys())
+    if not attributes <= plain:
+        return False
+    if any(p not in attributes and p not in macro.defaultmap for p in plain):
+        return False
+    children = [c for c in node.childNodes if c.nodeType == c.ELEMENT_NODE]
+    return len(children) == len(blocks)
+
+
 def _call_site(xacro: Any) -> str | None:
     """The file holding the element being expanded: the current macro's, else the current file."""
     if xacro.macrostack:
@@ -165,7 +198,11 @@ def _where(xacro: Any, filename: str) -> str:
 
 
 def _xacro_message(err: Exception) -> str:
-    message = one_line(str(err))
+    cause = getattr(err, "exc", None)
+    if isinstance(cause, OSError) and cause.filename:  # xacro appends the OSError to its own text of it
+        message = f"{cause.strerror or cause}: {cause.filename}"
+    else:
+        message = one_line(str(err))
     macros = getattr(err, "macros", None)
     if macros:
         names = [m.body.getAttribute("name") for m in macros if getattr(m, "body", None) is not None]
