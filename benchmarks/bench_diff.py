@@ -20,15 +20,13 @@ this process. Target: the whole diff of A and B under 30 s. Run from the reposit
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import resource
 import tempfile
 import time
 import warnings
 from pathlib import Path
 
-import numpy as np
+from _common import machine, timed
 
 from tfrec.description import load_description
 from tfrec.diff import compare
@@ -54,14 +52,6 @@ def _make(path: Path, *, duration_s: float, rate_hz: float, seed: int) -> Path:
     return path
 
 
-def _timed(label: str, run: object) -> tuple[float, object]:
-    start = time.perf_counter()
-    result = run()  # type: ignore[operator]
-    elapsed = time.perf_counter() - start
-    print(f"{label}: {elapsed:.2f} s")
-    return elapsed, result
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--duration", type=float, default=3600.0, help="seconds per recording (default 3600)")
@@ -70,29 +60,29 @@ def main(argv: list[str] | None = None) -> int:
     options = parser.parse_args(argv)
     options.cache.mkdir(parents=True, exist_ok=True)
     tag = f"{options.duration:g}s"
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, "
-          f"Python {platform.python_version()}, numpy {np.__version__}")
+    print(machine())
     print(f"recordings in {options.cache}:")
     a = _make(options.cache / f"marm-random-{tag}-100hz-a.mcap", duration_s=options.duration, rate_hz=100, seed=0)
     b = _make(options.cache / f"marm-random-{tag}-100hz-b.mcap", duration_s=options.duration, rate_hz=100, seed=0)
     c = _make(options.cache / f"marm-random-{tag}-50hz.mcap", duration_s=options.duration, rate_hz=50, seed=0)
 
-    read_a, rec_a = _timed(f"read A ({a.stat().st_size / 1e6:.0f} MB)", lambda: read_recording(a))
-    read_b, rec_b = _timed("read B", lambda: read_recording(b))
-    samples = len(rec_a.joint_states)  # type: ignore[union-attr]
-    frames = len(rec_a.tf)  # type: ignore[union-attr]
-    print(f"  {samples:,} joint states x {len(rec_a.joint_states.names)} joints, "  # type: ignore[union-attr]
+    read_a, rec_a = timed(f"read A ({a.stat().st_size / 1e6:.0f} MB)", lambda: read_recording(a))
+    read_b, rec_b = timed("read B", lambda: read_recording(b))
+    assert rec_a.joint_states is not None
+    samples = len(rec_a.joint_states)
+    frames = len(rec_a.tf)
+    print(f"  {samples:,} joint states x {len(rec_a.joint_states.names)} joints, "
           f"{samples:,} x {frames} transforms = {samples * frames:,} transforms per file; "
           f"{(read_a + read_b) / 2 / (2 * samples) * 1e6:.1f} µs per message")
-    _, report = _timed("compare A, B (already read)", lambda: compare(rec_a, rec_b))
-    print(f"  verdict: {report.verdict}")  # type: ignore[attr-defined]
-    total, report = _timed("whole diff A B (read both + compare)", lambda: compare(a, b))
-    print(f"  verdict: {report.verdict}")  # type: ignore[attr-defined]
+    _, report = timed("compare A, B (already read)", lambda: compare(rec_a, rec_b))
+    print(f"  verdict: {report.verdict}")
+    total, report = timed("whole diff A B (read both + compare)", lambda: compare(a, b))
+    print(f"  verdict: {report.verdict}")
     rec_c = read_recording(c)
-    _, report = _timed("compare A (100 Hz), C (50 Hz, interpolated at A's times)",
+    _, report = timed("compare A (100 Hz), C (50 Hz, interpolated at A's times)",
                        lambda: compare(rec_a, rec_c, pos_tol=1e-3, rot_tol=1e-2, joint_tol=1e-2))
-    print(f"  verdict: {report.verdict}; largest: " + ", ".join(  # type: ignore[attr-defined]
-        f"{k} {v.value:.2g}" for k, v in report.largest.items()))  # type: ignore[attr-defined]
+    print(f"  verdict: {report.verdict}; largest: " + ", ".join(
+        f"{k} {v.value:.2g}" for k, v in report.largest.items()))
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"peak memory (ru_maxrss): {peak_mb:,.0f} MB")
     print(f"whole diff of two one-hour 100 Hz recordings: {total:.1f} s; target < {TARGET_S:.0f} s: "

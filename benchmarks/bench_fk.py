@@ -15,13 +15,11 @@ from __future__ import annotations
 
 import argparse
 import io
-import os
-import platform
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
+from _common import best_of, machine
 
 from tfrec.description import load_description, parse_urdf
 from tfrec.kinematics import dynamic_transforms, link_poses
@@ -62,15 +60,6 @@ def _load_arm() -> tuple[Robot, str]:
     return parse_urdf(_inline_arm()), "inline 7-DoF arm (corpus absent)"
 
 
-def _best_of(repeat: int, run: object) -> float:
-    best = float("inf")
-    for _ in range(repeat):
-        start = time.perf_counter()
-        run()  # type: ignore[operator]
-        best = min(best, time.perf_counter() - start)
-    return best
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--configs", type=int, default=10_000, help="configurations for tfrec (default 10000)")
@@ -103,8 +92,8 @@ def main(argv: list[str] | None = None) -> int:
         dynamic_transforms(robot, names, q)
 
     tfrec_fk()  # warm up
-    tfrec_s = _best_of(options.repeat, tfrec_fk)
-    joint_s = _best_of(options.repeat, tfrec_joint_transforms)
+    tfrec_s = best_of(options.repeat, tfrec_fk)
+    joint_s = best_of(options.repeat, tfrec_joint_transforms)
     poses = tfrec_fk()
 
     model = yourdfpy.URDF.load(io.BytesIO(robot.urdf.encode()), load_meshes=False)
@@ -116,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
             for link in links:
                 model.get_transform(link)
 
-    yourdfpy_s = _best_of(options.repeat_yourdfpy, yourdfpy_fk)
+    yourdfpy_s = best_of(options.repeat_yourdfpy, yourdfpy_fk)
     worst = 0.0
     for i in range(0, len(subset), 50):  # agreement, checked outside the timed runs
         model.update_cfg(subset[i])
@@ -125,10 +114,8 @@ def main(argv: list[str] | None = None) -> int:
     tfrec_rate = options.configs * len(links) / tfrec_s
     yourdfpy_rate = len(subset) * len(links) / yourdfpy_s
     ratio = tfrec_rate / yourdfpy_rate
-    cpu = platform.processor() or platform.machine()
     print(f"robot: {label}: {len(robot.actuated_joints)} actuated joints, {len(links)} links")
-    print(f"machine: {cpu}, {os.cpu_count()} CPUs, Python {platform.python_version()}, numpy {np.__version__}, "
-          f"yourdfpy {getattr(yourdfpy, '__version__', '?')}")
+    print(machine("yourdfpy"))
     print(f"tfrec batched FK: {options.configs:,} configurations x {len(links)} links in "
           f"{tfrec_s * 1e3:.1f} ms (best of {options.repeat}) = {tfrec_rate:,.0f} link poses/s")
     print(f"tfrec per-joint transforms only (what /tf records): {joint_s * 1e3:.1f} ms = "

@@ -18,22 +18,23 @@ Run from the repository root:
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import resource
 import subprocess
 import sys
 import tempfile
 import time
+from functools import partial
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+from _common import best_of, machine
 
+from tfrec.conventions import DEFAULT_START_TIME_NS, NS_PER_S
 from tfrec.description import load_description, parse_urdf
 from tfrec.kinematics import DynamicChunk, iter_dynamic_chunks, static_transforms
-from tfrec.mcap_io import DEFAULT_START_TIME_NS, McapSink, message_definition
+from tfrec.mcap_io import McapSink, message_definition
 from tfrec.model import Robot
+from tfrec.recording import plan_outputs, record
 from tfrec.trajectory import JointTrajectory, make_trajectory
 
 REPO = Path(__file__).resolve().parents[1]
@@ -57,8 +58,8 @@ def chain(joints: int = 10) -> Robot:
     return parse_urdf("".join(parts))
 
 
-def write_tfrec(path: Path, robot: Robot, chunks: list[DynamicChunk], compression: str) -> float:
-    start = time.perf_counter()
+def write_tfrec(path: Path, robot: Robot, chunks: list[DynamicChunk], compression: str) -> None:
+    """The sink alone, on FK chunks computed beforehand."""
     with open(path, "wb") as stream:
         sink = McapSink(stream, compression=compression)
         sink.begin(robot_description=robot.urdf, static=static_transforms(robot), start_time_ns=DEFAULT_START_TIME_NS)
@@ -66,19 +67,12 @@ def write_tfrec(path: Path, robot: Robot, chunks: list[DynamicChunk], compressio
             sink.write_chunk(time_ns=chunk.time_ns + DEFAULT_START_TIME_NS, joint_names=chunk.names,
                              positions=chunk.positions, velocities=chunk.velocities, transforms=chunk.transforms)
         sink.finish()
-    return time.perf_counter() - start
 
 
 def full_path(path: Path, robot: Robot, trajectory: JointTrajectory) -> float:
+    """Seconds of the full streaming path (FK chunks → McapSink, zstd): ``tfrec record -o path --no-rrd``."""
     start = time.perf_counter()
-    chunks = iter_dynamic_chunks(robot, trajectory)
-    with open(path, "wb") as stream:
-        sink = McapSink(stream)
-        sink.begin(robot_description=robot.urdf, static=static_transforms(robot), start_time_ns=DEFAULT_START_TIME_NS)
-        for chunk in chunks:
-            sink.write_chunk(time_ns=chunk.time_ns + DEFAULT_START_TIME_NS, joint_names=chunk.names,
-                             positions=chunk.positions, velocities=chunk.velocities, transforms=chunk.transforms)
-        sink.finish()
+    record(robot, trajectory, plan_outputs(stem=path.stem, out=path, no_rrd=True, force=True))
     return time.perf_counter() - start
 
 
@@ -89,7 +83,7 @@ def baseline_messages(chunks: list[DynamicChunk], samples: int) -> list[tuple[st
             if len(out) >= 2 * samples:
                 return out
             t = int(chunk.time_ns[i]) + DEFAULT_START_TIME_NS
-            stamp = {"sec": t // 10**9, "nanosec": t % 10**9}
+            stamp = {"sec": t // NS_PER_S, "nanosec": t % NS_PER_S}
             out.append(("/joint_states", {
                 "header": {"stamp": stamp, "frame_id": ""}, "name": list(chunk.names),
                 "position": chunk.positions[i].tolist(), "velocity": chunk.velocities[i].tolist(), "effort": [],
@@ -155,28 +149,24 @@ def main(argv: list[str] | None = None) -> int:
         memory_child(Path(options.memory_child), options.memory_hours * 3600.0, 100.0)
         return 0
 
-    import mcap
-    import mcap_ros2
-
     memory = None if options.no_memory else measure_memory(options.memory_hours)
     robot = chain(10)
     rate_hz = 1000.0
     trajectory = make_trajectory(robot, "random", duration_s=options.samples / rate_hz, rate_hz=rate_hz, seed=0)
     chunks = list(iter_dynamic_chunks(robot, trajectory))
     n = len(trajectory)
-    cpu = platform.processor() or platform.machine()
     print(f"robot: inline chain, {len(robot.moving_joints)} moving joints, "
           f"{len(chunks[0].transforms.children)} dynamic transforms per /tf message")
-    print(f"machine: {cpu}, {os.cpu_count()} CPUs, Python {platform.python_version()}, numpy {np.__version__}, "
-          f"mcap {getattr(mcap, '__version__', '?')}, mcap-ros2-support {getattr(mcap_ros2, '__version__', '?')}")
+    print(machine("mcap", "mcap-ros2-support"))
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         rates = {}
         for compression in ("zstd", "lz4", "none"):
+            out = folder / f"tfrec-{compression}.mcap"
             write_tfrec(folder / "warm.mcap", robot, chunks[:1], compression)
-            seconds = min(write_tfrec(folder / f"tfrec-{compression}.mcap", robot, chunks, compression) for _ in range(3))
+            seconds = best_of(3, partial(write_tfrec, out, robot, chunks, compression))
             rates[compression] = 2 * n / seconds
-            size = (folder / f"tfrec-{compression}.mcap").stat().st_size / 1e6
+            size = out.stat().st_size / 1e6
             print(f"tfrec McapSink ({compression}): {2 * n:,} messages in {seconds:.2f} s (best of 3) = "
                   f"{rates[compression]:,.0f} msg/s, {size:.1f} MB")
         messages = baseline_messages(chunks, options.baseline_samples)

@@ -20,13 +20,12 @@ Run from the repository root:
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+from _common import machine
 
 from tfrec.description import load_description
 from tfrec.kinematics import DynamicChunk, iter_dynamic_chunks, static_transforms
@@ -85,16 +84,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--baseline-samples", type=int, default=3000, help="samples logged per frame (extrapolated)")
     options = parser.parse_args(argv)
 
-    import rerun as rr
-
     robot = load_description(REPO / "robots" / "marm.xacro")
     trajectory = make_trajectory(robot, "random", duration_s=options.minutes * 60.0, rate_hz=options.rate_hz, seed=0)
     chunks = list(iter_dynamic_chunks(robot, trajectory))
     n, joints = len(trajectory), len(chunks[0].names)
     print(f"robot: robots/marm.xacro, {joints} moving joints, {len(chunks[0].transforms.children)} dynamic transforms; "
           f"{options.minutes:g} min at {options.rate_hz:g} Hz = {n:,} samples")
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, "
-          f"Python {platform.python_version()}, numpy {np.__version__}, rerun-sdk {rr.__version__}")
+    print(machine("rerun-sdk"))
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         write_columnar(folder / "warm.rrd", robot, chunks[:1])

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tfrec.cdr import JointStateEncoder, TFMessageEncoder, encode_string, stamps_from_ns
+from tfrec.cdr import JointStateEncoder, TFMessageEncoder, align, encode_string, ns_from_stamps, stamps_from_ns
 
 T0 = 1_700_000_000_123_456_789
 
@@ -147,6 +147,18 @@ def test_encode_into_writes_only_its_columns() -> None:
 def test_stamps_floor_negative_times() -> None:
     packed = stamps_from_ns(np.array([-1, 1_500_000_000], dtype=np.int64)).view("<i4").reshape(2, 2)
     assert packed.tolist() == [[-1, 999_999_999], [1, 500_000_000]]
+
+
+def test_stamps_back_to_ns() -> None:
+    time_ns = np.array([-1, 0, 1_500_000_000, 2**31 * 10**9 - 1], dtype=np.int64)
+    packed = stamps_from_ns(time_ns).view("<i4").reshape(-1, 2).astype(np.int64)
+    np.testing.assert_array_equal(ns_from_stamps(packed[:, 0], packed[:, 1] & 0xFFFFFFFF), time_ns)
+    assert ns_from_stamps(1_700_000_000, 5) == 1_700_000_000_000_000_005
+
+
+def test_align() -> None:
+    assert [align(offset, 8) for offset in (0, 1, 7, 8, 9)] == [0, 8, 8, 8, 16]
+    assert [align(offset, 4) for offset in (0, 2, 4, 5)] == [0, 4, 4, 8]
 
 
 def test_shape_errors() -> None:

@@ -204,3 +204,35 @@ def test_write_errors_name_the_target(tmp_path: Path, capsys: pytest.CaptureFixt
         assert code == 2 and err.count("\n") == 1
         assert err.startswith(f"tfrec: error: {blocker}") and ".tmp-" not in err
         assert not target.exists()
+
+
+def test_replay_save_errors_name_the_target(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """replay --save writes atomically like record: errors name the output, never its temporary file."""
+    source = tmp_path / "r.mcap"
+    assert main(["record", str(ROBOTS / "marm.xacro"), "--duration", "0.1", "--no-rrd", "-o", str(source)]) == 0
+    capsys.readouterr()
+    code, _, err = run(capsys, "replay", str(source), "--save", "/proc/out.rrd")
+    assert code == 2 and err.startswith("tfrec: error: /proc/out.rrd: cannot write") and ".tmp-" not in err
+    assert not [p for p in Path("/proc").iterdir() if p.name.startswith(".out.rrd")]
+    out = tmp_path / "out.rrd"
+    out.write_bytes(b"older")
+    code, _, err = run(capsys, "replay", str(source), "--save", str(out))
+    assert code == 2 and err == f"tfrec: error: {out}: already exists (use --force to overwrite)\n"
+    assert out.read_bytes() == b"older" and sorted(p.name for p in tmp_path.iterdir()) == ["out.rrd", "r.mcap"]
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["diff", "a.mcap", "b.mcap", "--joint-tol", "x"], "argument --joint-tol: 'x' is not a number"),
+    (["replay", "a.mcap", "--check", "--pos-tol", "-1"], "argument --pos-tol: -1 is not a tolerance (a number >= 0)"),
+    (["replay", "a.mcap", "--check", "--rot-tol", "nan"], "argument --rot-tol: nan is not a tolerance (a number >= 0)"),
+])
+def test_tolerances_are_checked_when_parsed(capsys: pytest.CaptureFixture[str], argv: list[str], message: str) -> None:
+    code, _, err = run(capsys, *argv)
+    assert code == 2 and err == f"tfrec: error: {message} (see 'tfrec {argv[0]} --help')\n"
+
+
+def test_help_shows_the_default_tolerances(capsys: pytest.CaptureFixture[str]) -> None:
+    _, out, _ = run(capsys, "replay", "--help")
+    assert "translation tolerance (default 1e-6)" in " ".join(out.split())
+    _, out, _ = run(capsys, "diff", "--help")
+    assert "(rad or m) are equal (default 1e-9)" in " ".join(out.split())

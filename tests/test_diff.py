@@ -16,36 +16,12 @@ from tfrec.errors import RecordingError
 from tfrec.kinematics import Transforms
 from tfrec.mcap_io import DEFAULT_START_TIME_NS
 from tfrec.model import Robot
-from tfrec.readers import FrameSeries, JointStates, Recording, TopicInfo, read_recording
+from tfrec.readers import FrameSeries, JointStates, Recording, TopicInfo
 from tfrec.rotations import quaternion_from_axis_angle, quaternion_multiply
 from tfrec.trajectory import JointTrajectory
 from tfrec.urdf_diff import diff_urdf_texts
 
-from .recording_helpers import load_robot, marm_trajectory, write_mcap, write_rosbag1, write_rosbag2
-
-
-@pytest.fixture(scope="module")
-def marm() -> Robot:
-    return load_robot("marm")
-
-
-@pytest.fixture(scope="module")
-def traj(marm: Robot) -> JointTrajectory:
-    return marm_trajectory(marm)
-
-
-@pytest.fixture(scope="module")
-def marm_mcap(tmp_path_factory: pytest.TempPathFactory, marm: Robot, traj: JointTrajectory) -> Path:
-    return write_mcap(tmp_path_factory.mktemp("diff") / "marm.mcap", marm, traj)
-
-
-@pytest.fixture(scope="module")
-def marm_rec(marm_mcap: Path) -> Recording:
-    return read_recording(marm_mcap)
-
-
-
-
+from .recording_helpers import write_mcap, write_rosbag1, write_rosbag2
 
 
 def _copy(rec: Recording) -> Recording:
@@ -416,3 +392,15 @@ def test_cli_exit_codes(tmp_path: Path, marm_mcap: Path, marm_rec: Recording,
     assert cli.main(["diff", str(marm_mcap), str(garbage)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("tfrec: error: ") and "garbage.mcap" in err
+
+
+# -- tiny description changes ----------------------------------------------------------------------
+
+
+def test_tiny_origin_and_axis_changes_are_seen_at_a_tiny_tolerance() -> None:
+    turned = URDF.replace('rpy="3.14159265358979 0 0"', 'rpy="3.14159265358979 0 1e-8"')
+    tilted = URDF.replace('<axis xyz="0 0 1"/>', '<axis xyz="0 1e-8 1"/>')  # 1e-8 rad away, still unit
+    for changed, what in ((turned, "origin rpy"), (tilted, "axis")):
+        (change,) = diff_urdf_texts(URDF, changed, rot_tol=1e-9)
+        assert change.what == "joint 'shoulder'" and change.detail.startswith(f"joint 'shoulder' changed: {what} (")
+        assert diff_urdf_texts(URDF, changed, rot_tol=1e-7) == []

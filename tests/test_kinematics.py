@@ -254,6 +254,18 @@ def test_world_from_link_accepts_static_transforms_sampled_like_dynamic_ones() -
     np.testing.assert_array_equal(every.rotation, once.rotation)
 
 
+def test_transforms_at_one_instant_as_poses_and_back() -> None:
+    static = static_transforms(load_robot("marm"), frame_prefix="p/")
+    poses = static.poses()
+    assert list(poses) == list(zip(static.parents, static.children))
+    again = Transforms.from_poses(poses)
+    assert (again.parents, again.children) == (static.parents, static.children)
+    np.testing.assert_array_equal(again.translation, static.translation)
+    np.testing.assert_array_equal(again.rotation, static.rotation)
+    empty = Transforms.from_poses({})
+    assert len(empty) == 1 and empty.children == () and empty.poses() == {}
+
+
 def test_robot_without_moving_joints_has_only_static_transforms() -> None:
     robot = load_robot("simple_cube")
     names, q, _ = all_joint_states(robot, make_trajectory(robot, "center", duration_s=1, rate_hz=2))

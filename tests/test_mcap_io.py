@@ -15,20 +15,13 @@ import numpy as np
 import pytest
 import yaml
 
+from tfrec.bag_metadata import QOS_LATCHED, QOS_VOLATILE, qos_yaml, write_bag_metadata
+from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.description import load_description, parse_urdf
 from tfrec.errors import RecordingError
 from tfrec.info import format_summary, summarize
 from tfrec.kinematics import iter_dynamic_chunks, static_transforms
-from tfrec.mcap_io import (
-    DEFAULT_START_TIME_NS,
-    LIBRARY,
-    QOS_LATCHED,
-    QOS_VOLATILE,
-    McapSink,
-    check_time_range,
-    message_definition,
-    write_bag_metadata,
-)
+from tfrec.mcap_io import LIBRARY, McapSink, check_time_range, message_definition
 from tfrec.model import Robot
 from tfrec.trajectory import JointTrajectory, make_trajectory
 
@@ -169,7 +162,7 @@ def test_file_layout(marm_mcap: Path) -> None:
         schema = summary.schemas[channel.schema_id]
         assert channel.message_encoding == "cdr" and schema.encoding == "ros2msg"
         assert schema.data.decode() == message_definition(schema.name)[0]
-        assert channel.metadata["offered_qos_profiles"] == (QOS_LATCHED if channel.id <= 2 else QOS_VOLATILE)
+        assert channel.metadata["offered_qos_profiles"] == qos_yaml([QOS_LATCHED if channel.id <= 2 else QOS_VOLATILE])
         assert channel.metadata["topic_type_hash"].startswith("RIHS01_")
     assert len(summary.schemas) == 3  # TFMessage shared by /tf_static and /tf
 
@@ -190,7 +183,32 @@ def test_embedded_rosbag2_metadata(tmp_path: Path, marm: Robot, traj: JointTraje
     assert info["relative_file_paths"] == ["named_0.mcap"] and info["files"][0]["message_count"] == info["message_count"]
     topics = {t["topic_metadata"]["name"]: t for t in info["topics_with_message_count"]}
     assert topics["/tf"]["message_count"] == len(traj)
-    assert topics["/tf_static"]["topic_metadata"]["offered_qos_profiles"] == yaml.safe_load(QOS_LATCHED)
+    assert topics["/tf_static"]["topic_metadata"]["offered_qos_profiles"] == [QOS_LATCHED]
+
+
+LATCHED_TEXT = """\
+- history: unknown
+  depth: 0
+  reliability: reliable
+  durability: transient_local
+  deadline:
+    sec: 9223372036
+    nsec: 854775807
+  lifespan:
+    sec: 9223372036
+    nsec: 854775807
+  liveliness: automatic
+  liveliness_lease_duration:
+    sec: 9223372036
+    nsec: 854775807
+  avoid_ros_namespace_conventions: false"""
+
+
+def test_qos_channel_metadata_text() -> None:
+    """The channel metadata is the text rosbag2 (Jazzy) writes: no anchors for the three equal
+    durations, no trailing newline (docs/recording-format.md shows it)."""
+    assert qos_yaml([QOS_LATCHED]) == LATCHED_TEXT
+    assert qos_yaml([QOS_VOLATILE]) == LATCHED_TEXT.replace("transient_local", "volatile")
 
 
 def test_byte_identical_whatever_the_pieces(marm: Robot, traj: JointTrajectory) -> None:
@@ -242,12 +260,17 @@ def test_bag_folder(tmp_path: Path, marm: Robot, traj: JointTrajectory) -> None:
 
     bag = tmp_path / "run1"
     bag.mkdir()
-    staged = bag / "staged.mcap"
-    with open(staged, "wb") as stream:
-        record(stream, marm, traj)
-    meta_path = write_bag_metadata(bag, staged, final_mcap_name="run1_0.mcap")
-    staged.rename(bag / "run1_0.mcap")
-    meta = yaml.safe_load(meta_path.read_text())["rosbag2_bagfile_information"]
+    with open(bag / "run1_0.mcap", "wb") as stream:
+        sink = record(stream, marm, traj, file_name="run1_0.mcap")
+    meta_path = write_bag_metadata(bag, sink.bag_info)
+    text = meta_path.read_text()
+    with open(bag / "run1_0.mcap", "rb") as stream:  # the same metadata as the one embedded in the MCAP
+        from mcap.reader import make_reader
+
+        (embedded,) = make_reader(stream).iter_metadata()
+    assert text == "rosbag2_bagfile_information:\n" + "".join(
+        f"  {line}\n" for line in embedded.metadata["serialized_metadata"].splitlines())
+    meta = yaml.safe_load(text)["rosbag2_bagfile_information"]
     assert meta["version"] == 9 and meta["storage_identifier"] == "mcap"
     assert meta["relative_file_paths"] == ["run1_0.mcap"] and meta["files"][0]["path"] == "run1_0.mcap"
     assert meta["message_count"] == 2 + 2 * len(traj)
@@ -314,7 +337,7 @@ def test_summarize_foreign_mcap(tmp_path: Path) -> None:
         plain.start(profile="ros2")
         schema_id = plain.register_schema("std_msgs/msg/String", "ros2msg", b"string data\n")
         channel = plain.register_channel(
-            "/robot_description", "cdr", schema_id, {"offered_qos_profiles": QOS_LATCHED})
+            "/robot_description", "cdr", schema_id, {"offered_qos_profiles": qos_yaml([QOS_LATCHED])})
         plain.add_message(channel, log_time=5, publish_time=5,
                           data=bytes.fromhex("00010000") + b"\x15\0\0\0<robot name='bare'/>\0")
         plain.finish()  # type: ignore[no-untyped-call]
@@ -457,11 +480,19 @@ def test_summarize_every_format(tmp_path: Path, marm_mcap: Path) -> None:
 
 def test_stamp_range() -> None:
     check_time_range(0, 2**31 * 10**9 - 1)
-    with pytest.raises(RecordingError, match=r"stamp -1\.000000000 s is outside the range ROS 2 stamps can hold"):
+    with pytest.raises(RecordingError, match=r"^stamp -1\.000000000 s is before 1970$"):
         check_time_range(-10**9, 0)
-    with pytest.raises(RecordingError, match="outside the range"):
+    with pytest.raises(RecordingError, match=r"^stamp 2147483648\.000000000 s is out of range: ROS 2 stamps hold "
+                                             r"less than 2147483648 s$"):
         McapSink(io.BytesIO()).begin(robot_description="", static=static_transforms(parse_urdf(FIXED_ONLY)),
                                      start_time_ns=2**31 * 10**9)
+
+
+def test_bad_compression_and_early_bag_info() -> None:
+    with pytest.raises(RecordingError, match=r"^compression 'gzip' is not one of none, lz4, zstd$"):
+        McapSink(io.BytesIO(), compression="gzip")
+    with pytest.raises(RuntimeError, match="after finish"):
+        _ = McapSink(io.BytesIO()).bag_info
 
 
 def test_chunks_must_keep_their_names(marm: Robot, traj: JointTrajectory) -> None:

@@ -22,34 +22,12 @@ from tfrec.trajectory import JointTrajectory, make_trajectory
 from .recording_helpers import (
     cdr_messages,
     deserializer,
-    load_robot,
-    marm_trajectory,
     write_mcap,
     write_rosbag1,
     write_rosbag2,
 )
 
 GOLDEN = Path(__file__).parent / "golden"
-
-
-@pytest.fixture(scope="module")
-def marm() -> Robot:
-    return load_robot("marm")
-
-
-@pytest.fixture(scope="module")
-def traj(marm: Robot) -> JointTrajectory:
-    return marm_trajectory(marm)
-
-
-@pytest.fixture(scope="module")
-def marm_mcap(tmp_path_factory: pytest.TempPathFactory, marm: Robot, traj: JointTrajectory) -> Path:
-    return write_mcap(tmp_path_factory.mktemp("rec") / "marm.mcap", marm, traj)
-
-
-@pytest.fixture(scope="module")
-def marm_rec(marm_mcap: Path) -> Recording:
-    return read_recording(marm_mcap)
 
 
 def test_mcap_matches_mcap_ros2(marm_mcap: Path, marm_rec: Recording, marm: Robot, traj: JointTrajectory) -> None:
@@ -645,13 +623,17 @@ def test_tf_layout_varies(marm_rec: Recording) -> None:
     np.testing.assert_array_equal(result[pairs[1]][0], marm_rec.tf[pairs[1]].time_ns[::2])
 
 
-def test_rrd_entity_names_unescape() -> None:
-    import rerun as rr
+def test_entity_paths_parse_back() -> None:
+    """parse_entity undoes Rerun's escaping, control characters and \\u{…} escapes included."""
+    from tfrec.rerun_paths import joint_entity, pair_entity, parse_entity, tf_entity
 
-    from tfrec.rrd_read import _unescape
-
-    for name in ("joint 1", "a/b", "x.y", "ü", "a\\b"):
-        assert _unescape(rr.escape_entity_path_part(name)) == name
+    names = ("joint 1", "a/b", "x.y", "ü", "a\\b", "tab\there", "new\nline", "\x00", "\u00a0", "😀", "u{41}", "\\u{41}", "")
+    for name in names:
+        assert parse_entity(joint_entity(name)) == ("joints", (name,))
+        assert parse_entity(pair_entity(name, "child/frame")) == ("tf", (name, "child/frame"))
+    assert parse_entity(tf_entity("j")) == ("tf", ("j",))
+    assert parse_entity("/robot_description") == ("robot_description", ())
+    assert parse_entity("/") == ("", ())
 
 
 def test_message_layout_refuses_other_bytes() -> None:
@@ -681,3 +663,40 @@ def test_golden_files_read(tmp_path: Path) -> None:
         shutil.copy(golden, copy)
         assert read_recording(copy).topics == rec.topics
 
+
+
+def _foreign_mcap(path: Path, *, chunking: bool) -> Path:
+    """An MCAP written by mcap's writer: small chunks, log times out of order, /tf on two channels."""
+    from mcap.writer import CompressionType, Writer
+
+    with open(path, "wb") as stream:
+        writer = Writer(stream, chunk_size=300, compression=CompressionType.LZ4, use_chunking=chunking)
+        writer.start(profile="ros2", library="test")
+        schema = writer.register_schema("std_msgs/msg/String", "ros2msg", b"string data")
+        channels = [writer.register_channel(topic, "cdr", schema) for topic in ("/tf", "/tf", "/other")]
+        for i, time_ns in enumerate([50, 10, 30, 30, 20, 60, 10, 40] * 5):
+            data = b"\0\1\0\0" + len(str(i)).to_bytes(4, "little") + str(i).encode()
+            writer.add_message(channels[i % 3], log_time=time_ns + i // 8, data=data, publish_time=0)
+        writer.finish()  # type: ignore[no-untyped-call]
+    return path
+
+
+@pytest.mark.parametrize("chunking", [True, False])
+def test_summary_messages_in_mcaps_order(tmp_path: Path, chunking: bool) -> None:
+    """tfrec info reads messages through the summary in the order mcap's reader gives them."""
+    from mcap.reader import make_reader
+
+    from tfrec.mcap_summary import iter_messages, read_summary
+
+    path = _foreign_mcap(tmp_path / "foreign.mcap", chunking=chunking)
+    size = path.stat().st_size
+    with open(path, "rb") as stream, open(path, "rb") as other:
+        summary = read_summary(stream, size)
+        assert summary is not None and summary.statistics is not None
+        assert (len(summary.chunk_indexes) > 1) == chunking
+        for topic in ("/tf", "/other"):
+            ours = list(iter_messages(stream, size, summary, (topic,)))
+            other.seek(0)
+            theirs = [(msg.channel_id, msg.log_time, msg.data)
+                      for _, _, msg in make_reader(other).iter_messages(topics=[topic])]
+            assert ours == theirs and len(ours) == (27 if topic == "/tf" else 13)

@@ -13,7 +13,7 @@ import pytest
 from tfrec.cli import main
 from tfrec.errors import RecordingError
 from tfrec.model import Robot
-from tfrec.recording import plan_outputs, record
+from tfrec.recording import default_stem, plan_outputs, record
 from tfrec.trajectory import make_trajectory
 
 from .conftest import ROBOTS
@@ -181,6 +181,12 @@ def test_bag_folder_read_by_rosbag2_reader(tmp_path: Path, capsys: pytest.Captur
     code, out, _ = run(capsys, "record", MARM, "--duration", "1", "--bag", str(bag), "--no-rrd")
     assert code == 0 and f"wrote {bag}/" in out
     assert sorted(p.name for p in bag.iterdir()) == ["metadata.yaml", "run1_0.mcap"]
+    from mcap.reader import make_reader
+
+    with open(bag / "run1_0.mcap", "rb") as stream:  # metadata.yaml holds what the MCAP embeds
+        (embedded,) = make_reader(stream).iter_metadata()
+    assert (bag / "metadata.yaml").read_text() == "rosbag2_bagfile_information:\n" + "".join(
+        f"  {line}\n" for line in embedded.metadata["serialized_metadata"].splitlines())
     with Reader(bag) as reader:
         assert reader.message_count == 2 + 2 * 51
         topics = {c.topic: c.msgtype for c in reader.connections}
@@ -200,6 +206,20 @@ def test_default_output_name(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, ca
     assert f"wrote recordings/{written.name}" in out
 
 
+def test_default_stem_names_the_trajectory() -> None:
+    robot = load_robot("marm")
+    assert default_stem(robot, "sweep", now=0).startswith("marm-sweep-")
+    assert default_stem(robot, "moves/pick.csv", now=0).startswith("marm-pick-")
+
+
+def test_bad_compression_leaves_nothing(tmp_path: Path) -> None:
+    robot = load_robot("marm")
+    plan = plan_outputs(stem="x", out=tmp_path / "x.mcap", no_rrd=True)
+    with pytest.raises(RecordingError, match=r"^compression 'gzip' is not one of none, lz4, zstd$"):
+        record(robot, make_trajectory(robot, "sine", duration_s=0.1, rate_hz=10), plan, compression="gzip")
+    assert not list(tmp_path.iterdir())
+
+
 def test_bad_trajectory_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     csv = tmp_path / "t.csv"
     csv.write_text("time,joint1,elbow\n0,0,0\n")
@@ -215,6 +235,10 @@ def test_option_conflicts(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
     assert code == 2 and "leave nothing to write" in err
     code, _, err = run(capsys, "record", MARM, "-o", str(tmp_path / "x.bag"), "--no-rrd")
     assert code == 2 and "must end in .mcap" in err
+    folder = tmp_path / "x.rrd"
+    folder.mkdir()
+    code, _, err = run(capsys, "record", MARM, "--no-mcap", "--rrd", str(folder), "--force")
+    assert code == 2 and err == f"tfrec: error: {folder}: exists and is a folder\n"
 
 
 def test_mbot_record_and_info_json(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

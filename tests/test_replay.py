@@ -466,7 +466,6 @@ def test_headless_machine_suggests_save_or_connect(tfrec_main: Callable[[list[st
      "topic '/odom' cannot be replayed; tfrec replays /robot_description, /tf_static, /joint_states, /tf"),
     (["--start", "2", "--end", "1", "--save", "x.rrd"], "--end 1 is before --start 2"),
     (["--start", "-1", "--save", "x.rrd"], "--start -1.0 is not a time in seconds >= 0"),
-    (["--check", "--pos-tol", "-1"], "--pos-tol -1.0 is not a tolerance >= 0"),
 ])
 def test_bad_options_are_one_line_errors(tfrec_main: Callable[[list[str]], int], recorded: Path, args: list[str],
                                          message: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
@@ -758,3 +757,11 @@ def test_start_counts_from_the_first_sample_not_an_early_description(marm: Robot
     assert replay.origin_ns == START_NS
     assert replay.joint_states is not None
     np.testing.assert_array_equal(replay.joint_states.time_ns, START_NS + np.arange(1000, 1501, 20) * 1_000_000)
+
+
+def test_check_refuses_a_bad_tolerance(recorded: Path) -> None:
+    replay = load_replay(recorded)  # the command line refuses these first (tests/test_cli.py)
+    with pytest.raises(RecordingError, match=r"^--pos-tol -1.0 is not a tolerance >= 0$"):
+        check_replay(replay, pos_tol=-1.0)
+    with pytest.raises(RecordingError, match=r"^--rot-tol nan is not a tolerance >= 0$"):
+        check_replay(replay, rot_tol=float("nan"))

@@ -18,6 +18,7 @@ from tfrec.trajectory import (
     JointTrajectory,
     TrajectoryKind,
     all_joint_states,
+    apply_mimic,
     center_positions,
     joint_bounds,
     make_trajectory,
@@ -365,6 +366,18 @@ def test_all_joint_states_adds_mimic_chains_in_document_order(toy: Robot) -> Non
     np.testing.assert_allclose(follower2, -0.5 * follower + 0.3)
     np.testing.assert_allclose(velocities[:, 5], 2 * trajectory.velocities[:, 0])
     np.testing.assert_allclose(velocities[:, 4], -trajectory.velocities[:, 0])
+
+
+def test_apply_mimic_can_fill_only_what_is_missing(toy: Robot) -> None:
+    names = tuple(joint.name for joint in toy.moving_joints)  # ..., follower2, follower
+    positions = np.full((3, len(names)), np.nan)
+    positions[:, 0] = [0.0, 0.5, np.nan]  # shoulder, unknown in the last message
+    positions[1, 5] = 7.0  # follower has a position of its own in the second message
+    apply_mimic(toy, names, positions, only_missing=True)
+    np.testing.assert_array_equal(positions[:, 5], [0.1, 7.0, np.nan])  # 2 · shoulder + 0.1 where missing
+    np.testing.assert_array_equal(positions[:, 4], [-0.5 * 0.1 + 0.3, -0.5 * 7.0 + 0.3, np.nan])
+    apply_mimic(toy, names, positions)  # all rows
+    np.testing.assert_array_equal(positions[:, 5], [0.1, 1.1, np.nan])
 
 
 def test_all_joint_states_works_on_chunks(toy: Robot) -> None:

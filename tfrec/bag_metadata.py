@@ -3,13 +3,15 @@
 A rosbag2 bag is a folder ``<name>/`` holding ``metadata.yaml`` and ``<name>_0.mcap``. The
 metadata is rosbag2's BagMetadata as yaml-cpp encodes it (Jazzy and later: metadata version 9,
 offered QoS profiles as a YAML list with string enums); the same text is embedded in the MCAP
-as its ``rosbag2`` metadata record (:class:`tfrec.mcap_io.McapSink`).
+as its ``rosbag2`` metadata record (:class:`tfrec.mcap_io.McapSink`, which builds it with
+:func:`bag_info` and keeps it for :func:`write_bag_metadata`). The offered QoS profiles are defined
+once here, as data: :data:`QOS_LATCHED`, :data:`QOS_VOLATILE`.
 """
 
 from __future__ import annotations
 
-import struct
-from collections.abc import Sequence
+import copy
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -18,11 +20,14 @@ from .errors import RecordingError
 
 __all__ = [
     "BAG_VERSION",
+    "QOS_LATCHED",
+    "QOS_VOLATILE",
     "ROS_DISTRO",
     "BagMetadata",
     "bag_info",
     "one_line",
     "qos_durability",
+    "qos_yaml",
     "read_bag_metadata",
     "write_bag_metadata",
     "yaml_dump",
@@ -33,57 +38,56 @@ ROS_DISTRO = "jazzy"
 """metadata.yaml's ``ros_distro``: the layout (metadata version 9, string QoS enums) is Jazzy's."""
 
 
-def write_bag_metadata(
-    bag_dir: str | Path, mcap_path: str | Path, *, final_mcap_name: str | None = None
-) -> Path:
-    """Write ``metadata.yaml`` (rosbag2 version 9, storage ``mcap``) for an MCAP in ``bag_dir``.
+_INFINITE = {"sec": 9223372036, "nsec": 854775807}
+"""An unset QoS duration as rosbag2 writes it: RMW_DURATION_INFINITE."""
 
-    The counts, times and topics are read back from the MCAP's summary, so this works for any
-    finished ROS 2 MCAP.
+
+def _offered_qos(durability: str) -> dict[str, Any]:
+    # What rosbag2 (metadata version 9, Jazzy and later) serializes of a publisher it discovered:
+    # the history depth is not discoverable (unknown, 0) and unset durations read as infinite.
+    return {
+        "history": "unknown",
+        "depth": 0,
+        "reliability": "reliable",
+        "durability": durability,
+        "deadline": _INFINITE,
+        "lifespan": _INFINITE,
+        "liveliness": "automatic",
+        "liveliness_lease_duration": _INFINITE,
+        "avoid_ros_namespace_conventions": False,
+    }
+
+
+QOS_LATCHED = _offered_qos("transient_local")
+"""The QoS robot_state_publisher offers on /robot_description and /tf_static: reliable, latched. Read only."""
+QOS_VOLATILE = _offered_qos("volatile")
+"""The QoS joint_state_publisher and robot_state_publisher offer on /joint_states and /tf. Read only."""
+
+
+def qos_yaml(profiles: Sequence[Mapping[str, Any]]) -> str:
+    """Offered QoS profiles as the ``offered_qos_profiles`` text of MCAP channel metadata: a YAML
+    list, no trailing newline (yaml-cpp's ``Dump``)."""
+    return yaml_dump(list(profiles)).rstrip("\n")
+
+
+def write_bag_metadata(bag_dir: str | Path, info: Mapping[str, Any]) -> Path:
+    """Write a bag folder's ``metadata.yaml``.
 
     Args:
         bag_dir: the bag folder (it exists).
-        mcap_path: the MCAP file, normally ``<bag_dir>/<bag name>_0.mcap``.
-        final_mcap_name: the name to list in the metadata when the file is renamed later
-            (default: ``mcap_path``'s name).
+        info: the bag's BagMetadata, from :func:`bag_info` (:attr:`tfrec.mcap_io.McapSink.bag_info`
+            of its MCAP).
 
     Returns:
         The path of the metadata file.
-
-    Raises:
-        RecordingError: the MCAP cannot be read or has no summary.
     """
-    from mcap.exceptions import McapError
-    from mcap.reader import make_reader
-
-    mcap_path = Path(mcap_path)
-    try:
-        with open(mcap_path, "rb") as stream:
-            summary = make_reader(stream).get_summary()
-    except (OSError, McapError, ValueError, struct.error) as err:
-        raise RecordingError(f"{mcap_path}: cannot read MCAP summary: {err}") from None
-    if summary is None or summary.statistics is None:
-        raise RecordingError(f"{mcap_path}: MCAP has no summary statistics")
-    stats = summary.statistics
-    topics = []
-    for channel_id, channel in sorted(summary.channels.items()):
-        schema = summary.schemas.get(channel.schema_id)
-        topics.append((
-            channel.topic, schema.name if schema else "", channel.message_encoding,
-            channel.metadata.get("offered_qos_profiles", ""), channel.metadata.get("topic_type_hash", ""),
-            stats.channel_message_counts.get(channel_id, 0),
-        ))
-    info = bag_info(
-        topics, message_count=stats.message_count, start_ns=stats.message_start_time,
-        end_ns=stats.message_end_time, file_name=final_mcap_name or mcap_path.name,
-    )
     path = Path(bag_dir) / "metadata.yaml"
-    path.write_text(yaml_dump({"rosbag2_bagfile_information": info}), encoding="utf-8")
+    path.write_text(yaml_dump({"rosbag2_bagfile_information": dict(info)}), encoding="utf-8")
     return path
 
 
 def bag_info(
-    topics: Sequence[tuple[str, str, str, str, str, int]],
+    topics: Sequence[tuple[str, str, str, Sequence[Mapping[str, Any]], str, int]],
     *,
     message_count: int,
     start_ns: int,
@@ -93,7 +97,7 @@ def bag_info(
     """rosbag2's BagMetadata (version 9) as yaml-cpp would encode it, keys in rosbag2's order.
 
     Args:
-        topics: (name, type, serialization format, offered QoS YAML, type hash, message count).
+        topics: (name, type, serialization format, offered QoS profiles, type hash, message count).
     """
     duration = max(0, end_ns - start_ns) if message_count else 0
     start = start_ns if message_count else 0
@@ -109,7 +113,7 @@ def bag_info(
                     "name": name,
                     "type": msgtype,
                     "serialization_format": serialization,
-                    "offered_qos_profiles": _yaml_load(qos) or [],
+                    "offered_qos_profiles": copy.deepcopy(list(qos)),  # the caller's own: QOS_* stay intact
                     "type_description_hash": type_hash,
                 },
                 "message_count": count,
@@ -130,15 +134,6 @@ def bag_info(
     }
 
 
-def _yaml_load(text: str) -> Any:
-    import yaml
-
-    try:
-        return yaml.safe_load(text) if text else None
-    except yaml.YAMLError:
-        return None
-
-
 def yaml_dump(data: Any) -> str:
     """Block-style YAML with indented sequences, ``~`` and ``""``, as yaml-cpp (rosbag2) writes it."""
     import yaml
@@ -146,7 +141,10 @@ def yaml_dump(data: Any) -> str:
     def indent_sequences(self: Any, flow: bool = False, indentless: bool = False) -> None:
         yaml.SafeDumper.increase_indent(self, flow, False)
 
-    dumper: Any = type("_RosbagDumper", (yaml.SafeDumper,), {"increase_indent": indent_sequences})
+    dumper: Any = type("_RosbagDumper", (yaml.SafeDumper,), {
+        "increase_indent": indent_sequences,
+        "ignore_aliases": lambda self, data: True,  # a mapping used twice is written twice, not as &id001
+    })
     dumper.add_representer(type(None), lambda d, _: d.represent_scalar("tag:yaml.org,2002:null", "~"))
     dumper.add_representer(str, lambda d, v: d.represent_scalar("tag:yaml.org,2002:str", v, style='"' if v == "" else None))
     return str(yaml.dump(data, Dumper=dumper, sort_keys=False, default_flow_style=False, width=1 << 16))
@@ -214,10 +212,12 @@ _DURABILITY = {0: "system_default", 1: "transient_local", 2: "volatile", 3: "unk
 def qos_durability(offered_qos_profiles: str) -> str | None:
     """The durability of the first offered QoS profile, from rosbag2's YAML text (the
     ``offered_qos_profiles`` of MCAP channel metadata, of sqlite3's topics table); None when
-    there is none. Numbers (Humble and older) are named as the strings Jazzy writes."""
-    profiles = _yaml_load(offered_qos_profiles)
+    there is none (or the text is not YAML). Numbers (Humble and older) are named as the strings
+    Jazzy writes."""
+    import yaml
+
     try:
-        value = profiles[0]["durability"]
-    except (TypeError, KeyError, IndexError):
+        value = yaml.safe_load(offered_qos_profiles)[0]["durability"]
+    except (yaml.YAMLError, TypeError, KeyError, IndexError):
         return None
     return _DURABILITY.get(value, "unknown") if isinstance(value, int) else str(value)

@@ -16,26 +16,43 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Sequence
+from typing import overload
 
 import numpy as np
 from numpy.typing import NDArray
+
+from .conventions import NS_PER_S
 
 __all__ = [
     "CDR_HEADER",
     "JointStateEncoder",
     "TFMessageEncoder",
+    "align",
     "encode_string",
+    "ns_from_stamps",
     "stamps_from_ns",
 ]
 
 CDR_HEADER = b"\x00\x01\x00\x00"
 """Encapsulation header: CDR, little-endian, no options."""
 
-NS_PER_S = 1_000_000_000
-MAX_STAMP_NS = (2**31) * NS_PER_S - 1
-"""builtin_interfaces/Time holds int32 seconds: the last representable instant (2038-01-19)."""
-
 U8 = NDArray[np.uint8]
+
+
+def align(offset: int, size: int) -> int:
+    """``offset`` rounded up to a multiple of ``size``: where a primitive of ``size`` bytes
+    starts (CDR offsets count from the end of the encapsulation header)."""
+    return offset + -offset % size
+
+
+@overload
+def ns_from_stamps(sec: int, nanosec: int) -> int: ...
+@overload
+def ns_from_stamps(sec: NDArray[np.int64], nanosec: NDArray[np.int64]) -> NDArray[np.int64]: ...
+def ns_from_stamps(sec: int | NDArray[np.int64], nanosec: int | NDArray[np.int64]) -> int | NDArray[np.int64]:
+    """Nanoseconds of stamps (``builtin_interfaces/Time``, ROS 1 ``time``) from their seconds
+    and nanoseconds: ints, or int64 arrays. The inverse of :func:`stamps_from_ns`."""
+    return sec * NS_PER_S + nanosec
 
 
 def stamps_from_ns(time_ns: NDArray[np.int64]) -> U8:
@@ -58,7 +75,8 @@ class _Layout:
         self.buf = bytearray(CDR_HEADER)
 
     def align(self, size: int) -> None:
-        self.buf += bytes(-(len(self.buf) - len(CDR_HEADER)) % size)
+        offset = len(self.buf) - len(CDR_HEADER)
+        self.buf += bytes(align(offset, size) - offset)
 
     def uint32(self, value: int) -> None:
         self.align(4)

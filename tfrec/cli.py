@@ -15,6 +15,17 @@ from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, NoReturn, TextIO
 
 from . import __version__
+from .conventions import (
+    CHECK_POS_TOL,
+    CHECK_ROT_TOL,
+    COMPRESSIONS,
+    DEFAULT_START_TIME_NS,
+    DIFF_JOINT_TOL,
+    DIFF_POS_TOL,
+    DIFF_ROT_TOL,
+    NS_PER_S,
+    RECORDED_TOPICS,
+)
 from .errors import TfrecError, TrajectoryError
 
 if TYPE_CHECKING:
@@ -96,11 +107,12 @@ def _build_parser() -> argparse.ArgumentParser:
     out.add_argument("--rrd", metavar="OUT.rrd", help="Rerun recording (default: beside the MCAP, same stem)")
     out.add_argument("--no-rrd", action="store_true", help="write no Rerun recording")
     out.add_argument("--no-mcap", action="store_true", help="write no MCAP (only the .rrd)")
-    out.add_argument("--compression", choices=("none", "lz4", "zstd"), default="zstd",
+    out.add_argument("--compression", choices=COMPRESSIONS, default="zstd",
                      help="MCAP chunk compression (default zstd)")
     out.add_argument("--start-time", metavar="S", type=float, default=None,
                      help="stamp of the first sample, seconds since the Unix epoch "
-                          "(default 1700000000 = 2023-11-14T22:13:20Z, so runs are byte-identical)")
+                          f"(default {DEFAULT_START_TIME_NS // NS_PER_S} = 2023-11-14T22:13:20Z, so runs are "
+                          "byte-identical)")
     out.add_argument("--force", action="store_true", help="overwrite existing outputs")
     rec.set_defaults(handler=_cmd_record)
 
@@ -120,12 +132,12 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     diff.add_argument("a", metavar="A", help="a recording: .mcap, rosbag2 folder, ROS 1 .bag or .rrd")
     diff.add_argument("b", metavar="B", help="the recording to compare with A")
-    diff.add_argument("--pos-tol", metavar="M", type=_tolerance, default=1e-9,
-                      help="translations within M metres are equal (default 1e-9)")
-    diff.add_argument("--rot-tol", metavar="RAD", type=_tolerance, default=1e-9,
-                      help="rotations within RAD radians are equal (default 1e-9)")
-    diff.add_argument("--joint-tol", metavar="X", type=_tolerance, default=1e-9,
-                      help="joint positions within X (rad or m) are equal (default 1e-9)")
+    diff.add_argument("--pos-tol", metavar="M", type=_tolerance, default=DIFF_POS_TOL,
+                      help=f"translations within M metres are equal (default {_number(DIFF_POS_TOL)})")
+    diff.add_argument("--rot-tol", metavar="RAD", type=_tolerance, default=DIFF_ROT_TOL,
+                      help=f"rotations within RAD radians are equal (default {_number(DIFF_ROT_TOL)})")
+    diff.add_argument("--joint-tol", metavar="X", type=_tolerance, default=DIFF_JOINT_TOL,
+                      help=f"joint positions within X (rad or m) are equal (default {_number(DIFF_JOINT_TOL)})")
     diff.add_argument("--topics", metavar="TOPIC", nargs="+", help="compare only these topics (default: all)")
     diff.add_argument("--absolute", action="store_true",
                       help="align samples on their stamps, not on the time since each recording's start")
@@ -148,6 +160,12 @@ def _load_robot(ns: argparse.Namespace) -> Robot:
 
 def _fmt(x: float) -> str:
     return f"{x:.6g}"
+
+
+def _number(x: float) -> str:
+    """A default in help texts, as a user would type it: ``1e-9``, not ``1e-09``."""
+    mantissa, _, exponent = f"{x:g}".partition("e")
+    return f"{mantissa}e{int(exponent)}" if exponent else mantissa
 
 
 def _joint_label(joint: Joint) -> str:
@@ -258,12 +276,12 @@ class _Progress:
 def _cmd_record(ns: argparse.Namespace) -> int:
     import math
 
-    from .recording import DEFAULT_START_TIME_NS, default_stem, plan_outputs, record
+    from .recording import default_stem, plan_outputs, record
     from .trajectory import make_trajectory
 
     if ns.start_time is not None and not (math.isfinite(ns.start_time) and ns.start_time >= 0):
         raise TrajectoryError(f"--start-time {ns.start_time} is not a time since the epoch in seconds")
-    start_ns = DEFAULT_START_TIME_NS if ns.start_time is None else round(ns.start_time * 1e9)
+    start_ns = DEFAULT_START_TIME_NS if ns.start_time is None else round(ns.start_time * NS_PER_S)
     robot = _load_robot(ns)
     trajectory = make_trajectory(
         robot, ns.traj, duration_s=ns.duration, rate_hz=ns.rate, seed=ns.seed, period_s=ns.period,
@@ -277,7 +295,7 @@ def _cmd_record(ns: argparse.Namespace) -> int:
                         frame_prefix=ns.frame_prefix, package_paths=ns.package_path, progress=progress)
     finally:
         progress.close()
-    seconds = (result.end_time_ns - result.start_time_ns) / 1e9
+    seconds = (result.end_time_ns - result.start_time_ns) / NS_PER_S
     print(f"recorded {robot.name}: {result.samples} samples over {seconds:g} s "
           f"({len(trajectory.joint_names)} actuated joints, --traj {ns.traj})")
     if plan.bag_dir is not None:
@@ -298,7 +316,7 @@ def _cmd_record(ns: argparse.Namespace) -> int:
 
 
 def _cmd_info(ns: argparse.Namespace) -> int:
-    from .mcap_io import format_summary, summarize
+    from .info import format_summary, summarize
 
     summary = summarize(ns.file)
     if ns.json:
@@ -310,7 +328,7 @@ def _cmd_info(ns: argparse.Namespace) -> int:
 
 
 def _tolerance(text: str) -> float:
-    """argparse type of --pos-tol, --rot-tol, --joint-tol: a finite number >= 0."""
+    """argparse type of the tolerances of diff and replay --check: a finite number >= 0."""
     import math
 
     try:
@@ -366,13 +384,15 @@ def _add_replay_parser(sub: Any) -> argparse.ArgumentParser:
     how.add_argument("--end", metavar="S", type=float, default=None,
                      help="stop this many seconds after the recording's start")
     how.add_argument("--topics", metavar="TOPIC", nargs="+",
-                     help="replay only these of /robot_description /tf_static /joint_states /tf")
+                     help=f"replay only these of {' '.join(RECORDED_TOPICS)}")
     check = rep.add_argument_group("re-simulation")
     check.add_argument("--check", action="store_true",
                        help="recompute TF from /joint_states and the description and compare with the recorded "
                             "TF, per frame; exit 1 above tolerance (replays too only with --save or --connect)")
-    check.add_argument("--pos-tol", metavar="M", type=float, default=None, help="translation tolerance (default 1e-6)")
-    check.add_argument("--rot-tol", metavar="RAD", type=float, default=None, help="rotation tolerance (default 1e-6)")
+    check.add_argument("--pos-tol", metavar="M", type=_tolerance, default=CHECK_POS_TOL,
+                       help=f"translation tolerance (default {_number(CHECK_POS_TOL)})")
+    check.add_argument("--rot-tol", metavar="RAD", type=_tolerance, default=CHECK_ROT_TOL,
+                       help=f"rotation tolerance (default {_number(CHECK_ROT_TOL)})")
     check.add_argument("--json", action="store_true", help="print the --check report as JSON")
     rep.set_defaults(handler=_cmd_replay)
     return rep
@@ -381,7 +401,7 @@ def _add_replay_parser(sub: Any) -> argparse.ArgumentParser:
 def _cmd_replay(ns: argparse.Namespace) -> int:
     from .playback import check_play_options, replay_to_rerun
     from .replay import load_replay
-    from .replay_check import DEFAULT_POS_TOL, DEFAULT_ROT_TOL, check_replay, format_check
+    from .replay_check import check_replay, format_check
 
     live = not ns.check or ns.save is not None or ns.connect is not None
     if live:
@@ -396,8 +416,7 @@ def _cmd_replay(ns: argparse.Namespace) -> int:
                          need_robot=ns.check)
     status = 0
     if ns.check:
-        report = check_replay(replay, pos_tol=DEFAULT_POS_TOL if ns.pos_tol is None else ns.pos_tol,
-                              rot_tol=DEFAULT_ROT_TOL if ns.rot_tol is None else ns.rot_tol)
+        report = check_replay(replay, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol)
         if ns.json:
             json.dump(report.to_dict(), sys.stdout, indent=2)
             sys.stdout.write("\n")
@@ -407,8 +426,8 @@ def _cmd_replay(ns: argparse.Namespace) -> int:
         if not live:
             return status
     replay_to_rerun(replay, save=ns.save, connect=ns.connect, rate=ns.rate, loop=ns.loop,
-                             package_paths=ns.package_path, force=ns.force)
-    span = 0.0 if replay.start_ns is None or replay.end_ns is None else (replay.end_ns - replay.start_ns) / 1e9
+                    package_paths=ns.package_path, force=ns.force)
+    span = 0.0 if replay.start_ns is None or replay.end_ns is None else (replay.end_ns - replay.start_ns) / NS_PER_S
     derived = f", {replay.derived_summary()}" if replay.derived else ""
     print(f"replayed {ns.file}: {span:g} s{derived}" + (f"; wrote {ns.save}" if ns.save else ""),
           file=sys.stdout if ns.save and not ns.json else sys.stderr)

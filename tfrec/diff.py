@@ -8,7 +8,7 @@ one into a failing test with the readable report.
 
 Time: samples are aligned by time since each recording's start, so two recordings made at
 different wall-clock times compare; ``absolute=True`` aligns on the stamps. A recording's start
-(:func:`data_start_ns`) is the first stamp of its time series, /joint_states or /tf, whichever
+(:func:`tfrec.resample.data_start_ns`) is the first stamp of its time series, /joint_states or /tf, whichever
 comes first — not its first message: a latched /robot_description or /tf_static published
 seconds before the data does not shift it. ``tfrec replay --start`` counts from the same start.
 Where B's samples are not at A's times, B is interpolated at A's times — linearly for joint
@@ -16,8 +16,9 @@ positions and translations, by slerp for rotations — and the report says so. A
 outside B's time span have no counterpart and are reported as such.
 
 Errors: a translation error is the distance between the two translations (m); a rotation error
-is the angle of the relative rotation ``q_a⁻¹ q_b``, ``2·atan2(|v|, |w|)`` (rad); a joint error
-is the absolute difference of the positions (rad or m).
+is the angle of the relative rotation ``q_a⁻¹ q_b``, ``2·atan2(|v|, |w|)``
+(:func:`tfrec.rotations.rotation_error`, rad); a joint error is the absolute difference of the
+positions (rad or m).
 """
 
 from __future__ import annotations
@@ -26,15 +27,20 @@ import math
 import os
 import warnings
 from collections.abc import Collection, Iterable
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from .conventions import DIFF_JOINT_TOL as DEFAULT_JOINT_TOL
+from .conventions import DIFF_POS_TOL as DEFAULT_POS_TOL
+from .conventions import DIFF_ROT_TOL as DEFAULT_ROT_TOL
+from .conventions import FLOAT32_TOL, JOINT_STATES, NS_PER_S, ROBOT_DESCRIPTION, TF, TF_STATIC
 from .diff_report import Difference, DiffReport, Largest, at_time, format_time
 from .errors import RecordingError
-from .readers import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC, FrameSeries, Recording, read_recording
+from .readers import FrameSeries, Recording, read_recording
+from .resample import Alignment, align, data_start_ns
+from .rotations import rotation_error
 
 __all__ = [
     "DEFAULT_JOINT_TOL",
@@ -51,117 +57,15 @@ __all__ = [
 
 Array = NDArray[np.float64]
 
-DEFAULT_POS_TOL = 1e-9
-"""Metres. Two float64 recordings of the same computation agree far below this."""
-DEFAULT_ROT_TOL = 1e-9
-"""Radians."""
-DEFAULT_JOINT_TOL = 1e-9
-"""Radians or metres."""
-FLOAT32_TOL = 1e-5
-"""A tolerance that absorbs float32 rounding (``.rrd``) for robots of a few metres."""
-
-
-def data_start_ns(rec: Recording) -> int | None:
-    """A recording's start: the first stamp of its /joint_states or /tf, whichever comes first.
-
-    Header stamps, as the samples compared and replayed carry. Latched one-off messages
-    (/robot_description, /tf_static) are left out, so one published long before the data does
-    not shift the start. A recording without either (or without them decoded) starts at its
-    first message; None when it is empty. A damaged file whose first messages were lost starts
-    at its true start (from the MCAP summary or chunk headers), so what was read keeps its time.
-    """
-    firsts = [int(series.time_ns.min()) for series in rec.tf.values() if len(series)]
-    if rec.joint_states is not None and len(rec.joint_states):
-        firsts.append(int(rec.joint_states.time_ns.min()))
-    start = min(firsts) if firsts else rec.start_ns
-    if rec.read_error is not None and rec.start_ns is not None and start is not None:
-        start = min(start, rec.start_ns)  # a damaged file lost its first messages: keep its true start
-    return start
-
 
 def _num(x: float) -> str:
     return f"{x:.3g}"
 
 
-def rotation_error(qa: Array, qb: Array) -> Array:
-    """The angle (rad) of ``qa⁻¹ qb`` for quaternions (..., 4) in (x, y, z, w) order.
-
-    ``2·atan2(|v|, |w|)`` of the relative rotation: in [0, π], the same for q and -q, and
-    accurate for tiny angles (unlike ``acos``). The quaternions need not be normalized.
-    """
-    va, wa = qa[..., :3], qa[..., 3:4]
-    vb, wb = qb[..., :3], qb[..., 3:4]
-    v = wa * vb - wb * va - np.cross(va, vb)
-    w = (wa * wb)[..., 0] + np.einsum("...i,...i->...", va, vb)
-    angle: Array = 2.0 * np.arctan2(np.linalg.norm(v, axis=-1), np.abs(w))  # numpy types einsum and norm as Any
-    return angle
-
-
-def _slerp(q0: Array, q1: Array, frac: Array) -> Array:
-    """Spherical interpolation between unit quaternions (n, 4) at fractions (n,)."""
-    q0 = q0 / np.linalg.norm(q0, axis=-1, keepdims=True)
-    q1 = q1 / np.linalg.norm(q1, axis=-1, keepdims=True)
-    dot = np.einsum("ij,ij->i", q0, q1)
-    q1 = np.where(dot[:, None] < 0.0, -q1, q1)
-    dot = np.abs(dot)
-    theta = np.arccos(np.clip(dot, -1.0, 1.0))
-    sin = np.sin(theta)
-    small = sin < 1e-9
-    safe = np.where(small, 1.0, sin)
-    w0 = np.where(small, 1.0 - frac, np.sin((1.0 - frac) * theta) / safe)
-    w1 = np.where(small, frac, np.sin(frac * theta) / safe)
-    out = w0[:, None] * q0 + w1[:, None] * q1
-    unit: Array = out / np.linalg.norm(out, axis=-1, keepdims=True)  # numpy types norm(axis=...) as Any
-    return unit
-
-
-@dataclass
-class _Alignment:
-    """Where A's sample times fall among B's."""
-
-    same: bool  # B's times are A's times: compare sample by sample
-    inside: NDArray[np.bool_]  # A's samples within B's time span
-    index: NDArray[np.intp]  # for each inside sample, B's sample at or before it
-    frac: Array  # and the fraction of the way to the next one
-    b_outside: int  # B's samples outside A's time span
-
-    def linear(self, values: Array) -> Array:
-        if self.same:
-            return values
-        if len(values) == 1:
-            return np.repeat(values, len(self.index), axis=0)
-        lo = values[self.index]
-        hi = values[np.minimum(self.index + 1, len(values) - 1)]
-        f = self.frac.reshape((-1,) + (1,) * (values.ndim - 1))
-        return lo + f * (hi - lo)
-
-    def rotations(self, values: Array) -> Array:
-        if self.same:
-            return values
-        if len(values) == 1:
-            return np.repeat(values, len(self.index), axis=0)
-        return _slerp(values[self.index], values[np.minimum(self.index + 1, len(values) - 1)], self.frac)
-
-
-def _align(ta: NDArray[np.int64], tb: NDArray[np.int64]) -> _Alignment:
-    if len(ta) == len(tb) and np.array_equal(ta, tb):
-        return _Alignment(True, np.ones(len(ta), dtype=bool), np.arange(len(ta)), np.zeros(len(ta)), 0)
-    if len(tb) == 0:
-        return _Alignment(False, np.zeros(len(ta), dtype=bool), np.zeros(0, np.intp), np.zeros(0), 0)
-    inside = (ta >= tb[0]) & (ta <= tb[-1])
-    t = ta[inside]
-    index = np.clip(np.searchsorted(tb, t, side="right") - 1, 0, len(tb) - 1)
-    nxt = np.minimum(index + 1, len(tb) - 1)
-    span = (tb[nxt] - tb[index]).astype(np.float64)
-    frac = np.where(span > 0, (t - tb[index]).astype(np.float64) / np.where(span > 0, span, 1.0), 0.0)
-    b_outside = int(np.count_nonzero(tb < ta[0]) + np.count_nonzero(tb > ta[-1])) if len(ta) else len(tb)
-    return _Alignment(False, inside, index, frac, b_outside)
-
-
 def _rate(time_ns: NDArray[np.int64]) -> str:
     if len(time_ns) < 2 or time_ns[-1] == time_ns[0]:
         return f"{len(time_ns)} samples"
-    return f"{(len(time_ns) - 1) / ((time_ns[-1] - time_ns[0]) / 1e9):.4g} Hz"
+    return f"{(len(time_ns) - 1) / ((time_ns[-1] - time_ns[0]) / NS_PER_S):.4g} Hz"
 
 
 class _Comparison:
@@ -246,8 +150,8 @@ class _Comparison:
 
     # -- samples ------------------------------------------------------------------------------
 
-    def coverage(self, kind: str, what: str, ta: NDArray[np.int64], align: _Alignment) -> None:
-        missing = ~align.inside
+    def coverage(self, kind: str, what: str, ta: NDArray[np.int64], alignment: Alignment) -> None:
+        missing = ~alignment.inside
         if missing.any():
             times = ta[missing]
             self.diff(
@@ -256,8 +160,9 @@ class _Comparison:
                 f"to {format_time(int(times[-1]))} s have no data in B",
                 int(times[0]),
             )
-        if align.b_outside:
-            self.diff(kind, what, f"{what}: {align.b_outside} sample(s) of B lie outside A's time span (no data in A)")
+        if alignment.outside:
+            self.diff(kind, what,
+                      f"{what}: {alignment.outside} sample(s) of B lie outside A's time span (no data in A)")
 
     def errors(self, kind: str, what: str, quantity: str, unit: str, tol: float, error: Array,
                times: NDArray[np.int64]) -> None:
@@ -305,19 +210,19 @@ class _Comparison:
         common = [name for name in ja.names if name in jb.names]
         ta = ja.time_ns - self.origin(self.a)
         tb = jb.time_ns - self.origin(self.b)
-        align = _align(ta, tb)
-        if not align.same:
+        alignment = align(ta, tb)
+        if not alignment.same:
             self.note_interpolation("/joint_states", ta, tb)
-        self.coverage("joint_states", "/joint_states", ta, align)
-        if not common or not align.inside.any():
+        self.coverage("joint_states", "/joint_states", ta, alignment)
+        if not common or not alignment.inside.any():
             return
         cols_a = [ja.names.index(name) for name in common]
         cols_b = [jb.names.index(name) for name in common]
-        pa = ja.positions[:, cols_a][align.inside]
-        pb = align.linear(jb.positions[:, cols_b])
+        pa = ja.positions[:, cols_a][alignment.inside]
+        pb = alignment.linear(jb.positions[:, cols_b])
         nan_a, nan_b = np.isnan(pa), np.isnan(pb)
         error = np.where(nan_a & nan_b, 0.0, np.where(nan_a | nan_b, np.inf, np.abs(pa - pb)))
-        times = ta[align.inside]
+        times = ta[alignment.inside]
         for j, name in enumerate(common):
             self.errors("joint_states", f"joint '{name}'", "joint position", "", self.joint_tol, error[:, j], times)
 
@@ -352,17 +257,17 @@ class _Comparison:
     def frame_series(self, label: str, sa: FrameSeries, sb: FrameSeries) -> None:
         ta = sa.time_ns - self.origin(self.a)
         tb = sb.time_ns - self.origin(self.b)
-        align = _align(ta, tb)
-        if not align.same:
+        alignment = align(ta, tb)
+        if not alignment.same:
             self.note_interpolation(f"/tf {label}", ta, tb)
-        self.coverage("tf", label, ta, align)
-        if not align.inside.any():
+        self.coverage("tf", label, ta, alignment)
+        if not alignment.inside.any():
             return
-        times = ta[align.inside]
-        translation_a = sa.translation[align.inside]
-        rotation_a = sa.rotation[align.inside]
-        trans = np.linalg.norm(translation_a - align.linear(sb.translation), axis=1)
-        rot = rotation_error(rotation_a, align.rotations(sb.rotation))
+        times = ta[alignment.inside]
+        translation_a = sa.translation[alignment.inside]
+        rotation_a = sa.rotation[alignment.inside]
+        trans = np.linalg.norm(translation_a - alignment.linear(sb.translation), axis=1)
+        rot = rotation_error(rotation_a, alignment.rotations(sb.rotation))
         self.errors("tf", label, "translation", "m", self.pos_tol, _nan_is_inf(trans), times)
         self.errors("tf", label, "rotation", "rad", self.rot_tol, _nan_is_inf(rot), times)
 
@@ -410,7 +315,7 @@ def compare(
             also used for other numbers of the robot description (limits, mimic factors).
         topics: compare only these topics (default: all); each must be in A or B.
         absolute: align samples on their stamps instead of the time since each start
-            (:func:`data_start_ns`).
+            (:func:`tfrec.resample.data_start_ns`).
 
     Returns:
         The report; ``report.equal`` is False when anything differs beyond tolerance.

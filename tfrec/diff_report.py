@@ -71,7 +71,7 @@ class DiffReport:
         tolerances: ``pos_tol``, ``rot_tol``, ``joint_tol`` as used.
         absolute: whether samples were aligned on stamps rather than time since start.
         origins: each recording's start, the stamp its times count from (ns since the epoch):
-            its first /joint_states or /tf stamp (:func:`tfrec.diff.data_start_ns`); None with
+            its first /joint_states or /tf stamp (:func:`tfrec.resample.data_start_ns`); None with
             ``absolute``.
     """
 

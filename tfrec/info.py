@@ -1,9 +1,9 @@
 """``tfrec info``: what a recording holds — MCAP, rosbag2 folder (mcap or sqlite3), ROS 1 bag, ``.rrd``.
 
 An intact MCAP (and a rosbag2 folder of them) is summarized from its summary section
-(Statistics, chunk and message indexes), so a one-hour file is summarized without
-decompressing it; only a few messages are decoded: the first /joint_states and
-/robot_description messages, every /tf_static message and the first
+(Statistics, chunk and message indexes, read by :mod:`tfrec.mcap_summary`), so a one-hour file
+is summarized without decompressing it; only a few messages are decoded: the first
+/joint_states and /robot_description messages, every /tf_static message and the first
 :data:`TF_MESSAGES_DECODED` /tf messages.
 
 Everything else is read whole with :func:`tfrec.readers.read_recording`: an MCAP without a
@@ -18,18 +18,20 @@ import io
 import os
 import struct
 import warnings
-from collections.abc import Iterable
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
-from functools import lru_cache
 from pathlib import Path
 from typing import IO, Any
 
-import numpy as np
-
-from .bag_metadata import BagMetadata, qos_durability, read_bag_metadata
+from .bag_metadata import BagMetadata, qos_durability
+from .conventions import JOINT_STATES, NS_PER_S, ROBOT_DESCRIPTION, TF, TF_STATIC
 from .errors import RecordingError
-from .readers import Recording, read_recording, recording_format
+from .mcap_format import MCAP_MAGIC
+from .mcap_summary import McapSummary, channel_spans, iter_messages, read_header, read_summary
+from .readers import Recording, identify_recording, read_recording
+from .recorded import TopicStats
+from .ros_types import UndecodableMessage, deserializer
 
 __all__ = ["TF_MESSAGES_DECODED", "format_summary", "summarize"]
 
@@ -37,26 +39,11 @@ TF_MESSAGES_DECODED = 1000
 """/tf messages decoded for the frame list: every broadcaster of a running system appears in the
 first ones, and decoding all of a long recording would take seconds."""
 
-_MAGIC = b"\x89MCAP0\r\n"
 _KINDS = {"mcap": "MCAP", "rosbag1": "ROS 1 bag", "rrd": "Rerun recording (.rrd)"}
 
 
 class _DecodeError(ValueError):
     """A message that its schema's type cannot decode."""
-
-
-@dataclass
-class _Topic:
-    name: str
-    type: str
-    count: int = 0
-    first_ns: int | None = None
-    last_ns: int | None = None
-    durability: str | None = None
-
-    def add_times(self, first: int, last: int) -> None:
-        self.first_ns = first if self.first_ns is None else min(self.first_ns, first)
-        self.last_ns = last if self.last_ns is None else max(self.last_ns, last)
 
 
 @dataclass
@@ -66,7 +53,7 @@ class _Scan:
     profile: str = ""
     library: str = ""
     compressions: set[str] = field(default_factory=set)
-    topics: dict[str, _Topic] = field(default_factory=dict)
+    topics: dict[str, TopicStats] = field(default_factory=dict)
     robot_name: str | None = None
     joints: list[str] | None = None
     frames: dict[tuple[str, str], bool] = field(default_factory=dict)  # (parent, child) → static
@@ -93,21 +80,16 @@ def summarize(path: str | os.PathLike[str]) -> dict[str, Any]:
         RecordingError: a missing file, one that is not a recording, one with nothing readable,
             or a message that cannot be decoded.
     """
-    path = Path(path)
-    fmt = recording_format(path)
-    meta: BagMetadata | None = None
-    files = [path]
-    if fmt == "rosbag2":
-        meta = read_bag_metadata(path.parent if path.is_file() else path)
-        files = list(meta.files)
-    if fmt == "mcap" or (meta is not None and meta.storage == "mcap" and not meta.compression):
+    source = identify_recording(path)
+    meta, files = source.bag, list(source.files)
+    if source.format == "mcap" or (meta is not None and meta.storage == "mcap" and not meta.compression):
         scan = _Scan()
         if all(_scan_file(file, scan) for file in files):
-            return _as_dict(path, fmt, meta, files, scan)
-    recording = read_recording(path)
+            return _as_dict(source.path, source.format, meta, files, scan)
+    recording = read_recording(source)
     if recording.read_error is not None:
         warnings.warn(recording.read_error, stacklevel=2)
-    return _as_dict(path, fmt, meta, files, _scan_recording(recording))
+    return _as_dict(source.path, source.format, meta, files, _scan_recording(recording))
 
 
 def format_summary(summary: dict[str, Any]) -> str:
@@ -128,7 +110,7 @@ def format_summary(summary: dict[str, Any]) -> str:
         lines.append(f"Files:       {', '.join(summary['files'])}")
     if summary["robot_name"] is not None:
         lines.append(f"Robot:       {summary['robot_name']}")
-    lines.append(f"Duration:    {summary['duration_ns'] / 1e9:.9f} s")
+    lines.append(f"Duration:    {summary['duration_ns'] / NS_PER_S:.9f} s")
     if summary["start_time_ns"] is not None:
         lines.append(f"Start:       {summary['start_time']} ({summary['start_time_ns']} ns)")
         lines.append(f"End:         {summary['end_time']} ({summary['end_time_ns']} ns)")
@@ -160,112 +142,69 @@ def format_summary(summary: dict[str, Any]) -> str:
 def _scan_file(path: Path, scan: _Scan) -> bool:
     """Summarize an MCAP file from its summary section; False when it has no intact one (it is
     then read whole)."""
-    import zstandard
-    from mcap.exceptions import McapError
-
     try:
         with open(path, "rb") as stream:
-            if stream.read(len(_MAGIC)) != _MAGIC:
+            if stream.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
                 return False
-            stream.seek(0)
-            return _scan_stream(stream, scan)
+            return _scan_stream(stream, os.fstat(stream.fileno()).st_size, scan)
     except OSError as err:
         raise RecordingError(f"{path}: cannot read: {err.strerror or err}") from None
     except _DecodeError as err:
         raise RecordingError(f"{path}: {err}") from None
-    except (McapError, struct.error, ValueError, KeyError, IndexError, EOFError, zstandard.ZstdError, RuntimeError):
+    except (struct.error, ValueError, KeyError, IndexError, EOFError):
         return False  # damaged: read_recording reads what it can and says what was lost
 
 
-def _scan_stream(stream: IO[bytes], scan: _Scan) -> bool:
-    from mcap.reader import make_reader
-
-    reader = make_reader(stream)
-    header = reader.get_header()
-    summary = reader.get_summary()
+def _scan_stream(stream: IO[bytes], size: int, scan: _Scan) -> bool:
+    profile, library = read_header(stream, size)
+    summary = read_summary(stream, size)
     if summary is None or summary.statistics is None:
         return False
-    scan.profile = scan.profile or header.profile
-    scan.library = scan.library or header.library
-    stats = summary.statistics
+    scan.profile = scan.profile or profile
+    scan.library = scan.library or library
     scan.compressions.update(index.compression for index in summary.chunk_indexes)
     for channel_id, channel in sorted(summary.channels.items()):
-        schema = summary.schemas.get(channel.schema_id)
-        topic = _topic(scan, channel.topic, schema.name if schema else "", channel.metadata)
-        topic.count += stats.channel_message_counts.get(channel_id, 0)
-    _channel_times(stream, summary, scan)
-    _decode_some(reader, scan)
+        topic = scan.topics.get(channel.topic)
+        if topic is None:
+            durability = qos_durability(channel.metadata.get("offered_qos_profiles", ""))
+            topic = scan.topics[channel.topic] = TopicStats(summary.schemas.get(channel.schema_id, ""), durability)
+        topic.count += summary.statistics.channel_counts.get(channel_id, 0)
+    for indexed, first, last in channel_spans(stream, size, summary):  # first and last log time per channel
+        spanned = summary.channels.values() if indexed is None else [summary.channels[indexed]]
+        for channel in spanned:  # a chunk without message indexes: its span stands for every channel
+            scan.topics[channel.topic].add_times(first, last)
+    _decode_some(stream, size, summary, scan)
     return True
 
 
-def _topic(scan: _Scan, name: str, msgtype: str, metadata: dict[str, str]) -> _Topic:
-    topic = scan.topics.get(name)
-    if topic is None:
-        durability = qos_durability(metadata.get("offered_qos_profiles", ""))
-        topic = scan.topics[name] = _Topic(name, msgtype, durability=durability)
-    return topic
-
-
-def _channel_times(stream: IO[bytes], summary: Any, scan: _Scan) -> None:
-    """First and last log time of every channel, from the message index records."""
-    for chunk in summary.chunk_indexes:
-        if not chunk.message_index_offsets:  # not indexed: the chunk's range for its channels is unknown
-            for channel in summary.channels.values():
-                scan.topics[channel.topic].add_times(chunk.message_start_time, chunk.message_end_time)
-            continue
-        for channel_id, offset in chunk.message_index_offsets.items():
-            stream.seek(offset)
-            opcode, length = struct.unpack("<BQ", stream.read(9))
-            if opcode != 0x07 or channel_id not in summary.channels:
-                raise ValueError(f"no message index for channel {channel_id} at offset {offset}")
-            body = stream.read(length)
-            _, size = struct.unpack_from("<HI", body)
-            pairs = np.frombuffer(body, dtype="<u8", count=size // 8, offset=6).reshape(-1, 2)
-            if len(pairs):
-                scan.topics[summary.channels[channel_id].topic].add_times(int(pairs[:, 0].min()), int(pairs[:, 0].max()))
-
-
-def _decode_some(reader: Any, scan: _Scan) -> None:
+def _decode_some(stream: IO[bytes], size: int, summary: McapSummary, scan: _Scan) -> None:
     """Decode the few messages the summary needs (see the module docstring)."""
     def has(topic: str, msgtype: str) -> bool:
         return topic in scan.topics and scan.topics[topic].type == msgtype
 
-    if scan.robot_name is None and has("/robot_description", "std_msgs/msg/String"):
-        for data in _first(reader, "/robot_description", 1):
-            scan.robot_name = _robot_name(_decode(data, "std_msgs/msg/String", "/robot_description").data)
-    if scan.joints is None and has("/joint_states", "sensor_msgs/msg/JointState"):
-        for data in _first(reader, "/joint_states", 1):
-            scan.joints = list(_decode(data, "sensor_msgs/msg/JointState", "/joint_states").name)
-    for name, static, limit in (("/tf_static", True, None), ("/tf", False, TF_MESSAGES_DECODED)):
+    def first(topic: str, msgtype: str, limit: int | None) -> Iterator[Any]:
+        deserialize = deserializer(msgtype)
+        for count, (_, _, data) in enumerate(iter_messages(stream, size, summary, (topic,))):
+            if limit is not None and count >= limit:
+                return
+            try:
+                yield deserialize(data)
+            except UndecodableMessage as err:
+                raise _DecodeError(f"cannot decode a {topic} message as {msgtype} ({err})") from None
+
+    if scan.robot_name is None and has(ROBOT_DESCRIPTION, "std_msgs/msg/String"):
+        for msg in first(ROBOT_DESCRIPTION, "std_msgs/msg/String", 1):
+            scan.robot_name = _robot_name(msg.data)
+    if scan.joints is None and has(JOINT_STATES, "sensor_msgs/msg/JointState"):
+        for msg in first(JOINT_STATES, "sensor_msgs/msg/JointState", 1):
+            scan.joints = list(msg.name)
+    for name, static, limit in ((TF_STATIC, True, None), (TF, False, TF_MESSAGES_DECODED)):
         if not has(name, "tf2_msgs/msg/TFMessage"):
             continue
-        for data in _first(reader, name, limit):
-            for transform in _decode(data, "tf2_msgs/msg/TFMessage", name).transforms:
+        for msg in first(name, "tf2_msgs/msg/TFMessage", limit):
+            for transform in msg.transforms:
                 key = (transform.header.frame_id, transform.child_frame_id)
                 scan.frames[key] = scan.frames.get(key, False) or static
-
-
-def _first(reader: Any, topic: str, limit: int | None) -> Iterable[bytes]:
-    for count, (_, _, message) in enumerate(reader.iter_messages(topics=[topic])):
-        if limit is not None and count >= limit:
-            return
-        yield message.data
-
-
-@lru_cache(maxsize=1)
-def _typestore() -> Any:
-    from rosbags.typesys import Stores, get_typestore
-
-    return get_typestore(Stores.ROS2_HUMBLE)
-
-
-def _decode(data: bytes, msgtype: str, topic: str) -> Any:
-    from rosbags.serde import SerdeError
-
-    try:
-        return _typestore().deserialize_cdr(data, msgtype)
-    except (SerdeError, struct.error, IndexError, ValueError, UnicodeDecodeError) as err:
-        raise _DecodeError(f"cannot decode a {topic} message as {msgtype} ({type(err).__name__}: {err})") from None
 
 
 def _robot_name(urdf: str) -> str | None:
@@ -286,7 +225,8 @@ def _scan_recording(rec: Recording) -> _Scan:
     scan = _Scan(profile=rec.details.get("profile", ""), library=rec.details.get("library", ""))
     scan.compressions = {name for name in rec.details.get("compression", "").split(", ") if name}
     for name, info in rec.topics.items():
-        topic = scan.topics[name] = _Topic(name, info.type, info.count, durability=info.durability)
+        topic = scan.topics[name] = TopicStats(info.type, info.durability)
+        topic.count = info.count
         if info.first_ns is not None and info.last_ns is not None:
             topic.add_times(info.first_ns, info.last_ns)
     if rec.robot_description is not None:
@@ -304,7 +244,7 @@ def _scan_recording(rec: Recording) -> _Scan:
 
 
 def _iso(time_ns: int) -> str:
-    sec, frac = divmod(time_ns, 1_000_000_000)
+    sec, frac = divmod(time_ns, NS_PER_S)
     return datetime.fromtimestamp(sec, tz=timezone.utc).strftime("%Y-%m-%dT%H:%M:%S") + f".{frac:09d}Z"
 
 
@@ -319,10 +259,10 @@ def _as_dict(path: Path, fmt: str, meta: BagMetadata | None, files: list[Path], 
     end = max(lasts) if lasts else None
     duration = end - start if start is not None and end is not None else 0
     topics = []
-    for topic in scan.topics.values():
+    for name, topic in scan.topics.items():
         span = (topic.last_ns or 0) - (topic.first_ns or 0)
-        rate = (topic.count - 1) / (span / 1e9) if topic.count > 1 and span > 0 else None
-        topics.append({"name": topic.name, "type": topic.type, "count": topic.count,
+        rate = (topic.count - 1) / (span / NS_PER_S) if topic.count > 1 and span > 0 else None
+        topics.append({"name": name, "type": topic.type, "count": topic.count,
                        "rate_hz": rate, "durability": topic.durability})
     compression = ", ".join(sorted(c or "none" for c in scan.compressions)) or "no"
     return {
@@ -337,7 +277,7 @@ def _as_dict(path: Path, fmt: str, meta: BagMetadata | None, files: list[Path], 
         "start_time_ns": start,
         "end_time_ns": end,
         "duration_ns": duration,
-        "duration_s": duration / 1e9,
+        "duration_s": duration / NS_PER_S,
         "start_time": _iso(start) if start is not None else None,
         "end_time": _iso(end) if end is not None else None,
         "topics": topics,

@@ -14,7 +14,7 @@ w >= 0; translations are in metres; both float64.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -78,6 +78,27 @@ class Transforms:
     def __len__(self) -> int:
         """N, the number of instants."""
         return int(self.translation.shape[0])
+
+    @classmethod
+    def from_poses(cls, poses: Mapping[tuple[str, str], tuple[Array, Array]]) -> Transforms:
+        """Transforms at one instant (N = 1) of frame pairs, (parent, child) → (translation (3,), rotation (4,))."""
+        k = len(poses)
+        return cls(
+            tuple(parent for parent, _ in poses),
+            tuple(child for _, child in poses),
+            np.array([t for t, _ in poses.values()], dtype=np.float64).reshape(1, k, 3),
+            np.array([r for _, r in poses.values()], dtype=np.float64).reshape(1, k, 4),
+        )
+
+    def poses(self, instant: int = 0) -> dict[tuple[str, str], tuple[Array, Array]]:
+        """The transforms at one instant, (parent, child) → (translation (3,), rotation (4,)) (views).
+
+        The form a replay holds latched transforms in; :meth:`from_poses` is the inverse.
+        """
+        return {
+            (parent, child): (self.translation[instant, k], self.rotation[instant, k])
+            for k, (parent, child) in enumerate(zip(self.parents, self.children))
+        }
 
     def matrices(self) -> Array:
         """Homogeneous matrices, float64 (N, K, 4, 4)."""
@@ -226,27 +247,13 @@ def link_poses(robot: Robot, names: Sequence[str], positions: ArrayLike) -> dict
     for block in _blocks(n):
         moving = _dynamic_components(joints, q[block])
         frames, poses = _compose(fixed_edges + [(j.parent, j.child, c) for j, c in zip(joints, moving)], robot.root)
-        rows = np.zeros((16, moving.shape[2]))
-        rows[15] = 1.0
-        for frame, (tx, ty, tz, x, y, z, w) in zip(frames, poses):
-            xx, yy, zz = x * x, y * y, z * z
-            xy, xz, yz = x * y, x * z, y * z
-            wx, wy, wz = w * x, w * y, w * z
-            rows[0] = 1.0 - 2.0 * (yy + zz)
-            rows[1] = 2.0 * (xy - wz)
-            rows[2] = 2.0 * (xz + wy)
-            rows[3] = tx
-            rows[4] = 2.0 * (xy + wz)
-            rows[5] = 1.0 - 2.0 * (xx + zz)
-            rows[6] = 2.0 * (yz - wx)
-            rows[7] = ty
-            rows[8] = 2.0 * (xz - wy)
-            rows[9] = 2.0 * (yz + wx)
-            rows[10] = 1.0 - 2.0 * (xx + yy)
-            rows[11] = tz
+        for frame, pose in zip(frames, poses):
             if frame not in out:
-                out[frame] = np.empty((n, 4, 4))
-            out[frame][block] = rows.T.reshape(-1, 4, 4)
+                out[frame] = np.zeros((n, 4, 4))
+                out[frame][:, 3, 3] = 1.0
+            matrix = out[frame][block]
+            matrix[:, :3, :3] = matrix_from_quaternion(pose[3:].T)
+            matrix[:, :3, 3] = pose[:3].T
     if n == 0:
         return {frame: np.empty((0, 4, 4)) for frame in _compose(fixed_edges, robot.root)[0]}
     return out

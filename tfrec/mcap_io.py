@@ -26,73 +26,50 @@ import numpy as np
 from numpy.typing import NDArray
 
 from . import __version__
-from .bag_metadata import bag_info, write_bag_metadata, yaml_dump
-from .cdr import MAX_STAMP_NS, JointStateEncoder, TFMessageEncoder, encode_string
+from .bag_metadata import QOS_LATCHED, QOS_VOLATILE, bag_info, qos_yaml, yaml_dump
+from .cdr import JointStateEncoder, TFMessageEncoder, encode_string
+from .conventions import (
+    COMPRESSIONS,
+    DEFAULT_START_TIME_NS,
+    JOINT_STATES,
+    NS_PER_S,
+    ROBOT_DESCRIPTION,
+    STAMP_LIMIT_NS,
+    STAMP_RANGE,
+    TF,
+    TF_STATIC,
+)
 from .errors import RecordingError
-from .info import format_summary, summarize  # re-exported: ``tfrec info`` reads what this writes
 
 if TYPE_CHECKING:
     from .kinematics import Transforms
 
 __all__ = [
-    "COMPRESSIONS",
     "DEFAULT_CHUNK_BYTES",
-    "DEFAULT_START_TIME_NS",
+    "DEFAULT_START_TIME_NS",  # re-exported from tfrec.conventions
     "LIBRARY",
     "PROFILE",
-    "QOS_LATCHED",
-    "QOS_VOLATILE",
     "TOPICS",
     "McapSink",
     "check_time_range",
-    "format_summary",
     "message_definition",
-    "summarize",
-    "write_bag_metadata",
 ]
-
-DEFAULT_START_TIME_NS = 1_700_000_000 * 1_000_000_000
-"""Stamp of the first sample unless ``--start-time`` says otherwise: 2023-11-14T22:13:20Z.
-A fixed epoch (never the wall clock) makes the same command give byte-identical files."""
 
 DEFAULT_CHUNK_BYTES = 1 << 20
 """Uncompressed bytes per MCAP chunk (mcap's Python writer also uses 1 MiB)."""
 
-COMPRESSIONS = ("none", "lz4", "zstd")
 PROFILE = "ros2"
 LIBRARY = f"tfrec {__version__}"
 """The MCAP header's ``library`` field."""
 
-# Offered QoS as rosbag2 (metadata version 9, Jazzy and later) serializes what it discovered
-# from the publishers: the history depth is not discoverable (unknown, 0) and unset durations
-# read as infinite (RMW_DURATION_INFINITE). robot_state_publisher and joint_state_publisher
-# publish reliable; /robot_description and /tf_static are transient_local (latched).
-_QOS_TEMPLATE = """\
-- history: unknown
-  depth: 0
-  reliability: reliable
-  durability: {durability}
-  deadline:
-    sec: 9223372036
-    nsec: 854775807
-  lifespan:
-    sec: 9223372036
-    nsec: 854775807
-  liveliness: automatic
-  liveliness_lease_duration:
-    sec: 9223372036
-    nsec: 854775807
-  avoid_ros_namespace_conventions: false"""
-QOS_LATCHED = _QOS_TEMPLATE.format(durability="transient_local")
-QOS_VOLATILE = _QOS_TEMPLATE.format(durability="volatile")
-
-TOPICS: tuple[tuple[str, str, str], ...] = (
-    ("/robot_description", "std_msgs/msg/String", QOS_LATCHED),
-    ("/tf_static", "tf2_msgs/msg/TFMessage", QOS_LATCHED),
-    ("/joint_states", "sensor_msgs/msg/JointState", QOS_VOLATILE),
-    ("/tf", "tf2_msgs/msg/TFMessage", QOS_VOLATILE),
+TOPICS: tuple[tuple[str, str, dict[str, Any]], ...] = (
+    (ROBOT_DESCRIPTION, "std_msgs/msg/String", QOS_LATCHED),
+    (TF_STATIC, "tf2_msgs/msg/TFMessage", QOS_LATCHED),
+    (JOINT_STATES, "sensor_msgs/msg/JointState", QOS_VOLATILE),
+    (TF, "tf2_msgs/msg/TFMessage", QOS_VOLATILE),
 )
-"""(topic, type, offered_qos_profiles) in channel-id order 1..4."""
+"""(topic, type, offered QoS profile) in channel-id order 1..4; robot_state_publisher and
+joint_state_publisher publish reliable, /robot_description and /tf_static latched."""
 
 _CH_DESCRIPTION, _CH_TF_STATIC, _CH_JOINT_STATES, _CH_TF = 1, 2, 3, 4
 
@@ -121,11 +98,9 @@ def check_time_range(first_ns: int, last_ns: int) -> None:
         RecordingError: a stamp outside that range.
     """
     for stamp in (first_ns, last_ns):
-        if not 0 <= stamp <= MAX_STAMP_NS:
-            raise RecordingError(
-                f"stamp {stamp / 1e9:.9f} s is outside the range ROS 2 stamps can hold "
-                f"(0 to {MAX_STAMP_NS // 1_000_000_000} s since 1970)"
-            )
+        if not 0 <= stamp < STAMP_LIMIT_NS:
+            problem = "before 1970" if stamp < 0 else f"out of range: {STAMP_RANGE}"
+            raise RecordingError(f"stamp {stamp / NS_PER_S:.9f} s is {problem}")
 
 
 _ZSTD_BLOCK = 16 * 1024
@@ -154,7 +129,7 @@ def _compressor(compression: str) -> tuple[str, Callable[[bytes], bytes]]:
         return "lz4", lz4.frame.compress
     if compression == "none":
         return "", bytes
-    raise ValueError(f"compression '{compression}' is not one of {', '.join(COMPRESSIONS)}")
+    raise RecordingError(f"compression '{compression}' is not one of {', '.join(COMPRESSIONS)}")
 
 
 def _serialize(*records: Any) -> bytes:
@@ -182,10 +157,14 @@ class McapSink:
 
     Args:
         stream: a binary stream to write to.
-        compression: chunk compression: ``"zstd"`` (default), ``"lz4"`` or ``"none"``.
+        compression: chunk compression, one of :data:`~tfrec.conventions.COMPRESSIONS`:
+            ``"zstd"`` (default), ``"lz4"`` or ``"none"``.
         chunk_size: uncompressed bytes per MCAP chunk (whole samples; at least one).
         file_name: the file's final name, listed in the embedded rosbag2 metadata
             (``<bag>_0.mcap`` in a bag folder); empty lists no file.
+
+    Raises:
+        RecordingError: an unknown compression.
     """
 
     def __init__(
@@ -218,6 +197,7 @@ class McapSink:
         self._rows: NDArray[np.uint8] = np.empty((0, 0), dtype=np.uint8)
         self._row_times: NDArray[np.int64] = np.empty(0, dtype=np.int64)
         self._row_len = self._js_len = self._filled = 0
+        self._bag_info: dict[str, Any] = {}
 
     # -- public API ---------------------------------------------------------------------------
 
@@ -248,7 +228,7 @@ class McapSink:
                 self._schemas.append(schema)
             channel = Channel(
                 id=channel_id, topic=topic, message_encoding="cdr", schema_id=schema_ids[msgtype],
-                metadata={"offered_qos_profiles": qos, "topic_type_hash": type_hash},
+                metadata={"offered_qos_profiles": qos_yaml([qos]), "topic_type_hash": type_hash},
             )
             self._channels.append(channel)
         self._write(_MAGIC + _serialize(Header(profile=PROFILE, library=LIBRARY), *self._schemas, *self._channels))
@@ -327,6 +307,14 @@ class McapSink:
     @property
     def message_count(self) -> int:
         return sum(self._counts.values())
+
+    @property
+    def bag_info(self) -> dict[str, Any]:
+        """The rosbag2 BagMetadata embedded by :meth:`finish` (:func:`tfrec.bag_metadata.bag_info`),
+        for the ``metadata.yaml`` of a bag folder (:func:`tfrec.bag_metadata.write_bag_metadata`)."""
+        if self._state != "done":
+            raise RuntimeError("McapSink.bag_info is known after finish()")
+        return self._bag_info
 
     # -- chunks -------------------------------------------------------------------------------
 
@@ -443,12 +431,12 @@ class McapSink:
         from mcap.records import DataEnd, Footer, Metadata, MetadataIndex, Statistics, SummaryOffset
 
         start = self._start_ns or 0
-        info = bag_info(
-            [(topic, msgtype, "cdr", qos, message_definition(msgtype)[1], self._counts[channel])
+        self._bag_info = bag_info(
+            [(topic, msgtype, "cdr", [qos], message_definition(msgtype)[1], self._counts[channel])
              for channel, (topic, msgtype, qos) in enumerate(TOPICS, start=1)],
             message_count=self.message_count, start_ns=start, end_ns=self._end_ns, file_name=self._file_name,
         )
-        metadata = _serialize(Metadata(name="rosbag2", metadata={"serialized_metadata": yaml_dump(info)}))
+        metadata = _serialize(Metadata(name="rosbag2", metadata={"serialized_metadata": yaml_dump(self._bag_info)}))
         metadata_index = MetadataIndex(offset=self._offset, length=len(metadata), name="rosbag2")
         self._write(metadata + _serialize(DataEnd(data_section_crc=0)))
 

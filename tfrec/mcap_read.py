@@ -8,9 +8,8 @@ builds a record object per message and reads ~130k messages/s; this reads ~300k/
 A damaged file (a recorder killed mid-write, flipped bytes) is read as far as possible, and
 :attr:`Recording.read_error` says what was lost:
 
-- a file that ends inside a chunk keeps the complete records of the part that is there: zstd
-  and lz4 decompress block by block (128 KiB and 64 KiB of records), so the records of every
-  block that is whole are recovered;
+- a file that ends inside a chunk keeps the complete records of the part that is there: the
+  records of every compressed block that is whole are recovered (:func:`tfrec.salvage.salvage`);
 - a whole chunk whose data does not decompress, or does not match its CRC, is skipped, and
   reading goes on with the next record: a flipped byte mostly decompresses to wrong data
   without any error, so only the CRC tells which messages can be trusted. The summary's
@@ -19,7 +18,8 @@ A damaged file (a recorder killed mid-write, flipped bytes) is read as far as po
 When messages were lost, :attr:`Recording.start_ns` (and ``end_ns``) still give the recording's
 true span, so times count from its real start: the summary's Statistics record when the
 summary is intact (its CRC holds), else the message start times in the headers of the chunk
-records read — a chunk's header survives damage to its compressed records.
+records read — a chunk's header survives damage to its compressed records. The records other
+than messages are parsed by :mod:`tfrec.mcap_summary`.
 """
 
 from __future__ import annotations
@@ -27,47 +27,55 @@ from __future__ import annotations
 import os
 import struct
 import zlib
-from collections.abc import Callable
 from pathlib import Path
-from typing import IO, Any, NamedTuple
+from typing import IO
 
 from .bag_metadata import qos_durability
 from .errors import RecordingError
-from .recorded import Collector, ReadStopped, Recording, deserializer, with_article
+from .mcap_format import (
+    COMPRESSIONS,
+    MCAP_MAGIC,
+    MESSAGE,
+    MESSAGE_HEAD_SIZE,
+    OP_CHANNEL,
+    OP_CHUNK,
+    OP_DATA_END,
+    OP_FOOTER,
+    OP_HEADER,
+    OP_MESSAGE,
+    OP_MESSAGE_INDEX,
+    OP_SCHEMA,
+    OP_STATISTICS,
+    RECORD,
+    STATISTICS,
+    record_name,
+)
+from .mcap_summary import (
+    ChunkHead,
+    chunk_fields,
+    parse_channel,
+    parse_header,
+    parse_schema,
+    read_summary_section,
+    summary_records,
+)
+from .recorded import DECODE_BATCH, Collector, ReadStopped, Recording, TopicStats, read_error_line, with_article
+from .ros_types import topic_deserializer
+from .salvage import decompress, salvage
 
-__all__ = ["MCAP_MAGIC", "read_mcap"]
-
-MCAP_MAGIC = b"\x89MCAP0\r\n"
-_BATCH = 32768
-"""Messages of a topic decoded at once outside chunks."""
-_PIECE = 4096
-"""Compressed bytes fed at a time when salvaging a cut chunk, so the blocks before a corrupt tail come out."""
-
-_OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 1, 2, 3, 4, 5, 6
-_OP_MESSAGE_INDEX, _OP_STATISTICS, _OP_DATA_END = 7, 11, 15
-_RECORD_NAMES = {1: "header", 2: "footer", 3: "schema", 4: "channel", 5: "message", 6: "chunk", 7: "message index",
-                 8: "chunk index", 9: "attachment", 10: "attachment index", 11: "statistics", 12: "metadata",
-                 13: "metadata index", 14: "summary offset", 15: "data end"}
-_RECORD = struct.Struct("<BQ")
-_MESSAGE = struct.Struct("<HIQ")  # channel id, sequence, log time (publish time follows)
-_MESSAGE_HEAD = 2 + 4 + 8 + 8
-_CHUNK_HEAD = struct.Struct("<QQQII")  # start time, end time, uncompressed size and CRC, compression length
-_FOOTER = struct.Struct("<BQQQI")  # opcode, length, summary start, summary offset start, summary CRC
-_STATISTICS = struct.Struct("<QHIIIIQQ")  # message count, schema … chunk counts, message start and end time
-_COMPRESSIONS = ("", "zstd", "lz4")
+__all__ = ["read_mcap"]
 
 
-class _Channel:
-    __slots__ = ("count", "datas", "decoded", "durability", "first", "last", "topic", "type")
+class _Channel(TopicStats):
+    """A channel: its topic, whether its messages are decoded, those not yet handed to the
+    collector, and its count (``first_ns``, ``last_ns``: of its first and last message in the file)."""
+
+    __slots__ = ("datas", "decoded", "topic")
 
     def __init__(self, topic: str, msgtype: str, decoded: bool, durability: str | None) -> None:
+        super().__init__(msgtype, durability)
         self.topic = topic
-        self.type = msgtype
         self.decoded = decoded
-        self.durability = durability
-        self.count = 0
-        self.first = 0
-        self.last = 0
         self.datas: list[memoryview] = []
 
 
@@ -82,94 +90,6 @@ class _Damage:
         self.recovered = recovered
         self.indexed: int | None = None
         """Its messages, as its message index records count them (None: no index)."""
-
-
-class _ChunkHead(NamedTuple):
-    """A chunk record's fields; ``records`` may be shorter than ``length`` in a cut file."""
-
-    start: int
-    end: int
-    compression: str
-    size: int
-    crc: int
-    records: memoryview
-    length: int
-
-    def plausible(self) -> bool:
-        """Whether the header looks undamaged, so that its message times can be believed."""
-        return self.compression in _COMPRESSIONS and 0 < self.start <= self.end
-
-
-def _chunk_fields(body: bytes) -> _ChunkHead:
-    """A chunk record's header fields and its compressed records.
-
-    Raises:
-        struct.error, UnicodeDecodeError: a damaged chunk header.
-    """
-    start, end, size, crc, name_len = _CHUNK_HEAD.unpack_from(body, 0)
-    pos = _CHUNK_HEAD.size
-    compression = body[pos : pos + name_len].decode()
-    pos += name_len
-    (length,) = struct.unpack_from("<Q", body, pos)
-    pos += 8
-    return _ChunkHead(start, end, compression, size, crc, memoryview(body)[pos : pos + length], length)
-
-
-def _decompress(compression: str, data: memoryview, size: int) -> bytes | memoryview:
-    """A whole chunk's records, decompressed.
-
-    Raises:
-        ValueError: the data does not decompress, or the compression is unknown.
-    """
-    if compression == "zstd":
-        import zstandard
-
-        try:
-            return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
-        except zstandard.ZstdError as err:
-            raise ValueError(f"zstd: {err}") from None
-    if compression == "lz4":
-        import lz4.frame
-
-        try:
-            return lz4.frame.decompress(data)  # type: ignore[no-any-return]
-        except RuntimeError as err:  # lz4 reports corrupt frames as RuntimeError
-            raise ValueError(f"lz4: {err}") from None
-    if compression:
-        raise ValueError(f"unsupported chunk compression '{compression}'")
-    return data
-
-
-def _salvage(compression: str, data: memoryview) -> bytes | memoryview:
-    """What decompresses of a cut chunk's records: every whole compressed block, up to the end
-    of the data or to the first corrupt block."""
-    if not compression:
-        return data
-    decompress: Callable[[memoryview], bytes]
-    error: type[Exception]
-    if compression == "zstd":
-        import zstandard
-
-        decompress, error = zstandard.ZstdDecompressor().decompressobj().decompress, zstandard.ZstdError
-    elif compression == "lz4":
-        import lz4.frame
-
-        decompress, error = lz4.frame.LZ4FrameDecompressor().decompress, RuntimeError
-    else:
-        return b""
-    out: list[bytes] = []
-    for at in range(0, len(data), _PIECE):  # pieces, so the blocks before a corrupt one come out
-        try:
-            out.append(decompress(data[at : at + _PIECE]))
-        except error:
-            break
-    return b"".join(out)
-
-
-def _ros2_store() -> Any:
-    from rosbags.typesys import Stores, get_typestore
-
-    return get_typestore(Stores.ROS2_HUMBLE)
 
 
 class _McapReader:
@@ -210,42 +130,42 @@ class _McapReader:
     def run(self) -> None:
         self.read(len(MCAP_MAGIC), "magic")
         while True:
-            head = self.stream.read(9)
+            head = self.stream.read(RECORD.size)
             if not head:
                 raise ReadStopped(self.offset, "the file ends without a footer")
-            if len(head) < 9:
+            if len(head) < RECORD.size:
                 raise ReadStopped(self.offset, "the file ends inside a record header")
             record_start = self.offset
-            self.offset += 9
-            opcode, length = _RECORD.unpack(head)
-            what = _RECORD_NAMES.get(opcode, f"opcode 0x{opcode:02x}")
-            if opcode in (_OP_FOOTER, _OP_DATA_END):
+            self.offset += RECORD.size
+            opcode, length = RECORD.unpack(head)
+            what = record_name(opcode)
+            if opcode in (OP_FOOTER, OP_DATA_END):
                 return  # the summary section repeats what the data section had
             if opcode == 0 or 0x10 <= opcode < 0x80:  # reserved: not a record, the framing is lost
                 raise ReadStopped(record_start, f"a damaged record (opcode 0x{opcode:02x})")
             if self.offset + length > self.size:
-                if opcode == _OP_CHUNK:
+                if opcode == OP_CHUNK:
                     recovered = self._cut_chunk(self.stream.read())
                     reason = f"the file ends inside a chunk record (recovered {recovered:,} messages of it)"
                     raise ReadStopped(self.size, reason)
                 raise ReadStopped(self.offset, f"the file ends inside {with_article(what)} record")
-            if opcode != _OP_MESSAGE_INDEX:
+            if opcode != OP_MESSAGE_INDEX:
                 self._indexing = None
-            if opcode == _OP_CHUNK:
+            if opcode == OP_CHUNK:
                 self._chunk(self.read(length, what), record_start)
                 self.flush()
-            elif opcode in (_OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE):
+            elif opcode in (OP_SCHEMA, OP_CHANNEL, OP_MESSAGE):
                 try:
                     self._record(memoryview(self.read(length, what)), opcode, 0, length)
                 except (struct.error, ValueError, UnicodeDecodeError) as err:
                     raise ReadStopped(record_start, f"a damaged {what} record ({err})") from None
-                if self.pending >= _BATCH:
+                if self.pending >= DECODE_BATCH:
                     self.flush()
-            elif opcode == _OP_HEADER:
-                self._header(self.read(length, what))
+            elif opcode == OP_HEADER:
+                self.profile, self.library = parse_header(self.read(length, what))
                 if self.profile not in ("ros2", ""):
                     raise RecordingError(f"{self.where}: MCAP profile '{self.profile}', not ros2")
-            elif opcode == _OP_MESSAGE_INDEX and self._indexing is not None:
+            elif opcode == OP_MESSAGE_INDEX and self._indexing is not None:
                 body = self.read(length, what)  # count what the damaged chunk held
                 if len(body) >= 6:
                     self._indexing.indexed = (self._indexing.indexed or 0) + struct.unpack_from("<I", body, 2)[0] // 16
@@ -253,20 +173,10 @@ class _McapReader:
                 self.stream.seek(length, os.SEEK_CUR)
                 self.offset += length
 
-    def _header(self, body: bytes) -> None:
-        """The Header record: profile and library."""
-        try:
-            (size,) = struct.unpack_from("<I", body, 0)
-            self.profile = body[4 : 4 + size].decode("utf-8", "replace")
-            (library_size,) = struct.unpack_from("<I", body, 4 + size)
-            self.library = body[8 + size : 8 + size + library_size].decode("utf-8", "replace")
-        except struct.error:
-            pass  # a damaged header: the profile is checked as far as it could be read
-
-    def _chunk_head(self, body: bytes) -> _ChunkHead | None:
+    def _chunk_head(self, body: bytes) -> ChunkHead | None:
         """A chunk record's header fields (None when damaged), noting its compression and start time."""
         try:
-            head = _chunk_fields(body)
+            head = chunk_fields(body)
         except (struct.error, UnicodeDecodeError):
             return None
         if head.plausible():
@@ -284,9 +194,7 @@ class _McapReader:
         try:
             if len(head.records) != head.length:
                 raise ValueError("its records run past its end")
-            records = _decompress(head.compression, head.records, head.size)
-            if len(records) != head.size:
-                raise ValueError(f"its records decompress to {len(records):,} bytes, not {head.size:,}")
+            records = decompress(head.compression, head.records, head.size, supported=COMPRESSIONS)
             if head.crc and zlib.crc32(records) != head.crc:
                 raise ValueError("CRC mismatch")
         except ValueError as err:
@@ -303,7 +211,7 @@ class _McapReader:
         if head is None:
             return 0
         before = self.messages
-        records = _salvage(head.compression, head.records)[: head.size]
+        records = salvage(head.compression, head.records, supported=COMPRESSIONS)[: head.size]
         self._chunk_records(records)  # stops at the first incomplete record
         return self.messages - before
 
@@ -317,28 +225,28 @@ class _McapReader:
         """
         view = memoryview(data)
         pos, end = 0, len(view)
-        record, message, channels = _RECORD.unpack_from, _MESSAGE.unpack_from, self.channels
+        record, message, channels, head = RECORD.unpack_from, MESSAGE.unpack_from, self.channels, RECORD.size
         try:
             while pos < end:
                 opcode, length = record(view, pos)  # struct.error when its header runs past the end
-                pos += 9
+                pos += head
                 if pos + length > end:
                     return "a record runs past the end of the chunk"
-                if opcode == _OP_MESSAGE:  # the hot path, inlined from _record
+                if opcode == OP_MESSAGE:  # the hot path, inlined from _record
                     channel_id, _, log_time = message(view, pos)
                     channel = channels.get(channel_id)
                     if channel is None:
                         return f"a message on unknown channel {channel_id}"
                     if channel.count == 0:
-                        channel.first = log_time
+                        channel.first_ns = log_time
                     channel.count += 1
-                    channel.last = log_time
+                    channel.last_ns = log_time
                     if channel.decoded:
-                        channel.datas.append(view[pos + _MESSAGE_HEAD : pos + length])
-                elif opcode in (_OP_SCHEMA, _OP_CHANNEL):
+                        channel.datas.append(view[pos + MESSAGE_HEAD_SIZE : pos + length])
+                elif opcode in (OP_SCHEMA, OP_CHANNEL):
                     self._record(view, opcode, pos, length)
                 elif opcode < 0x80:  # 0x80 and up: private records
-                    return f"{with_article(_RECORD_NAMES.get(opcode, f'opcode 0x{opcode:02x}'))} record inside the chunk"
+                    return f"{with_article(record_name(opcode))} record inside the chunk"
                 pos += length
         except (struct.error, ValueError, UnicodeDecodeError) as err:
             return f"a damaged record ({err})"
@@ -354,39 +262,10 @@ class _McapReader:
         """The summary section and its records (opcode, position, length); no records when the
         file has no intact summary (one that holds its CRC)."""
         if not self._summary_read:
-            self._summary, self._summary_read = self._read_summary(), True
+            self._summary = read_summary_section(self.stream, self.size, after=self.offset)
+            self._summary_read = True
         view = self._summary if self._summary is not None else memoryview(b"")
-        records, pos, end = [], 0, len(view)
-        while pos + 9 <= end:
-            opcode, length = _RECORD.unpack_from(view, pos)
-            pos += 9
-            if pos + length > end:
-                break
-            records.append((opcode, pos, length))
-            pos += length
-        return view, records
-
-    def _read_summary(self) -> memoryview | None:
-        footer_start = self.size - len(MCAP_MAGIC) - _FOOTER.size
-        if footer_start < self.offset:
-            return None
-        here = self.stream.tell()
-        try:
-            self.stream.seek(footer_start)
-            footer = self.stream.read(_FOOTER.size + len(MCAP_MAGIC))
-            opcode, length, summary_start, _, crc = _FOOTER.unpack_from(footer)
-            if (footer[_FOOTER.size :] != MCAP_MAGIC or opcode != _OP_FOOTER or length != _FOOTER.size - 9
-                    or not self.offset <= summary_start <= footer_start):
-                return None
-            self.stream.seek(summary_start)
-            section = self.stream.read(footer_start + _FOOTER.size - 4 - summary_start)  # the CRC covers the footer too
-            if crc and zlib.crc32(section) != crc:
-                return None
-            return memoryview(section)[: footer_start - summary_start]
-        except struct.error:
-            return None
-        finally:
-            self.stream.seek(here)
+        return view, summary_records(view)
 
     def _summary_channels(self) -> None:
         """Take the schemas and channels of the summary section: a skipped chunk may have held the
@@ -394,7 +273,7 @@ class _McapReader:
         view, records = self._summary_records()
         try:
             for opcode, pos, length in records:
-                if opcode in (_OP_SCHEMA, _OP_CHANNEL):
+                if opcode in (OP_SCHEMA, OP_CHANNEL):
                     self._record(view, opcode, pos, length)
         except (struct.error, ValueError, UnicodeDecodeError):
             return  # a damaged summary: its channels stay unknown
@@ -404,8 +283,8 @@ class _McapReader:
         else the earliest message start time of the chunk headers read."""
         view, records = self._summary_records()
         for opcode, pos, length in records:
-            if opcode == _OP_STATISTICS and length >= _STATISTICS.size:
-                count, *_, start, _ = _STATISTICS.unpack_from(view, pos)
+            if opcode == OP_STATISTICS and length >= STATISTICS.size:
+                count, *_, start, _ = STATISTICS.unpack_from(view, pos)
                 if count:
                     return int(start)
         return self.chunks_start
@@ -426,59 +305,32 @@ class _McapReader:
 
     def _record(self, view: memoryview, opcode: int, pos: int, length: int) -> None:
         """One record's body at ``view[pos : pos + length]``."""
-        if opcode == _OP_MESSAGE:
-            channel_id, _, log_time = _MESSAGE.unpack_from(view, pos)
+        if opcode == OP_MESSAGE:
+            channel_id, _, log_time = MESSAGE.unpack_from(view, pos)
             channel = self.channels.get(channel_id)
             if channel is None:
                 raise ValueError(f"message on unknown channel {channel_id}")
             if channel.count == 0:
-                channel.first = log_time
+                channel.first_ns = log_time
             channel.count += 1
-            channel.last = log_time
+            channel.last_ns = log_time
             if channel.decoded:
-                channel.datas.append(view[pos + _MESSAGE_HEAD : pos + length])
+                channel.datas.append(view[pos + MESSAGE_HEAD_SIZE : pos + length])
                 self.pending += 1
-        elif opcode == _OP_SCHEMA:
-            schema_id, name_len = struct.unpack_from("<HI", view, pos)
-            self.schemas[schema_id] = bytes(view[pos + 6 : pos + 6 + name_len]).decode()
-        elif opcode == _OP_CHANNEL:
-            channel_id, schema_id, topic_len = struct.unpack_from("<HHI", view, pos)
-            at = pos + 8
-            topic = bytes(view[at : at + topic_len]).decode()
-            at += topic_len
-            (enc_len,) = struct.unpack_from("<I", view, at)
-            encoding = bytes(view[at + 4 : at + 4 + enc_len]).decode()
-            if channel_id not in self.channels:
-                metadata = self._metadata(view, at + 4 + enc_len, pos + length)
-                msgtype = self.schemas.get(schema_id, "")
+        elif opcode == OP_SCHEMA:
+            schema_id, name = parse_schema(view, pos)
+            self.schemas[schema_id] = name
+        elif opcode == OP_CHANNEL:
+            record = parse_channel(view, pos, length)
+            if record.id not in self.channels:
+                topic, msgtype = record.topic, self.schemas.get(record.schema_id, "")
                 decoded = self.collector.decodes(topic, msgtype)
-                if decoded and encoding != "cdr":
-                    raise RecordingError(f"{self.where}: topic {topic} is encoded as '{encoding}', not cdr")
+                if decoded and record.encoding != "cdr":
+                    raise RecordingError(f"{self.where}: topic {topic} is encoded as '{record.encoding}', not cdr")
                 if decoded:
-                    self.collector.set_deserializer(
-                        topic, deserializer(_ros2_store(), msgtype, ros1=False, where=self.where, topic=topic)
-                    )
-                durability = qos_durability(metadata.get("offered_qos_profiles", ""))
-                self.channels[channel_id] = _Channel(topic, msgtype, decoded, durability)
-
-    @staticmethod
-    def _metadata(view: memoryview, pos: int, end: int) -> dict[str, str]:
-        """A channel record's metadata map (from ``pos``); empty when it is missing or damaged."""
-        out: dict[str, str] = {}
-        try:
-            (size,) = struct.unpack_from("<I", view, pos)
-            pos += 4
-            stop = min(pos + size, end)
-            while pos < stop:
-                (key_len,) = struct.unpack_from("<I", view, pos)
-                key = bytes(view[pos + 4 : pos + 4 + key_len]).decode()
-                pos += 4 + key_len
-                (value_len,) = struct.unpack_from("<I", view, pos)
-                out[key] = bytes(view[pos + 4 : pos + 4 + value_len]).decode()
-                pos += 4 + value_len
-        except (struct.error, UnicodeDecodeError):
-            return {}
-        return out
+                    self.collector.set_deserializer(topic, topic_deserializer(msgtype, where=self.where, topic=topic))
+                durability = qos_durability(record.metadata.get("offered_qos_profiles", ""))
+                self.channels[record.id] = _Channel(topic, msgtype, decoded, durability)
 
     def flush(self) -> None:
         """Decode the messages collected so far."""
@@ -491,8 +343,7 @@ class _McapReader:
     def finish(self) -> None:
         for channel in self.channels.values():
             if channel.count:
-                self.collector.count(channel.topic, channel.type, channel.count, channel.first, channel.last,
-                                     channel.durability)
+                self.collector.count(channel.topic, channel)
 
 
 def read_mcap(path: Path, wanted: frozenset[str]) -> Recording:
@@ -519,9 +370,9 @@ def read_mcap(path: Path, wanted: frozenset[str]) -> Recording:
                 raise RecordingError(f"{where}: unreadable MCAP: {stop.reason} at byte {stop.offset:,}")
             problems = [reader.damage_summary()] if reader.damage else []
             if stop is not None:
-                problems.append(f"reading stopped at byte {stop.offset:,} of {size:,}: {stop.reason}")
+                problems.append(stop.problem(size))
             if problems:
-                recording.read_error = f"{where}: {'; '.join(problems)}; {reader.messages:,} messages read"
+                recording.read_error = read_error_line(where, problems, reader.messages)
             reader.flush()
             reader.finish()
             true_start = reader.true_start() if problems else None

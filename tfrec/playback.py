@@ -19,6 +19,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from .atomic import AtomicOutputs, check_target
 from .errors import RecordingError
 from .pacing import BATCH_WALL_S, Clock, MonotonicClock, Pacer, batches
 from .readers import FrameSeries, JointStates
@@ -170,8 +171,9 @@ def check_play_options(
 
     Raises:
         RecordingError: a rate that is not > 0, --save with --connect or --loop, a --save name
-            that is not ``.rrd``, a --save file that exists (without ``force``), no viewer at the
-            --connect URL, or no viewer to spawn (no display or no ``rerun`` executable).
+            that is not ``.rrd``, a --save file that exists (without ``force``; a folder in any
+            case), no viewer at the --connect URL, or no viewer to spawn (no display or no
+            ``rerun`` executable).
     """
     if not (math.isfinite(rate) and rate > 0):
         raise RecordingError(f"--rate {rate:g} is not a speed > 0")
@@ -187,11 +189,7 @@ def check_play_options(
         return
     if loop:
         raise RecordingError("--loop replays forever; it needs a live viewer, not --save")
-    target = Path(save)
-    if target.suffix != ".rrd":
-        raise RecordingError(f"{target}: the Rerun output's name must end in .rrd")
-    if target.exists() and (target.is_dir() or not force):
-        raise RecordingError(f"{target}: already exists" + ("" if target.is_dir() else " (use --force to overwrite)"))
+    check_target(Path(save), suffix=".rrd", what="Rerun", force=force)
 
 
 def replay_to_rerun(
@@ -231,13 +229,9 @@ def replay_to_rerun(
         sink = open_rerun_sink(connect=connect, robot=replay.robot, frame_prefix=replay.frame_prefix,
                                package_paths=package_paths)
         return play(replay, sink, pacer=Pacer(clock or MonotonicClock(), rate=rate), loop=loop, max_loops=max_loops)
-    target = Path(save)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    temp = target.parent / f".{target.name}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}"
-    try:
-        result = play(replay, open_rerun_sink(save=temp, recording_id=_recording_id(replay), robot=replay.robot,
-                                              frame_prefix=replay.frame_prefix, package_paths=package_paths))
-        os.replace(temp, target)
-    finally:
-        temp.unlink(missing_ok=True)
+    with AtomicOutputs() as outputs:
+        sink = open_rerun_sink(save=outputs.path(Path(save)), recording_id=_recording_id(replay), robot=replay.robot,
+                               frame_prefix=replay.frame_prefix, package_paths=package_paths)
+        result = play(replay, sink)  # aborts the sink (closing its file) on any error
+        outputs.commit()
     return result

@@ -30,13 +30,16 @@ import sqlite3
 import struct
 import tempfile
 from collections.abc import Collection, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from .bag_metadata import BagMetadata, one_line, qos_durability, read_bag_metadata
 from .errors import RecordingError
-from .mcap_read import MCAP_MAGIC, read_mcap
+from .mcap_format import MCAP_MAGIC
+from .mcap_read import read_mcap
 from .recorded import (
+    DECODE_BATCH,
     DECODED_TOPICS,
     JOINT_STATES,
     ROBOT_DESCRIPTION,
@@ -47,8 +50,9 @@ from .recorded import (
     JointStates,
     Recording,
     TopicInfo,
-    deserializer,
+    read_error_line,
 )
+from .ros_types import topic_deserializer, typestore
 from .rosbag1_read import ROS1_MAGIC, read_rosbag1_records, ros1_compression
 from .rrd_read import RRD_MAGIC, read_rrd
 
@@ -60,13 +64,32 @@ __all__ = [
     "FrameSeries",
     "JointStates",
     "Recording",
+    "RecordingSource",
     "TopicInfo",
+    "identify_recording",
     "read_recording",
     "recording_format",
 ]
 
-_BATCH = 32768
-"""Messages of a topic decoded at once."""
+
+@dataclass(frozen=True, slots=True)
+class RecordingSource:
+    """A recording identified, not yet read (:func:`identify_recording`).
+
+    Attributes:
+        path: the path given: a file, or a rosbag2 folder.
+        format: ``mcap``, ``rosbag2``, ``rosbag1`` or ``rrd``.
+        bag: a rosbag2 bag's ``metadata.yaml``; None for the other formats.
+    """
+
+    path: Path
+    format: str
+    bag: BagMetadata | None = None
+
+    @property
+    def files(self) -> tuple[Path, ...]:
+        """The files that hold the recording: a rosbag2 bag's, else the file itself."""
+        return self.bag.files if self.bag is not None else (self.path,)
 
 
 def recording_format(path: str | os.PathLike[str]) -> str:
@@ -99,11 +122,28 @@ def recording_format(path: str | os.PathLike[str]) -> str:
     raise RecordingError(f"{where}: not a recording (neither MCAP, rosbag2, ROS 1 bag nor Rerun .rrd)")
 
 
-def read_recording(path: str | os.PathLike[str], *, topics: Collection[str] | None = None) -> Recording:
+def identify_recording(path: str | os.PathLike[str]) -> RecordingSource:
+    """The format of a recording (:func:`recording_format`) and, for a rosbag2 bag, its ``metadata.yaml``.
+
+    Raises:
+        RecordingError: a missing path, something that is not a recording, or a rosbag2 bag
+            whose metadata.yaml is malformed or lists missing files; one line naming the file.
+    """
+    fmt = recording_format(path)
+    file = Path(path)
+    if fmt != "rosbag2":
+        return RecordingSource(file, fmt)
+    return RecordingSource(file, fmt, read_bag_metadata(file.parent if file.is_file() else file))
+
+
+def read_recording(
+    path: str | os.PathLike[str] | RecordingSource, *, topics: Collection[str] | None = None
+) -> Recording:
     """Read a recording into arrays.
 
     Args:
-        path: an ``.mcap`` file, a rosbag2 folder (or its ``.db3``), a ROS 1 ``.bag`` or an ``.rrd``.
+        path: an ``.mcap`` file, a rosbag2 folder (or its ``.db3``), a ROS 1 ``.bag`` or an
+            ``.rrd``; or what :func:`identify_recording` found of one.
         topics: decode only these of /robot_description, /tf_static, /joint_states and /tf
             (the topic table always lists every topic); None for all.
 
@@ -115,18 +155,18 @@ def read_recording(path: str | os.PathLike[str], *, topics: Collection[str] | No
         RecordingError: a missing or unreadable input, or one that is not a recording; one
             line naming the file.
     """
-    fmt = recording_format(path)
+    source = path if isinstance(path, RecordingSource) else identify_recording(path)
     wanted = DECODED_TOPICS if topics is None else frozenset(topics)
+    fmt, file = source.format, source.path
     if fmt == "mcap":
-        return read_mcap(Path(path), wanted)
+        return read_mcap(file, wanted)
     if fmt == "rrd":
-        return read_rrd(Path(path), wanted)
-    file = Path(path)
+        return read_rrd(file, wanted)
     if fmt == "rosbag1":
         return _read_rosbags(file, fmt, wanted)
     if file.is_file():
         file = file.parent
-    meta = read_bag_metadata(file)  # its errors are one line, rosbags' are not
+    meta = source.bag if source.bag is not None else read_bag_metadata(file)  # its errors are one line
     if meta.storage == "mcap" and not meta.compression and len(meta.files) == 1:
         recording = read_mcap(meta.files[0], wanted)  # tfrec record --bag: much faster than rosbags
         recording.path, recording.format = os.fspath(file), "rosbag2"
@@ -170,15 +210,13 @@ def _read_anyreader(path: Path, fmt: str, wanted: frozenset[str]) -> Recording:
     from rosbags.rosbag1 import ReaderError as Reader1Error
     from rosbags.rosbag2 import ReaderError as Reader2Error
     from rosbags.serde import SerdeError
-    from rosbags.typesys import Stores, get_typestore
 
     where = os.fspath(path)
     ros1 = fmt == "rosbag1"
     recording = Recording(path=where, format=fmt)
     collector = Collector(recording, wanted, ros1=ros1)
-    default = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
     try:
-        with AnyReader([path], default_typestore=default) as reader:
+        with AnyReader([path], default_typestore=typestore(ros1=ros1)) as reader:
             decoded = []
             durability: dict[str, str | None] = {}
             for connection in reader.connections:
@@ -187,29 +225,20 @@ def _read_anyreader(path: Path, fmt: str, wanted: frozenset[str]) -> Recording:
                     if not ros1 and getattr(connection.ext, "serialization_format", "cdr") != "cdr":
                         raise RecordingError(f"{where}: topic {connection.topic} is not cdr-serialized")
                     decoded.append(connection)
-                    collector.set_deserializer(connection.topic, deserializer(
-                        reader.typestore, connection.msgtype, ros1=ros1, where=where, topic=connection.topic))
-            stats: dict[str, list[Any]] = {}  # topic → [type, count, first, last]
+                    collector.set_deserializer(connection.topic, topic_deserializer(
+                        connection.msgtype, where=where, topic=connection.topic, ros1=ros1, store=reader.typestore))
             pending: dict[str, list[bytes]] = {}
             for connection, log_time, raw in reader.messages():
                 topic = connection.topic
-                entry = stats.get(topic)
-                if entry is None:
-                    stats[topic] = [connection.msgtype, 1, log_time, log_time]
-                else:
-                    entry[1] += 1
-                    entry[2] = min(entry[2], log_time)
-                    entry[3] = max(entry[3], log_time)
+                collector.topic(topic, connection.msgtype, durability[topic]).add(log_time)
                 if connection in decoded:
                     batch = pending.setdefault(topic, [])
                     batch.append(raw)
-                    if len(batch) >= _BATCH:
+                    if len(batch) >= DECODE_BATCH:
                         collector.add(topic, batch)
                         pending[topic] = []
             for topic, batch in pending.items():
                 collector.add(topic, batch)
-            for topic, (msgtype, count, first, last) in stats.items():
-                collector.count(topic, msgtype, count, first, last, durability.get(topic))
     except (AnyReaderError, Reader1Error, Reader2Error, sqlite3.DatabaseError) as err:
         raise _Refused(one_line(str(err))) from None
     except SerdeError as err:
@@ -270,13 +299,9 @@ def _read_sqlite3_rows(folder: Path, files: Sequence[Path], wanted: frozenset[st
     Raises:
         RecordingError: a file whose topics table cannot be read.
     """
-    from rosbags.typesys import Stores, get_typestore
-
     where = os.fspath(folder)
     recording = Recording(path=where, format="rosbag2", details={"storage": "sqlite3"})
     collector = Collector(recording, wanted, ros1=False)
-    store = get_typestore(Stores.ROS2_HUMBLE)
-    stats: dict[str, list[Any]] = {}  # topic → [type, count, first, last, durability]
     pending: dict[str, list[tuple[int, bytes]]] = {}
     problems: list[str] = []
     for file in files:
@@ -286,27 +311,24 @@ def _read_sqlite3_rows(folder: Path, files: Sequence[Path], wanted: frozenset[st
             except OSError as err:
                 raise RecordingError(f"{where}: cannot read {file.name}: {err.strerror or err}") from None
             try:
-                problem = _read_rows(db, collector, store, stats, pending, where=where, refused=refused)
+                problem = _read_rows(db, collector, pending, where=where, refused=refused)
             finally:
                 db.close()
         if problem is not None:
             problems.append(f"reading {file.name} stopped after {problem[0]:,} messages: {problem[1]}{note}")
     for name, messages in pending.items():
-        messages.sort(key=lambda message: message[0])
-        for at in range(0, len(messages), _BATCH):
-            collector.add(name, [data for _, data in messages[at : at + _BATCH]])
-    for name, (msgtype, count, first, last, durability) in stats.items():
-        collector.count(name, msgtype, count, first, last, durability)
+        collector.add_in_time_order(name, messages)
     if problems:
-        total = sum(entry[1] for entry in stats.values())
-        recording.read_error = f"{where}: {'; '.join(problems)}; {total:,} messages read"
+        total = sum(stats.count for stats in collector.topics.values())
+        recording.read_error = read_error_line(where, problems, total)
     return collector.finish()
 
 
-def _read_rows(db: sqlite3.Connection, collector: Collector, store: Any, stats: dict[str, list[Any]],
-               pending: dict[str, list[tuple[int, bytes]]], *, where: str, refused: str) -> tuple[int, str] | None:
-    """Read one database's topics and messages into ``stats`` and ``pending``; returns (messages
-    read, SQLite's error) when reading stopped early, else None.
+def _read_rows(db: sqlite3.Connection, collector: Collector, pending: dict[str, list[tuple[int, bytes]]], *,
+               where: str, refused: str) -> tuple[int, str] | None:
+    """Read one database's topics and messages: counted in ``collector``, the decoded topics'
+    (log time, message) into ``pending``; returns (messages read, SQLite's error) when reading
+    stopped early, else None.
 
     Raises:
         RecordingError: the topics table cannot be read.
@@ -322,7 +344,7 @@ def _read_rows(db: sqlite3.Connection, collector: Collector, store: Any, stats: 
         if collector.decodes(name, msgtype) and name not in collector.deserializers:
             if topic.get("serialization_format", "cdr") != "cdr":
                 raise RecordingError(f"{where}: topic {name} is not cdr-serialized")
-            collector.set_deserializer(name, deserializer(store, msgtype, ros1=False, where=where, topic=name))
+            collector.set_deserializer(name, topic_deserializer(msgtype, where=where, topic=name))
     read = 0
     try:
         for topic_id, time_ns, data in db.execute("SELECT topic_id, timestamp, data FROM messages"):
@@ -330,14 +352,11 @@ def _read_rows(db: sqlite3.Connection, collector: Collector, store: Any, stats: 
             if row is None:
                 continue
             name = str(row["name"])
-            entry = stats.get(name)
-            if entry is None:
+            stats = collector.topics.get(name)
+            if stats is None:
                 durability = qos_durability(str(row.get("offered_qos_profiles") or ""))
-                stats[name] = [str(row["type"]), 1, time_ns, time_ns, durability]
-            else:
-                entry[1] += 1
-                entry[2] = min(entry[2], time_ns)
-                entry[3] = max(entry[3], time_ns)
+                stats = collector.topic(name, str(row["type"]), durability)
+            stats.add(time_ns)
             if name in collector.deserializers:
                 pending.setdefault(name, []).append((time_ns, bytes(data)))
             read += 1

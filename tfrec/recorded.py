@@ -1,25 +1,26 @@
 """What a recording holds, format aside: the :class:`Recording` the readers build.
 
-The readers (:mod:`tfrec.mcap_read`, :mod:`tfrec.rrd_read`, and rosbags in
-:mod:`tfrec.readers`) feed raw messages to a :class:`Collector`, which decodes them in bulk
-(:mod:`tfrec.ros_decode`) and builds the :class:`Recording`.
+The readers (:mod:`tfrec.mcap_read`, :mod:`tfrec.rosbag1_read`, :mod:`tfrec.rrd_read`, and
+rosbags in :mod:`tfrec.readers`) feed raw messages to a :class:`Collector`, which decodes them in
+bulk (:mod:`tfrec.ros_decode`) and builds the :class:`Recording`; the readers of damaged files
+say what was lost in one line (:func:`read_error_line`).
 """
 
 from __future__ import annotations
 
-import struct
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import RecordingError
+from .conventions import JOINT_STATES, RECORDED_TOPICS, ROBOT_DESCRIPTION, TF, TF_STATIC
 from .ros_decode import JointStateAccumulator, TFAccumulator, transforms_of
 
 __all__ = [
     "DECODED_TOPICS",
+    "DECODE_BATCH",
     "JOINT_STATES",
     "ROBOT_DESCRIPTION",
     "TF",
@@ -27,19 +28,21 @@ __all__ = [
     "Collector",
     "FrameSeries",
     "JointStates",
+    "ReadStopped",
     "Recording",
     "TopicInfo",
-    "deserializer",
+    "TopicStats",
+    "read_error_line",
+    "with_article",
 ]
 
 Array = NDArray[np.float64]
 
-ROBOT_DESCRIPTION = "/robot_description"
-TF_STATIC = "/tf_static"
-JOINT_STATES = "/joint_states"
-TF = "/tf"
-DECODED_TOPICS = frozenset((ROBOT_DESCRIPTION, TF_STATIC, JOINT_STATES, TF))
+DECODED_TOPICS = frozenset(RECORDED_TOPICS)
 """The topics whose messages are decoded; every other topic is only counted."""
+
+DECODE_BATCH = 32768
+"""Messages of a topic a reader hands to :meth:`Collector.add` at once, at most."""
 
 
 class ReadStopped(Exception):
@@ -50,10 +53,19 @@ class ReadStopped(Exception):
         self.offset = offset
         self.reason = reason
 
+    def problem(self, size: int) -> str:
+        """``reading stopped at byte 1,234 of 5,678: <reason>``, for a file of ``size`` bytes."""
+        return f"reading stopped at byte {self.offset:,} of {size:,}: {self.reason}"
+
 
 def with_article(what: str) -> str:
     """``"chunk record"`` → ``"a chunk record"``, ``"index"`` → ``"an index"``."""
     return f"a{'n' if what[0] in 'aeiou' else ''} {what}"
+
+
+def read_error_line(where: str, problems: Sequence[str], messages: int) -> str:
+    """:attr:`Recording.read_error`: the file, what went wrong (``problems``), and how many messages were read."""
+    return f"{where}: {'; '.join(problems)}; {messages:,} messages read"
 
 
 @dataclass(frozen=True, slots=True)
@@ -75,6 +87,47 @@ class TopicInfo:
     first_ns: int | None
     last_ns: int | None
     durability: str | None = None
+
+
+class TopicStats:
+    """A reader's running count of one topic's (or one channel's) messages; becomes a :class:`TopicInfo`.
+
+    Attributes: as :class:`TopicInfo`'s; ``first_ns`` and ``last_ns`` are None until a message
+    with a time is counted.
+    """
+
+    __slots__ = ("count", "durability", "first_ns", "last_ns", "type")
+
+    def __init__(self, msgtype: str, durability: str | None = None) -> None:
+        self.type = msgtype
+        self.durability = durability
+        self.count = 0
+        self.first_ns: int | None = None
+        self.last_ns: int | None = None
+
+    def add(self, time_ns: int) -> None:
+        """Count one message logged at ``time_ns``."""
+        if self.first_ns is None or time_ns < self.first_ns:
+            self.first_ns = time_ns
+        if self.last_ns is None or time_ns > self.last_ns:
+            self.last_ns = time_ns
+        self.count += 1
+
+    def add_times(self, first_ns: int | None, last_ns: int | None) -> None:
+        """Widen the time span to include [``first_ns``, ``last_ns``] (None: no time)."""
+        if first_ns is not None and (self.first_ns is None or first_ns < self.first_ns):
+            self.first_ns = first_ns
+        if last_ns is not None and (self.last_ns is None or last_ns > self.last_ns):
+            self.last_ns = last_ns
+
+    def merge(self, other: TopicStats) -> None:
+        """Add the messages ``other`` counted (another channel or file of the same topic)."""
+        self.count += other.count
+        self.add_times(other.first_ns, other.last_ns)
+        self.durability = self.durability or other.durability
+
+    def info(self) -> TopicInfo:
+        return TopicInfo(self.type, self.count, self.first_ns, self.last_ns, self.durability)
 
 
 @dataclass(frozen=True, slots=True)
@@ -174,22 +227,6 @@ _KINDS = {
 }
 
 
-def deserializer(store: Any, msgtype: str, *, ros1: bool, where: str, topic: str) -> Callable[[bytes], Any]:
-    """rosbags' deserializer for one topic; a message it cannot decode is a RecordingError."""
-    from rosbags.serde import SerdeError
-
-    full = msgtype if "/msg/" in msgtype else msgtype.replace("/", "/msg/", 1)
-    decode = store.deserialize_ros1 if ros1 else store.deserialize_cdr
-
-    def deserialize(raw: bytes) -> Any:
-        try:
-            return decode(raw, full)
-        except (SerdeError, struct.error, IndexError, KeyError, ValueError, UnicodeDecodeError) as err:
-            raise RecordingError(f"{where}: a {topic} message cannot be decoded as {msgtype}: {err}") from None
-
-    return deserialize
-
-
 class Collector:
     """Receives raw messages per topic and builds the :class:`Recording`."""
 
@@ -197,7 +234,7 @@ class Collector:
         self.recording = recording
         self.wanted = wanted
         self.ros1 = ros1
-        self.counts: dict[str, list[Any]] = {}  # topic → [type, count, first, last, durability]
+        self.topics: dict[str, TopicStats] = {}
         self.joint_states: JointStateAccumulator | None = None
         self.tf: TFAccumulator | None = None
         self.static: list[bytes] = []
@@ -215,16 +252,20 @@ class Collector:
         elif topic == TF and self.tf is None:
             self.tf = TFAccumulator(deserialize, ros1=self.ros1)
 
-    def count(self, topic: str, msgtype: str, count: int, first_ns: int, last_ns: int,
-              durability: str | None = None) -> None:
-        entry = self.counts.get(topic)
+    def topic(self, topic: str, msgtype: str, durability: str | None = None) -> TopicStats:
+        """The count of a topic's messages, for a reader that counts them one by one; the type
+        and durability are those of the topic's first channel."""
+        stats = self.topics.get(topic)
+        if stats is None:
+            stats = self.topics[topic] = TopicStats(msgtype, durability)
+        return stats
+
+    def count(self, topic: str, stats: TopicStats) -> None:
+        """Add the messages a reader counted on one channel (or connection) of ``topic``."""
+        entry = self.topics.get(topic)
         if entry is None:
-            self.counts[topic] = [msgtype, count, first_ns, last_ns, durability]
-        else:
-            entry[1] += count
-            entry[2] = min(entry[2], first_ns)
-            entry[3] = max(entry[3], last_ns)
-            entry[4] = entry[4] or durability
+            entry = self.topics[topic] = TopicStats(stats.type)
+        entry.merge(stats)
 
     def add(self, topic: str, datas: list[Any]) -> None:
         """Decode raw messages of a decoded topic, in order."""
@@ -239,12 +280,15 @@ class Collector:
         elif topic == ROBOT_DESCRIPTION and datas:
             self.description = bytes(datas[-1])
 
+    def add_in_time_order(self, topic: str, messages: list[tuple[int, bytes]]) -> None:
+        """Decode (log time, raw message) pairs of a decoded topic, sorted by log time (stably)."""
+        messages.sort(key=lambda message: message[0])
+        for at in range(0, len(messages), DECODE_BATCH):
+            self.add(topic, [data for _, data in messages[at : at + DECODE_BATCH]])
+
     def finish(self) -> Recording:
         rec = self.recording
-        rec.topics = {
-            topic: TopicInfo(msgtype, count, first, last, durability)
-            for topic, (msgtype, count, first, last, durability) in sorted(self.counts.items())
-        }
+        rec.topics = {topic: self.topics[topic].info() for topic in sorted(self.topics)}
         firsts = [info.first_ns for info in rec.topics.values() if info.first_ns is not None]
         lasts = [info.last_ns for info in rec.topics.values() if info.last_ns is not None]
         rec.start_ns = min(firsts) if firsts else None

@@ -9,22 +9,24 @@ from __future__ import annotations
 
 import hashlib
 import os
-import shutil
 import time
 import uuid
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from .atomic import AtomicOutputs, check_target
+from .bag_metadata import write_bag_metadata
+from .conventions import DEFAULT_START_TIME_NS
 from .errors import RecordingError
 from .kinematics import DEFAULT_CHUNK_SIZE, iter_dynamic_chunks, static_transforms
-from .mcap_io import DEFAULT_START_TIME_NS, McapSink, check_time_range, write_bag_metadata
+from .mcap_io import McapSink, check_time_range
 from .model import Robot
-from .trajectory import JointTrajectory
+from .trajectory import JointTrajectory, TrajectoryKind
 
 __all__ = [
-    "DEFAULT_START_TIME_NS",
+    "DEFAULT_START_TIME_NS",  # re-exported from tfrec.conventions
     "RecordResult",
     "RecordingPlan",
     "default_stem",
@@ -34,12 +36,9 @@ __all__ = [
 ]
 
 
-COMPRESSIONS = ("none", "lz4", "zstd")
-
-
 def default_stem(robot: Robot, traj: str, *, now: float | None = None) -> str:
     """``<robot>-<traj>-<YYYYmmdd-HHMMSS>`` (local time), like ros2 bag's default names."""
-    label = Path(traj).stem if traj not in ("center", "random", "sine", "sweep") else traj
+    label = traj if traj in {kind.value for kind in TrajectoryKind} else Path(traj).stem
     stamp = time.strftime("%Y%m%d-%H%M%S", time.localtime(time.time() if now is None else now))
     return f"{robot.name}-{label}-{stamp}"
 
@@ -51,9 +50,6 @@ class RecordingPlan:
     mcap: Path | None
     rrd: Path | None
     bag_dir: Path | None = None
-
-    def targets(self) -> list[Path]:
-        return [p for p in (self.bag_dir if self.bag_dir else self.mcap, self.rrd) if p is not None]
 
 
 def plan_outputs(
@@ -70,8 +66,8 @@ def plan_outputs(
     """Decide the output paths and check them before anything is written.
 
     Raises:
-        RecordingError: nothing to write, conflicting options, or a target that exists
-            without ``force``.
+        RecordingError: nothing to write, conflicting options, or a target that
+            :func:`tfrec.atomic.check_target` refuses (wrong extension, exists without ``force``).
     """
     if no_mcap and no_rrd:
         raise RecordingError("--no-mcap and --no-rrd together leave nothing to write")
@@ -85,8 +81,6 @@ def plan_outputs(
         mcap = bag_dir / f"{bag_dir.name}_0.mcap"
     elif not no_mcap:
         mcap = Path(out) if out is not None else Path(folder) / f"{stem}.mcap"
-        if mcap.suffix != ".mcap":
-            raise RecordingError(f"{mcap}: the MCAP output's name must end in .mcap")
     rrd_path: Path | None = None
     if not no_rrd:
         if rrd is not None:
@@ -97,15 +91,13 @@ def plan_outputs(
             rrd_path = mcap.with_suffix(".rrd")
         else:
             rrd_path = Path(folder) / f"{stem}.rrd"
-        if rrd_path.suffix != ".rrd":
-            raise RecordingError(f"{rrd_path}: the Rerun output's name must end in .rrd")
-    plan = RecordingPlan(mcap=mcap, rrd=rrd_path, bag_dir=bag_dir)
-    for target in plan.targets():
-        if target.exists() and not force:
-            raise RecordingError(f"{target}: already exists (use --force to overwrite)")
-        if target.exists() and target.is_dir() != (target == bag_dir):
-            raise RecordingError(f"{target}: exists and is a {'folder' if target.is_dir() else 'file'}")
-    return plan
+    if bag_dir is not None:
+        check_target(bag_dir, suffix=None, what="rosbag2", force=force, folder=True)
+    elif mcap is not None:
+        check_target(mcap, suffix=".mcap", what="MCAP", force=force)
+    if rrd_path is not None:
+        check_target(rrd_path, suffix=".rrd", what="Rerun", force=force)
+    return RecordingPlan(mcap=mcap, rrd=rrd_path, bag_dir=bag_dir)
 
 
 def recording_id(robot: Robot, trajectory: JointTrajectory, *, start_time_ns: int, frame_prefix: str) -> str:
@@ -120,62 +112,14 @@ def recording_id(robot: Robot, trajectory: JointTrajectory, *, start_time_ns: in
     return str(uuid.UUID(bytes=digest.digest()[:16], version=5))
 
 
-@dataclass
+@dataclass(frozen=True, slots=True)
 class RecordResult:
-    """What a recording wrote."""
+    """What a recording wrote: the outputs, and the samples with the stamps of the first and last."""
 
     plan: RecordingPlan
     samples: int
-    messages: int
     start_time_ns: int
     end_time_ns: int
-    paths: list[Path] = field(default_factory=list)
-
-
-class _Staging:
-    """Temporary outputs beside their targets, renamed together on success."""
-
-    def __init__(self) -> None:
-        self._pairs: list[tuple[Path, Path]] = []
-
-    def path(self, target: Path, *, directory: bool = False) -> Path:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        temp = target.parent / f".{target.name}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}"
-        if directory:
-            temp.mkdir()
-        self._pairs.append((temp, target))
-        return temp
-
-    def target_of(self, filename: object) -> str:
-        """The output a (temporary) file name stands for, for messages."""
-        if filename is None:
-            return "output"
-        name = Path(os.fsdecode(filename))  # type: ignore[arg-type]
-        for temp, target in self._pairs:
-            if name == temp or temp in name.parents:
-                return str(target)
-        return str(name)
-
-    def with_targets(self, message: str) -> str:
-        """``message`` with every temporary path replaced by its target's."""
-        for temp, target in self._pairs:
-            message = message.replace(str(temp), str(target))
-        return message
-
-    def commit(self) -> None:
-        for temp, target in self._pairs:
-            if target.is_dir() and temp.is_dir():
-                shutil.rmtree(target)
-            os.replace(temp, target)
-        self._pairs.clear()
-
-    def abort(self) -> None:
-        for temp, _ in self._pairs:
-            if temp.is_dir():
-                shutil.rmtree(temp, ignore_errors=True)
-            else:
-                temp.unlink(missing_ok=True)
-        self._pairs.clear()
 
 
 def _abort_sinks(sinks: Sequence[Any]) -> None:
@@ -197,7 +141,6 @@ def record(
     package_paths: Sequence[str | os.PathLike[str]] = (),
     chunk_size: int = DEFAULT_CHUNK_SIZE,
     progress: Callable[[int, int], None] | None = None,
-    _fail_after_chunks: int | None = None,
 ) -> RecordResult:
     """Write the recording ``plan`` describes, streaming the trajectory in chunks.
 
@@ -205,7 +148,7 @@ def record(
         robot: the robot (its ``urdf`` goes to /robot_description).
         trajectory: the joint trajectory, times from 0.
         plan: the outputs, from :func:`plan_outputs`.
-        compression: MCAP chunk compression, ``none``, ``lz4`` or ``zstd``.
+        compression: MCAP chunk compression, one of :data:`~tfrec.conventions.COMPRESSIONS`.
         start_time_ns: the stamp of the first sample.
         frame_prefix: put in front of every TF frame id.
         package_paths: where meshes' packages are looked up (Rerun geometry).
@@ -213,75 +156,61 @@ def record(
         progress: called with (samples done, samples in all) after every chunk.
 
     Raises:
-        RecordingError: the outputs could not be written; no partial output remains.
+        RecordingError: the outputs could not be written (or an unknown compression); no partial
+            output remains.
     """
-    if compression not in COMPRESSIONS:
-        raise RecordingError(f"compression '{compression}' is not one of {', '.join(COMPRESSIONS)}")
     total = len(trajectory)
     if total:
         check_time_range(int(trajectory.time_ns[0]) + start_time_ns, int(trajectory.time_ns[-1]) + start_time_ns)
     static = static_transforms(robot, frame_prefix=frame_prefix)
-    staging = _Staging()
     streams = []
     sinks: list[Any] = []
-    try:
-        mcap_temp: Path | None = None
-        bag_temp: Path | None = None
-        if plan.bag_dir is not None and plan.mcap is not None:
-            bag_temp = staging.path(plan.bag_dir, directory=True)
-            mcap_temp = bag_temp / plan.mcap.name
-        elif plan.mcap is not None:
-            mcap_temp = staging.path(plan.mcap)
-        if mcap_temp is not None:
-            stream = open(mcap_temp, "wb")  # noqa: SIM115 - closed below
-            streams.append(stream)
-            sinks.append(McapSink(stream, compression=compression, file_name=plan.mcap.name if plan.mcap else ""))
-        if plan.rrd is not None:
-            from .rerun_io import RerunSink
+    with AtomicOutputs() as outputs:
+        try:
+            mcap_sink: McapSink | None = None
+            bag_temp: Path | None = None
+            if plan.mcap is not None:
+                if plan.bag_dir is not None:
+                    bag_temp = outputs.path(plan.bag_dir, directory=True)
+                    mcap_temp = bag_temp / plan.mcap.name
+                else:
+                    mcap_temp = outputs.path(plan.mcap)
+                stream = open(mcap_temp, "wb")  # noqa: SIM115 - closed below
+                streams.append(stream)
+                mcap_sink = McapSink(stream, compression=compression, file_name=plan.mcap.name)
+                sinks.append(mcap_sink)
+            if plan.rrd is not None:
+                from .rerun_io import RerunSink
 
-            sinks.append(RerunSink(
-                staging.path(plan.rrd), robot=robot, package_paths=package_paths, frame_prefix=frame_prefix,
-                recording_id=recording_id(robot, trajectory, start_time_ns=start_time_ns, frame_prefix=frame_prefix),
-            ))
-        for sink in sinks:
-            sink.begin(robot_description=robot.urdf, static=static, start_time_ns=start_time_ns)
-        done = 0
-        for index, chunk in enumerate(iter_dynamic_chunks(robot, trajectory, chunk_size=chunk_size,
-                                                          frame_prefix=frame_prefix)):
-            if _fail_after_chunks is not None and index >= _fail_after_chunks:
-                raise RecordingError("injected failure (test)")
-            stamps = chunk.time_ns + start_time_ns
+                sinks.append(RerunSink(
+                    outputs.path(plan.rrd), robot=robot, package_paths=package_paths, frame_prefix=frame_prefix,
+                    recording_id=recording_id(robot, trajectory, start_time_ns=start_time_ns,
+                                              frame_prefix=frame_prefix),
+                ))
             for sink in sinks:
-                sink.write_chunk(time_ns=stamps, joint_names=chunk.names, positions=chunk.positions,
-                                 velocities=chunk.velocities, transforms=chunk.transforms)
-            done += len(chunk.time_ns)
-            if progress is not None:
-                progress(done, total)
-        for sink in sinks:
-            sink.finish()
-        for stream in streams:
-            stream.close()
-        if bag_temp is not None and mcap_temp is not None and plan.bag_dir is not None:
-            write_bag_metadata(bag_temp, mcap_temp, final_mcap_name=plan.mcap.name if plan.mcap else mcap_temp.name)
-        staging.commit()
-    except OSError as err:
-        where = staging.target_of(err.filename)
-        _abort_sinks(sinks)
-        staging.abort()
-        raise RecordingError(f"{where}: cannot write: {err.strerror or err}") from None
-    except RecordingError as err:  # a sink's message names its temporary file: name the target
-        message = staging.with_targets(str(err))
-        _abort_sinks(sinks)
-        staging.abort()
-        raise RecordingError(message) from None
-    except BaseException:
-        _abort_sinks(sinks)
-        staging.abort()
-        raise
-    finally:
-        for stream in streams:
-            stream.close()
+                sink.begin(robot_description=robot.urdf, static=static, start_time_ns=start_time_ns)
+            done = 0
+            for chunk in iter_dynamic_chunks(robot, trajectory, chunk_size=chunk_size, frame_prefix=frame_prefix):
+                stamps = chunk.time_ns + start_time_ns
+                for sink in sinks:
+                    sink.write_chunk(time_ns=stamps, joint_names=chunk.names, positions=chunk.positions,
+                                     velocities=chunk.velocities, transforms=chunk.transforms)
+                done += len(chunk.time_ns)
+                if progress is not None:
+                    progress(done, total)
+            for sink in sinks:
+                sink.finish()
+            for stream in streams:
+                stream.close()
+            if bag_temp is not None and mcap_sink is not None:
+                write_bag_metadata(bag_temp, mcap_sink.bag_info)
+        except BaseException:
+            _abort_sinks(sinks)  # before their temporary files are removed
+            raise
+        finally:
+            for stream in streams:
+                stream.close()
+        outputs.commit()
     first = int(trajectory.time_ns[0]) + start_time_ns if total else start_time_ns
     last = int(trajectory.time_ns[-1]) + start_time_ns if total else start_time_ns
-    return RecordResult(plan=plan, samples=total, messages=2 + 2 * total, start_time_ns=first,
-                        end_time_ns=last, paths=plan.targets())
+    return RecordResult(plan=plan, samples=total, start_time_ns=first, end_time_ns=last)

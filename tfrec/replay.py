@@ -19,7 +19,7 @@ whatever ``start_s`` cuts away (``ros2 bag play --start-offset`` loses it).
 :func:`tfrec.playback.play` sends a prepared replay to a sink in time-ordered batches, paced
 for live viewers; :func:`tfrec.replay_check.check_replay` re-simulates it. Times are header
 stamps; ``start_s`` and ``end_s`` count from the recording's start, its first /joint_states or
-/tf stamp (:func:`tfrec.diff.data_start_ns`, the start ``tfrec diff`` aligns on), whatever
+/tf stamp (:func:`tfrec.resample.data_start_ns`, the start ``tfrec diff`` aligns on), whatever
 ``topics`` selects.
 """
 
@@ -34,20 +34,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from .diff import data_start_ns
+from .conventions import JOINT_STATES, NS_PER_S, RECORDED_TOPICS, ROBOT_DESCRIPTION, TF, TF_STATIC
 from .errors import DescriptionError, RecordingError
 from .kinematics import dynamic_transforms, static_transforms
 from .model import Robot
-from .readers import (
-    JOINT_STATES,
-    ROBOT_DESCRIPTION,
-    TF,
-    TF_STATIC,
-    FrameSeries,
-    JointStates,
-    Recording,
-    read_recording,
-)
+from .readers import FrameSeries, JointStates, Recording, read_recording
+from .resample import data_end_ns, data_start_ns
+from .trajectory import apply_mimic
 
 __all__ = [
     "REPLAYED_TOPICS",
@@ -61,8 +54,8 @@ __all__ = [
 Array = NDArray[np.float64]
 Pair = tuple[str, str]
 
-REPLAYED_TOPICS = (ROBOT_DESCRIPTION, TF_STATIC, JOINT_STATES, TF)
-"""The topics tfrec replays; a recording's other topics are skipped."""
+REPLAYED_TOPICS = RECORDED_TOPICS
+"""The topics tfrec replays, those it records; a recording's other topics are skipped."""
 
 
 @dataclass
@@ -124,7 +117,7 @@ class Replay:
 
     def seconds(self, time_ns: int) -> float:
         """A stamp as seconds from the recording's start (``origin_ns``)."""
-        return (time_ns - self.origin_ns) / 1e9
+        return (time_ns - self.origin_ns) / NS_PER_S
 
     def frames(self) -> list[str]:
         """Every frame id of the latched and dynamic transforms, in order of appearance."""
@@ -191,15 +184,7 @@ def joint_positions(robot: Robot, joint_states: JointStates) -> tuple[tuple[str,
         k = index.get(name)
         if k is not None:
             positions[:, k] = joint_states.positions[:, j]
-    for joint in robot.mimic_order:
-        assert joint.mimic is not None
-        k = index[joint.name]
-        missing = np.isnan(positions[:, k])
-        master = index.get(joint.mimic.joint)
-        if master is None:
-            positions[missing, k] = joint.mimic.offset
-        else:
-            positions[missing, k] = joint.mimic.multiplier * positions[missing, master] + joint.mimic.offset
+    apply_mimic(robot, names, positions, only_missing=True)
     return names, positions
 
 
@@ -281,14 +266,6 @@ def _listed(items: Sequence[str]) -> str:
     return ", ".join(items[:-1]) + " or " + items[-1] if len(items) > 1 else "".join(items)
 
 
-def _data_end_ns(rec: Recording) -> int | None:
-    """The last stamp of the recording's /joint_states and /tf, or None without either."""
-    lasts = [int(series.time_ns.max()) for series in rec.tf.values() if len(series)]
-    if rec.joint_states is not None and len(rec.joint_states):
-        lasts.append(int(rec.joint_states.time_ns.max()))
-    return max(lasts) if lasts else None
-
-
 def _cut_series(series: FrameSeries, lo: int, hi: int) -> FrameSeries:
     a = int(np.searchsorted(series.time_ns, lo, side="left"))
     b = int(np.searchsorted(series.time_ns, hi, side="right"))
@@ -305,11 +282,8 @@ def _transforms_not_recorded(
     Returns:
         (latched transforms of fixed joints, transforms of moving joints from the joint states).
     """
-    latched: dict[Pair, tuple[Array, Array]] = {}
-    fixed = static_transforms(robot, frame_prefix=prefix)
-    for k, (parent, child) in enumerate(zip(fixed.parents, fixed.children)):
-        if child not in covered:
-            latched[(parent, child)] = (fixed.translation[0, k], fixed.rotation[0, k])
+    fixed = static_transforms(robot, frame_prefix=prefix).poses()
+    latched = {pair: pose for pair, pose in fixed.items() if pair[1] not in covered}
     uncovered = [joint.name for joint in robot.moving_joints if prefix + joint.child not in covered]
     computed: dict[Pair, FrameSeries] = {}
     if joint_states is not None and uncovered:
@@ -340,7 +314,7 @@ def load_replay(
         robot: a robot model that overrides the recording's /robot_description.
         topics: replay only these of /robot_description, /tf_static, /joint_states and /tf.
         start_s, end_s: replay the samples stamped this many seconds after the recording's
-            start, its first /joint_states or /tf stamp (:func:`tfrec.diff.data_start_ns`).
+            start, its first /joint_states or /tf stamp (:func:`tfrec.resample.data_start_ns`).
         need_robot: raise, rather than warn, when the recording's description is unusable.
 
     Returns:
@@ -364,9 +338,9 @@ def load_replay(
     if topics is not None and absent:
         warnings.warn(f"{where}: no {', '.join(absent)} in the recording", stacklevel=2)
     origin = data_start_ns(rec) or 0
-    last = _data_end_ns(rec)
-    if start_s is not None and origin + round(start_s * 1e9) > (origin if last is None else last):
-        end = 0.0 if last is None else (last - origin) / 1e9
+    last = data_end_ns(rec)
+    if start_s is not None and origin + round(start_s * NS_PER_S) > (origin if last is None else last):
+        end = 0.0 if last is None else (last - origin) / NS_PER_S
         damaged = "" if rec.read_error is None else f"; the file is damaged: {rec.read_error}"
         raise RecordingError(f"{where}: --start {start_s:g} s is beyond the recording's end ({end:g} s){damaged}")
     if robot is None:
@@ -386,8 +360,8 @@ def load_replay(
     if robot is not None:
         prefix = detect_frame_prefix(robot, [f for pair in list(recorded_static) + list(recorded_tf) for f in pair])
 
-    lo = origin + (0 if start_s is None else round(start_s * 1e9))
-    hi = int(np.iinfo(np.int64).max) if end_s is None else origin + round(end_s * 1e9)
+    lo = origin + (0 if start_s is None else round(start_s * NS_PER_S))
+    hi = int(np.iinfo(np.int64).max) if end_s is None else origin + round(end_s * NS_PER_S)
 
     had_samples = any(len(s) for s in recorded_tf.values()) or (joint_states is not None and len(joint_states) > 0)
     static = recorded_static

@@ -8,8 +8,9 @@ frames it moves.
 
 Where a recorded transform is stamped between two joint states, the joint positions are
 interpolated linearly at its stamp (exact when the stamps coincide, as they do for
-robot_state_publisher, which stamps TF with the joint state's stamp). Errors are the distance
-between translations (m) and the angle of the relative rotation (rad).
+robot_state_publisher, which stamps TF with the joint state's stamp), as ``tfrec diff``
+interpolates (:func:`tfrec.resample.align`). Errors are the distance between translations (m)
+and the angle of the relative rotation (:func:`tfrec.rotations.rotation_error`, rad).
 """
 
 from __future__ import annotations
@@ -21,21 +22,19 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .diff import rotation_error
+from .conventions import CHECK_POS_TOL as DEFAULT_POS_TOL
+from .conventions import CHECK_ROT_TOL as DEFAULT_ROT_TOL
 from .errors import RecordingError
 from .kinematics import dynamic_transforms, static_transforms
 from .model import Joint, JointType
 from .readers import FrameSeries
 from .replay import Replay, joint_positions
+from .resample import align
+from .rotations import rotation_error
 
 __all__ = ["DEFAULT_POS_TOL", "DEFAULT_ROT_TOL", "CheckReport", "FrameCheck", "check_replay", "format_check"]
 
 Array = NDArray[np.float64]
-
-DEFAULT_POS_TOL = 1e-6
-"""Metres: far above float64 (and float32 ``.rrd``) rounding, far below any modelling error."""
-DEFAULT_ROT_TOL = 1e-6
-"""Radians."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -116,18 +115,6 @@ def _tolerance(name: str, value: float) -> float:
     return float(value)
 
 
-def _interpolate(known_ns: NDArray[np.int64], values: Array, at_ns: NDArray[np.int64]) -> tuple[Array, NDArray[np.bool_]]:
-    """Values at ``at_ns`` by linear interpolation (exact on known stamps); (values, inside the known span)."""
-    inside = (at_ns >= known_ns[0]) & (at_ns <= known_ns[-1])
-    t = at_ns[inside]
-    i = np.clip(np.searchsorted(known_ns, t, side="right") - 1, 0, len(known_ns) - 1)
-    j = np.minimum(i + 1, len(known_ns) - 1)
-    span = (known_ns[j] - known_ns[i]).astype(np.float64)
-    exact = (known_ns[i] == t) | (span == 0)
-    frac = np.where(exact, 0.0, (t - known_ns[i]).astype(np.float64) / np.where(span == 0, 1.0, span))
-    return np.where(exact, values[i], values[i] + frac * (values[j] - values[i])), inside
-
-
 def _largest(errors: Array, times: NDArray[np.int64] | None, replay: Replay) -> tuple[float, float | None]:
     if not len(errors):
         return 0.0, None
@@ -145,8 +132,8 @@ class _Checker:
         self.joint_states = replay.joint_states
         self.names, self.positions = joint_positions(self.robot, self.joint_states)
         self.column = {name: k for k, name in enumerate(self.names)}
-        fixed = static_transforms(self.robot, frame_prefix=self.prefix)
-        self.fixed = {child: (fixed.translation[0, k], fixed.rotation[0, k]) for k, child in enumerate(fixed.children)}
+        fixed = static_transforms(self.robot, frame_prefix=self.prefix).poses()
+        self.fixed = {child: pose for (_, child), pose in fixed.items()}
 
     def expected(self, joint: Joint, times: NDArray[np.int64]) -> tuple[Array, Array, NDArray[np.bool_]]:
         """The description's transforms at ``times``: (translations, rotations, which times have one)."""
@@ -159,9 +146,10 @@ class _Checker:
         known = np.isfinite(column)
         if not known.any():
             return np.zeros((0, 3)), np.zeros((0, 4)), np.zeros(len(times), dtype=bool)
-        q, inside = _interpolate(self.joint_states.time_ns[known], column[known], times)
+        alignment = align(times, self.joint_states.time_ns[known])
+        q = alignment.linear(column[known])
         tfs = dynamic_transforms(self.robot, [joint.name], q[:, np.newaxis], frame_prefix=self.prefix)
-        return tfs.translation[:, 0], tfs.rotation[:, 0], inside
+        return tfs.translation[:, 0], tfs.rotation[:, 0], alignment.inside
 
     def frame(self, joint: Joint, parent: str, child: str, topic: str, series: FrameSeries | None,
               static: tuple[Array, Array] | None) -> FrameCheck:

@@ -44,17 +44,10 @@ from .rerun_paths import (
 )
 
 __all__ = [
-    "APPLICATION_ID",
-    "TIMELINE",
+    "APPLICATION_ID",  # re-exported for tfrec.rerun_replay until it imports these three from rerun_paths
     "RerunSink",
-    "joint_entity",
-    "link_entity",
     "pair_entity",
     "static_pair_entity",
-    "tf_entity",
-    "tf_static_entity",
-    "velocity_entity",
-    "visual_entity",
 ]
 
 Array = NDArray[np.float64]

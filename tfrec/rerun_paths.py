@@ -1,6 +1,7 @@
 """Where tfrec puts things in a Rerun recording: the entity paths and the timeline.
 
-Shared by the writer (:mod:`tfrec.rerun_io`) and the reader (:mod:`tfrec.rrd_read`).
+Shared by the writer (:mod:`tfrec.rerun_io`) and the reader (:mod:`tfrec.rrd_read`), which
+parses them back with :func:`parse_entity`.
 
 Entity paths (``<link>`` and ``<joint>`` are URDF names, escaped with
 ``rr.escape_entity_path_part``); static unless marked *ros_time*:
@@ -30,14 +31,24 @@ inputs and recording id give recordings ``rerun rrd compare`` finds identical.
 
 from __future__ import annotations
 
+import re
+import sys
+
 import rerun as rr
 
 __all__ = [
     "APPLICATION_ID",
+    "DESCRIPTION_ROOT",
+    "JOINTS_ROOT",
+    "ROBOT_ROOT",
+    "TF_ROOT",
+    "TF_STATIC_ROOT",
     "TIMELINE",
+    "VELOCITIES_ROOT",
     "joint_entity",
     "link_entity",
     "pair_entity",
+    "parse_entity",
     "static_pair_entity",
     "tf_entity",
     "tf_static_entity",
@@ -51,10 +62,52 @@ APPLICATION_ID = "tfrec"
 TIMELINE = "ros_time"
 """The timeline holding the ROS stamps (timestamps, integer nanoseconds)."""
 
+ROBOT_ROOT = "robot"
+TF_ROOT = "tf"
+TF_STATIC_ROOT = "tf_static"
+JOINTS_ROOT = "joints"
+VELOCITIES_ROOT = "joint_velocities"
+DESCRIPTION_ROOT = "robot_description"
+"""The top-level entity names (``/robot_description`` is an entity of its own)."""
+
+_UNESCAPED = {"n": "\n", "r": "\r", "t": "\t"}
+_CODE_POINT = re.compile(r"u\{([0-9A-Fa-f]{1,6})\}")
+
+
+def parse_entity(path: str) -> tuple[str, tuple[str, ...]]:
+    """An entity path's top-level name and the names under it, unescaped: the inverse of the
+    functions here (and of ``rr.escape_entity_path_part``).
+
+    ``/tf/joint\\ 1`` → ``("tf", ("joint 1",))``; ``/tf/a/b`` → ``("tf", ("a", "b"))``;
+    ``/`` → ``("", ())``.
+    """
+    parts: list[str] = []
+    part: list[str] = []
+    i, end = (1 if path.startswith("/") else 0), len(path)
+    while i < end:
+        char = path[i]
+        if char == "/":
+            parts.append("".join(part))
+            part = []
+        elif char == "\\" and i + 1 < end:
+            code = _CODE_POINT.match(path, i + 1)
+            if code is not None and int(code[1], 16) <= sys.maxunicode:
+                part.append(chr(int(code[1], 16)))
+                i = code.end() - 1
+            else:
+                i += 1
+                part.append(_UNESCAPED.get(path[i], path[i]))
+        else:
+            part.append(char)
+        i += 1
+    if part or parts:
+        parts.append("".join(part))
+    return (parts[0], tuple(parts[1:])) if parts else ("", ())
+
 
 def link_entity(link: str) -> str:
     """``/robot/<link>``: the link's frame and its TF axes."""
-    return f"/robot/{rr.escape_entity_path_part(link)}"
+    return f"/{ROBOT_ROOT}/{rr.escape_entity_path_part(link)}"
 
 
 def visual_entity(link: str, index: int) -> str:
@@ -64,29 +117,29 @@ def visual_entity(link: str, index: int) -> str:
 
 def tf_entity(joint: str) -> str:
     """``/tf/<joint>``: the transforms of a moving joint over time."""
-    return f"/tf/{rr.escape_entity_path_part(joint)}"
+    return f"/{TF_ROOT}/{rr.escape_entity_path_part(joint)}"
 
 
 def tf_static_entity(joint: str) -> str:
     """``/tf_static/<joint>``: the transform of a fixed joint."""
-    return f"/tf_static/{rr.escape_entity_path_part(joint)}"
+    return f"/{TF_STATIC_ROOT}/{rr.escape_entity_path_part(joint)}"
 
 
 def pair_entity(parent: str, child: str) -> str:
     """``/tf/<parent>/<child>``: a pair on /tf that is no joint of the robot."""
-    return f"/tf/{rr.escape_entity_path_part(parent)}/{rr.escape_entity_path_part(child)}"
+    return f"/{TF_ROOT}/{rr.escape_entity_path_part(parent)}/{rr.escape_entity_path_part(child)}"
 
 
 def static_pair_entity(parent: str, child: str) -> str:
     """``/tf_static/<parent>/<child>``: a pair on /tf_static that is no joint of the robot."""
-    return f"/tf_static/{rr.escape_entity_path_part(parent)}/{rr.escape_entity_path_part(child)}"
+    return f"/{TF_STATIC_ROOT}/{rr.escape_entity_path_part(parent)}/{rr.escape_entity_path_part(child)}"
 
 
 def joint_entity(joint: str) -> str:
     """``/joints/<joint>``: the joint's position as a time series."""
-    return f"/joints/{rr.escape_entity_path_part(joint)}"
+    return f"/{JOINTS_ROOT}/{rr.escape_entity_path_part(joint)}"
 
 
 def velocity_entity(joint: str) -> str:
     """``/joint_velocities/<joint>``: the joint's velocity as a time series."""
-    return f"/joint_velocities/{rr.escape_entity_path_part(joint)}"
+    return f"/{VELOCITIES_ROOT}/{rr.escape_entity_path_part(joint)}"

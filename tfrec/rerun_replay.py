@@ -90,12 +90,12 @@ class RerunReplaySink:
             RecordingError: a live viewer cannot be reached.
         """
         sink = self._sink
-        sink.begin(static=_transforms(static), start_time_ns=start_time_ns, robot_description=robot_description,
-                   name=name, root=root)
+        sink.begin(static=Transforms.from_poses(static), start_time_ns=start_time_ns,
+                   robot_description=robot_description, name=name, root=root)
         sink.log_frames([*frames, *(frame for pair in static for frame in pair)])
         latched = {child for _, child in static}
-        sink.fit_camera(_transforms({pair: pose for pair, pose in (first_pose or {}).items()
-                                     if pair[1] not in latched}))
+        sink.fit_camera(Transforms.from_poses({pair: pose for pair, pose in (first_pose or {}).items()
+                                               if pair[1] not in latched}))
         sink.send_blueprint()
         if self._live:
             sink.flush()
@@ -134,6 +134,10 @@ def open_rerun_sink(
 ) -> RerunReplaySink:
     """A sink to the ``.rrd`` file ``save``, to the viewer at ``connect``, or else to a spawned viewer.
 
+    The viewer is not probed here: check first, before reading the recording, with
+    :func:`check_can_connect` or :func:`check_can_spawn` (:func:`tfrec.playback.check_play_options`
+    does), so that a missing viewer fails at once rather than after Rerun's background retries.
+
     Args:
         save: write this file (``recording_id`` names the recording in it).
         connect: stream to the viewer (or server) at this URL, ``rerun+http://host:port/proxy``.
@@ -142,14 +146,12 @@ def open_rerun_sink(
         port: where a spawned viewer listens; a viewer already listening there is reused.
 
     Raises:
-        RecordingError: the file cannot be created, the URL is malformed, nothing listens at
-            it, or no viewer can be started (no display, or no ``rerun`` executable).
+        RecordingError: the file cannot be created, the URL is malformed, or the viewer cannot
+            be spawned.
     """
     if save is not None:
         return RerunReplaySink(RerunSink(save, robot=robot, recording_id=recording_id, frame_prefix=frame_prefix,
                                          package_paths=package_paths), live=False)
-    if connect is not None:
-        check_can_connect(connect)
     stream = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id)
     if connect is not None:
         try:
@@ -158,7 +160,6 @@ def open_rerun_sink(
             raise RecordingError(f"{connect}: not a Rerun viewer address ({err})") from None
         target = connect
     else:
-        check_can_spawn()
         executable = shutil.which("rerun") or _bundled_viewer()
         try:
             rr.sinks.spawn(port=port, recording=stream, executable_path=executable)
@@ -215,17 +216,6 @@ def check_can_spawn() -> None:
     if shutil.which("rerun") is None and _bundled_viewer() is None:
         raise RecordingError("cannot spawn the Rerun viewer (no 'rerun' executable on PATH); "
                              "use --save OUT.rrd or --connect URL")
-
-
-def _transforms(pairs: Mapping[Pair, tuple[Array, Array]]) -> Transforms:
-    """Transforms of frame pairs, (parent, child) → (translation (3,), rotation (4,)), as N = 1 Transforms."""
-    k = len(pairs)
-    return Transforms(
-        tuple(parent for parent, _ in pairs),
-        tuple(child for _, child in pairs),
-        np.array([t for t, _ in pairs.values()], dtype=np.float64).reshape(1, k, 3),
-        np.array([r for _, r in pairs.values()], dtype=np.float64).reshape(1, k, 4),
-    )
 
 
 def _has_display() -> bool:

@@ -8,7 +8,8 @@ length whose other bytes all equal the template is then decoded as one (N, size)
 one numpy slice per field. Any other message (different names, a different layout) goes
 through a per-message deserializer supplied by the caller (rosbags'), so nothing is lost.
 
-Pure numpy: the readers in :mod:`tfrec.readers` supply the bytes and the fallback deserializer.
+Pure numpy, with the CDR rules of :mod:`tfrec.cdr`: the readers supply the bytes and the fallback
+deserializer.
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from .cdr import CDR_HEADER, align, ns_from_stamps
 
 __all__ = [
     "JointStateAccumulator",
@@ -31,8 +34,6 @@ __all__ = [
 
 Array = NDArray[np.float64]
 Deserialize = Callable[[bytes], Any]
-
-CDR_LE = b"\x00\x01\x00\x00"
 
 
 @dataclass(frozen=True, slots=True)
@@ -64,9 +65,9 @@ class _Walker:
     def __init__(self, data: bytes, *, ros1: bool) -> None:
         self.data = data
         self.ros1 = ros1
-        if not ros1 and data[:4] != CDR_LE:
+        if not ros1 and data[: len(CDR_HEADER)] != CDR_HEADER:
             raise ValueError("not little-endian CDR")
-        self.base = 0 if ros1 else 4
+        self.base = 0 if ros1 else len(CDR_HEADER)
         self.pos = self.base
         self.variable: list[tuple[int, int]] = []
 
@@ -79,7 +80,7 @@ class _Walker:
 
     def align(self, size: int) -> None:
         if not self.ros1:
-            self.pos += -(self.pos - self.base) % size
+            self.pos = self.base + align(self.pos - self.base, size)
 
     def uint32(self) -> int:
         self.align(4)
@@ -159,7 +160,7 @@ def message_layout(kind: str, data: bytes | memoryview, *, ros1: bool) -> Messag
 
 def stamp_ns(stamp: Any) -> int:
     """Nanoseconds of a deserialized builtin_interfaces/Time (or ROS 1 time)."""
-    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+    return ns_from_stamps(int(stamp.sec), int(stamp.nanosec))
 
 
 def _rows(datas: Sequence[bytes | memoryview], size: int) -> NDArray[np.uint8]:
@@ -192,7 +193,7 @@ def _split(
 def _stamps(rows: NDArray[np.uint8], offset: int, ros1: bool) -> NDArray[np.int64]:
     raw = np.ascontiguousarray(rows[:, offset : offset + 8]).view("<u4")
     sec = raw[:, 0].astype(np.int64) if ros1 else raw[:, 0].view("<i4").astype(np.int64)
-    return sec * 1_000_000_000 + raw[:, 1].astype(np.int64)
+    return ns_from_stamps(sec, raw[:, 1].astype(np.int64))
 
 
 def _float_block(rows: NDArray[np.uint8], offset: int, count: int) -> Array:

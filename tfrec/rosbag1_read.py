@@ -14,23 +14,22 @@ from __future__ import annotations
 
 import os
 import struct
-from collections.abc import Callable
 from pathlib import Path
 from typing import IO
 
 from .bag_metadata import one_line
+from .cdr import ns_from_stamps
 from .errors import RecordingError
-from .recorded import Collector, ReadStopped, Recording, deserializer, with_article
+from .recorded import Collector, ReadStopped, Recording, TopicStats, read_error_line, with_article
+from .ros_types import ros1_typestore, topic_deserializer
+from .salvage import decompress, salvage
 
 __all__ = ["ROS1_MAGIC", "read_rosbag1_records", "ros1_compression"]
 
 ROS1_MAGIC = b"#ROSBAG V2.0\n"
 _OP_MESSAGE, _OP_BAG_HEADER, _OP_INDEX, _OP_CHUNK, _OP_CHUNK_INFO, _OP_CONNECTION = 2, 3, 4, 5, 6, 7
 _RECORD_NAMES = {2: "message data", 3: "bag header", 4: "index data", 5: "chunk", 6: "chunk info", 7: "connection"}
-_PIECE = 4096
-"""Compressed bytes fed at a time when salvaging a cut chunk."""
-_BATCH = 32768
-"""Messages of a topic decoded at once."""
+_COMPRESSIONS = ("none", "bz2", "lz4")
 
 
 def _fields(header: bytes | memoryview) -> dict[str, bytes]:
@@ -68,61 +67,7 @@ def _time(fields: dict[str, bytes], name: str) -> int:
     if len(value) != 8:
         raise ValueError(f"no 8-byte '{name}' field")
     sec, nsec = struct.unpack("<II", value)
-    return int(sec) * 1_000_000_000 + int(nsec)
-
-
-def _decompress(compression: str, data: bytes, size: int) -> bytes:
-    """A whole chunk's records.
-
-    Raises:
-        ValueError: the data does not decompress to ``size`` bytes, or the compression is unknown.
-    """
-    if compression == "none":
-        out = data
-    elif compression == "bz2":
-        import bz2
-
-        try:
-            out = bz2.decompress(data)
-        except (OSError, EOFError, ValueError) as err:
-            raise ValueError(f"bz2: {err}") from None
-    elif compression == "lz4":
-        import lz4.frame
-
-        try:
-            out = lz4.frame.decompress(data)
-        except RuntimeError as err:  # lz4 reports corrupt frames as RuntimeError
-            raise ValueError(f"lz4: {err}") from None
-    else:
-        raise ValueError(f"unsupported chunk compression '{compression}'")
-    if len(out) != size:
-        raise ValueError(f"its records decompress to {len(out):,} bytes, not {size:,}")
-    return out
-
-
-def _salvage(compression: str, data: bytes) -> bytes:
-    """What decompresses of a cut chunk's records, up to the end of the data or a corrupt block."""
-    if compression == "none":
-        return data
-    decompress: Callable[[bytes], bytes]
-    errors: tuple[type[Exception], ...]
-    if compression == "bz2":
-        import bz2
-
-        decompress, errors = bz2.BZ2Decompressor().decompress, (OSError, EOFError, ValueError)
-    elif compression == "lz4":
-        import lz4.frame
-
-        decompress, errors = lz4.frame.LZ4FrameDecompressor().decompress, (RuntimeError, EOFError)
-    else:
-        return b""
-    out: list[bytes] = []
-    for at in range(0, len(data), _PIECE):
-        try:
-            out.append(decompress(data[at : at + _PIECE]))
-        except errors:
-            break
-    return b"".join(out)
+    return ns_from_stamps(int(sec), int(nsec))
 
 
 def _normalize(topic: str) -> str:
@@ -130,18 +75,17 @@ def _normalize(topic: str) -> str:
     return "/" * topic.startswith("/") + "/".join(part for part in topic.split("/") if part)
 
 
-class _Connection:
-    __slots__ = ("count", "decoded", "first", "last", "latched", "messages", "msgdef", "topic", "type")
+class _Connection(TopicStats):
+    """A connection: its topic, message definition, whether its messages are decoded, and those
+    taken (log time, raw message); its count with durability ``latched`` for a latching topic."""
+
+    __slots__ = ("decoded", "messages", "msgdef", "topic")
 
     def __init__(self, topic: str, msgtype: str, msgdef: str, decoded: bool, latched: bool) -> None:
+        super().__init__(msgtype, "latched" if latched else None)
         self.topic = topic
-        self.type = msgtype
         self.msgdef = msgdef
         self.decoded = decoded
-        self.latched = latched
-        self.count = 0
-        self.first = 0
-        self.last = 0
         self.messages: list[tuple[int, bytes]] = []
 
 
@@ -224,10 +168,7 @@ class _Ros1Reader:
             if connection is None:
                 raise ValueError(f"a message on unknown connection {_uint32(fields, 'conn')}")
             time_ns = _time(fields, "time")
-            if connection.count == 0 or time_ns < connection.first:
-                connection.first = time_ns
-            connection.last = max(connection.last, time_ns)
-            connection.count += 1
+            connection.add(time_ns)
             if connection.decoded:
                 connection.messages.append((time_ns, bytes(data)))
         elif op == _OP_CONNECTION:
@@ -265,10 +206,10 @@ class _Ros1Reader:
             return 0
         self.compressions.add(compression)
         if cut:
-            self._chunk_records(_salvage(compression, data)[:size])
+            self._chunk_records(salvage(compression, data, supported=_COMPRESSIONS)[:size])
             return self.messages - before
         try:
-            records = _decompress(compression, data, size)
+            records = decompress(compression, data, size, supported=_COMPRESSIONS)
         except ValueError as err:
             self.damaged.append((start, str(err)))
             return 0
@@ -277,7 +218,7 @@ class _Ros1Reader:
             self.damaged.append((start, problem))
         return self.messages - before
 
-    def _chunk_records(self, data: bytes) -> str | None:
+    def _chunk_records(self, data: bytes | memoryview) -> str | None:
         """Take the records of a chunk's data; returns the problem that stopped them, or None."""
         view = memoryview(data)
         pos, end = 0, len(view)
@@ -304,30 +245,19 @@ class _Ros1Reader:
 
     def finish(self, where: str) -> None:
         """Decode the messages taken, in log-time order per topic, and count every topic."""
-        from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-        from rosbags.typesys.base import TypesysError
-
-        store = get_typestore(Stores.ROS1_NOETIC)
-        for connection in self.connections.values():
-            if connection.decoded and connection.msgdef:
-                try:
-                    store.register(get_types_from_msg(connection.msgdef, connection.type))
-                except TypesysError:
-                    pass  # a definition that clashes with Noetic's: Noetic's is used
+        store = ros1_typestore(tuple((connection.type, connection.msgdef) for connection in self.connections.values()
+                                     if connection.decoded and connection.msgdef))
         topics: dict[str, list[tuple[int, bytes]]] = {}
         for connection in self.connections.values():
             if connection.count:
-                self.collector.count(connection.topic, connection.type, connection.count, connection.first,
-                                     connection.last, "latched" if connection.latched else None)
+                self.collector.count(connection.topic, connection)
             if connection.decoded and connection.messages:
                 if connection.topic not in topics:
-                    self.collector.set_deserializer(connection.topic, deserializer(
-                        store, connection.type, ros1=True, where=where, topic=connection.topic))
+                    self.collector.set_deserializer(connection.topic, topic_deserializer(
+                        connection.type, where=where, topic=connection.topic, ros1=True, store=store))
                 topics.setdefault(connection.topic, []).extend(connection.messages)
         for topic, messages in topics.items():
-            messages.sort(key=lambda message: message[0])
-            for at in range(0, len(messages), _BATCH):
-                self.collector.add(topic, [data for _, data in messages[at : at + _BATCH]])
+            self.collector.add_in_time_order(topic, messages)
 
     def damage_summary(self) -> str:
         byte, problem = self.damaged[0]
@@ -366,9 +296,9 @@ def read_rosbag1_records(path: Path, wanted: frozenset[str], *, refused: str) ->
         raise RecordingError(f"{where}: cannot read ROS 1 bag: {one_line(refused)}{where_stopped}")
     problems = [reader.damage_summary()] if reader.damaged else []
     if stop is not None:
-        problems.append(f"reading stopped at byte {stop.offset:,} of {size:,}: {stop.reason}")
+        problems.append(stop.problem(size))
     if problems:
-        recording.read_error = f"{where}: {'; '.join(problems)}; {reader.messages:,} messages read"
+        recording.read_error = read_error_line(where, problems, reader.messages)
     recording.details = {"compression": ", ".join(sorted(reader.compressions))}
     reader.finish(where)
     collector.finish()

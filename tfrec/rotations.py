@@ -1,8 +1,12 @@
-"""Vectorized unit-quaternion arithmetic for the kinematics stage.
+"""Vectorized unit-quaternion arithmetic: kinematics, and comparing rotations in diff and replay.
 
 Quaternions are float64 arrays whose last axis is (x, y, z, w), the order of
 geometry_msgs/Quaternion. Every function broadcasts over leading axes, so one call
 handles all samples of a trajectory at once.
+
+The angle between two rotations is :func:`rotation_error` everywhere in tfrec (recordings,
+robot descriptions, re-simulation): ``2·atan2(|v|, |w|)`` of the relative rotation, which keeps
+its precision for tiny angles where ``2·acos(|q_a·q_b|)`` rounds to 0.
 """
 
 from __future__ import annotations
@@ -11,12 +15,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
-    "canonical_quaternion",
     "matrix_from_quaternion",
     "quaternion_from_axis_angle",
     "quaternion_from_rpy",
     "quaternion_multiply",
     "quaternion_rotate",
+    "rotation_error",
+    "slerp",
 ]
 
 Array = NDArray[np.float64]
@@ -84,12 +89,6 @@ def quaternion_rotate(q: ArrayLike, v: ArrayLike) -> Array:
     return v + q[..., 3:4] * t + np.cross(u, t)
 
 
-def canonical_quaternion(q: ArrayLike) -> Array:
-    """The same rotations with the sign chosen so that w >= 0."""
-    q = np.asarray(q, dtype=np.float64)
-    return np.where(q[..., 3:4] < 0.0, -q, q)
-
-
 def matrix_from_quaternion(q: ArrayLike) -> Array:
     """Rotation matrices (..., 3, 3) of unit quaternions (..., 4)."""
     q = np.asarray(q, dtype=np.float64)
@@ -107,3 +106,35 @@ def matrix_from_quaternion(q: ArrayLike) -> Array:
         for j, value in enumerate(row):
             out[..., i, j] = value
     return out
+
+
+def rotation_error(qa: Array, qb: Array) -> Array:
+    """The angle (rad) of ``qa⁻¹ qb`` for quaternions (..., 4) in (x, y, z, w) order.
+
+    ``2·atan2(|v|, |w|)`` of the relative rotation: in [0, π], the same for q and -q, and
+    accurate for tiny angles (unlike ``acos``). The quaternions need not be normalized.
+    """
+    va, wa = qa[..., :3], qa[..., 3:4]
+    vb, wb = qb[..., :3], qb[..., 3:4]
+    v = wa * vb - wb * va - np.cross(va, vb)
+    w = (wa * wb)[..., 0] + np.einsum("...i,...i->...", va, vb)
+    angle: Array = 2.0 * np.arctan2(np.linalg.norm(v, axis=-1), np.abs(w))  # numpy types einsum and norm as Any
+    return angle
+
+
+def slerp(q0: Array, q1: Array, frac: Array) -> Array:
+    """Spherical interpolation between unit quaternions (n, 4) at fractions (n,), the short way round."""
+    q0 = q0 / np.linalg.norm(q0, axis=-1, keepdims=True)
+    q1 = q1 / np.linalg.norm(q1, axis=-1, keepdims=True)
+    dot = np.einsum("ij,ij->i", q0, q1)
+    q1 = np.where(dot[:, None] < 0.0, -q1, q1)
+    dot = np.abs(dot)
+    theta = np.arccos(np.clip(dot, -1.0, 1.0))
+    sin = np.sin(theta)
+    small = sin < 1e-9
+    safe = np.where(small, 1.0, sin)
+    w0 = np.where(small, 1.0 - frac, np.sin((1.0 - frac) * theta) / safe)
+    w1 = np.where(small, frac, np.sin(frac * theta) / safe)
+    out = w0[:, None] * q0 + w1[:, None] * q1
+    unit: Array = out / np.linalg.norm(out, axis=-1, keepdims=True)  # numpy types norm(axis=...) as Any
+    return unit

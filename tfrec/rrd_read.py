@@ -1,7 +1,7 @@
 """Reading tfrec's Rerun recording (``.rrd``) into a :class:`~tfrec.recorded.Recording`.
 
 Through Rerun's own reader (``rerun.chunk.RrdReader``), with the entity paths and the timeline
-:mod:`tfrec.rerun_io` writes: ``/tf/<joint>`` and ``/tf_static/<joint>`` (Transform3D with
+of :mod:`tfrec.rerun_paths`: ``/tf/<joint>`` and ``/tf_static/<joint>`` (Transform3D with
 parent and child frames), ``/joints/<joint>`` (Scalars) and ``/robot_description``
 (TextDocument). Rerun stores transforms as float32, joint positions as float64. An ``.rrd``
 has no topics: its entities are listed under the topics they stand for.
@@ -41,7 +41,7 @@ def read_rrd(path: Path, wanted: frozenset[str]) -> Recording:
 
     where = os.fspath(path)
     recording = Recording(path=where, format="rrd", float32=True)
-    tf_parts: dict[str, list[tuple[NDArray[np.int64], Array, Array, tuple[str, str]]]] = {}
+    tf_parts: dict[tuple[str, ...], list[tuple[NDArray[np.int64], Array, Array, tuple[str, str]]]] = {}
     joint_parts: dict[str, list[tuple[NDArray[np.int64], Array]]] = {}
     static: dict[tuple[str, str], tuple[Array, Array]] = {}
     description: str | None = None
@@ -53,13 +53,13 @@ def read_rrd(path: Path, wanted: frozenset[str]) -> Recording:
     except (RuntimeError, ValueError, OSError) as err:
         raise RecordingError(f"{where}: unreadable Rerun recording: {err}") from None
     for chunk in chunks:
-        entity = str(chunk.entity_path)
-        top, _, rest = entity.lstrip("/").partition("/")
-        if top not in ("tf", "tf_static", "joints", "robot_description"):
+        top, names = rerun_paths.parse_entity(str(chunk.entity_path))
+        if top not in (rerun_paths.TF_ROOT, rerun_paths.TF_STATIC_ROOT, rerun_paths.JOINTS_ROOT,
+                       rerun_paths.DESCRIPTION_ROOT):
             continue
         batch = chunk.to_record_batch()
         columns = {name: batch.column(i) for i, name in enumerate(batch.schema.names)}
-        if top == "robot_description":
+        if top == rerun_paths.DESCRIPTION_ROOT:
             text = columns.get("TextDocument:text")
             if text is not None and len(text):
                 values = text.flatten()
@@ -69,12 +69,12 @@ def read_rrd(path: Path, wanted: frozenset[str]) -> Recording:
         time = None
         if timeline in columns:
             time = np.asarray(columns[timeline].cast(pa.int64()).to_numpy(zero_copy_only=False), dtype=np.int64)
-        if top == "joints":
+        if top == rerun_paths.JOINTS_ROOT:
             scalars = columns.get("Scalars:scalars")
             if scalars is None or time is None:
                 continue
             values, keep = _one_per_row(scalars, 1)
-            joint_parts.setdefault(_unescape(rest), []).append((time[keep], values[keep, 0]))
+            joint_parts.setdefault("/".join(names), []).append((time[keep], values[keep, 0]))
             continue
         translation = columns.get("Transform3D:translation")
         quaternion = columns.get("Transform3D:quaternion")
@@ -88,10 +88,10 @@ def read_rrd(path: Path, wanted: frozenset[str]) -> Recording:
         if not keep.any():
             continue
         pair = (str(parent.flatten()[0].as_py()), str(child.flatten()[0].as_py()))
-        if top == "tf_static" or time is None:
+        if top == rerun_paths.TF_STATIC_ROOT or time is None:
             static[pair] = (t_values[keep][-1], q_values[keep][-1])
         else:
-            tf_parts.setdefault(rest, []).append((time[keep], t_values[keep], q_values[keep], pair))
+            tf_parts.setdefault(names, []).append((time[keep], t_values[keep], q_values[keep], pair))
     if ROBOT_DESCRIPTION in wanted:
         recording.robot_description = description
     topics: dict[str, TopicInfo] = {}
@@ -163,18 +163,3 @@ def _concat_series(parts: list[tuple[NDArray[np.int64], Array]]) -> tuple[NDArra
     value = np.concatenate([p[1] for p in parts])
     order = np.argsort(time, kind="stable")
     return time[order], value[order]
-
-
-def _unescape(part: str) -> str:
-    """An entity path part back to the name it escapes (``rr.escape_entity_path_part``)."""
-    if "\\" not in part:
-        return part
-    out, i = [], 0
-    while i < len(part):
-        if part[i] == "\\" and i + 1 < len(part):
-            out.append(part[i + 1])
-            i += 2
-        else:
-            out.append(part[i])
-            i += 1
-    return "".join(out)

@@ -4,7 +4,8 @@ A :class:`JointTrajectory` holds the actuated joints of a robot (revolute, conti
 prismatic joints that mimic nothing, in URDF document order) sampled at integer-nanosecond
 times. :func:`make_trajectory` builds one from a kind name (``center``, ``random``, ``sine``,
 ``sweep``) or a CSV file (:mod:`tfrec.trajectory_csv`); :func:`all_joint_states` adds the
-mimic joints, giving every moving joint as joint_state_publisher publishes it.
+mimic joints (:func:`apply_mimic`, which replay uses too), giving every moving joint as
+joint_state_publisher publishes it.
 
 Sampling rule of the generated kinds: sample ``i`` is at ``time_ns[i] = round(i * 1e9 / rate_hz)``
 for every ``i`` with ``time_ns[i] <= round(duration_s * 1e9)``, so both ends are included when
@@ -21,7 +22,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
@@ -37,11 +38,14 @@ from tfrec.model import Joint, JointType, Robot
 __all__ = [
     "JointTrajectory",
     "TrajectoryKind",
+    "actuated_column",
     "all_joint_states",
+    "apply_mimic",
     "center_positions",
     "center_trajectory",
     "joint_bounds",
     "make_trajectory",
+    "position_range",
     "random_trajectory",
     "sample_times_ns",
     "sine_trajectory",
@@ -386,38 +390,92 @@ def all_joint_states(robot: Robot, trajectory: JointTrajectory) -> tuple[tuple[s
     for joint in robot.actuated_joints:
         positions[:, index[joint.name]] = trajectory.positions[:, column[joint.name]]
         velocities[:, index[joint.name]] = trajectory.velocities[:, column[joint.name]]
+    apply_mimic(robot, names, positions, velocities)
+    return names, positions, velocities
+
+
+def apply_mimic(
+    robot: Robot, names: Sequence[str], positions: Array, velocities: Array | None = None, *,
+    only_missing: bool = False,
+) -> None:
+    """Fill in the columns of the mimic joints from their masters, in place.
+
+    A mimic joint's position is ``multiplier · master + offset`` and its velocity
+    ``multiplier · master velocity``; chains are resolved in dependency order
+    (:attr:`Robot.mimic_order`). A mimic of a joint that does not move stays at ``offset``
+    (and its velocity is left as it is).
+
+    Args:
+        robot: the robot.
+        names: the joints of the columns; every moving mimic joint of the robot must be among them.
+        positions: float64 (N, len(names)).
+        velocities: float64 (N, len(names)), or None.
+        only_missing: fill only the rows where a mimic joint's position is NaN (a /joint_states
+            message without it, as robot_state_publisher does); the others keep their own.
+    """
+    index = {name: k for k, name in enumerate(names)}
     for joint in robot.mimic_order:
         assert joint.mimic is not None
         k = index[joint.name]
+        rows: NDArray[np.bool_] | slice = np.isnan(positions[:, k]) if only_missing else slice(None)
         master = index.get(joint.mimic.joint)
         if master is None:
-            positions[:, k] = joint.mimic.offset
+            positions[rows, k] = joint.mimic.offset
             continue
-        positions[:, k] = joint.mimic.multiplier * positions[:, master] + joint.mimic.offset
-        velocities[:, k] = joint.mimic.multiplier * velocities[:, master] + 0.0  # no -0.0
-    return names, positions, velocities
+        positions[rows, k] = joint.mimic.multiplier * positions[rows, master] + joint.mimic.offset
+        if velocities is not None:
+            velocities[rows, k] = joint.mimic.multiplier * velocities[rows, master] + 0.0  # no -0.0
+
+
+def actuated_column(robot: Robot, name: str, where: str, *, verb: str = "set") -> tuple[int, Joint]:
+    """The column of the actuated joint ``name`` in a trajectory (the order of ``robot.actuated_joints``).
+
+    Args:
+        robot: the robot.
+        name: the joint a user named (an override, a CSV column).
+        where: how messages name it, e.g. ``elbow=0.5: 'elbow'`` or ``arm.csv:1: column 'elbow'``.
+        verb: what the user does with a joint, for the message about a mimic joint: ``set`` or ``give``.
+
+    Returns:
+        (the column, the joint).
+
+    Raises:
+        TrajectoryError: ``name`` is not a joint of the robot, is a mimic joint, or has no position
+            (a fixed, floating or planar joint).
+    """
+    joint = robot.joint_by_name.get(name)
+    if joint is None:
+        raise TrajectoryError(f"{where} is not a joint of robot '{robot.name}'")
+    if joint.mimic is not None and joint.type.moves:
+        raise TrajectoryError(f"{where} is a mimic joint; {verb} '{joint.mimic.joint}' instead")
+    if not joint.actuated:
+        raise TrajectoryError(f"{where} is a {joint.type.value} joint, which has no position")
+    return robot.actuated_joints.index(joint), joint
+
+
+def position_range(joint: Joint) -> tuple[float, float]:
+    """The positions a moving joint may take: its limits; unbounded for a continuous joint.
+
+    Raises:
+        TrajectoryError: a revolute or prismatic joint without ``<limit>``.
+    """
+    if joint.type is JointType.CONTINUOUS:
+        return -math.inf, math.inf
+    return joint_bounds(joint)
 
 
 def _pinned(robot: Robot, overrides: Mapping[str, float]) -> dict[int, float]:
     """Check ``overrides`` and map them to actuated-joint columns."""
-    actuated = {joint.name: i for i, joint in enumerate(robot.actuated_joints)}
     pinned: dict[int, float] = {}
     for name, value in overrides.items():
         where = f"{name}={value!r}"
-        joint = robot.joint_by_name.get(name)
-        if joint is None:
-            raise TrajectoryError(f"{where}: '{name}' is not a joint of robot '{robot.name}'")
-        if joint.mimic is not None and joint.type.moves:
-            raise TrajectoryError(f"{where}: '{name}' is a mimic joint; set '{joint.mimic.joint}' instead")
-        if name not in actuated:
-            raise TrajectoryError(f"{where}: '{name}' is a {joint.type.value} joint, which has no position")
+        column, joint = actuated_column(robot, name, f"{where}: '{name}'")
         if not (isinstance(value, numbers.Real) and math.isfinite(value)):
             raise TrajectoryError(f"{where}: not a finite number")
-        if joint.type is not JointType.CONTINUOUS:
-            lower, upper = joint_bounds(joint)
-            if not lower <= value <= upper:
-                raise TrajectoryError(f"{where}: beyond the limits [{lower!r}, {upper!r}] of joint '{name}'")
-        pinned[actuated[name]] = float(value)
+        lower, upper = position_range(joint)
+        if not lower <= value <= upper:
+            raise TrajectoryError(f"{where}: beyond the limits [{lower!r}, {upper!r}] of joint '{name}'")
+        pinned[column] = float(value)
     return pinned
 
 
@@ -454,8 +512,6 @@ def _min_jerk(t: Floats, knot_s: Floats, knot_q: Floats) -> tuple[Array, Array]:
 def _trajectory(robot: Robot, time_ns: NDArray[np.int64], positions: Array, velocities: Array) -> JointTrajectory:
     """Wrap arrays as a trajectory, first clipping rounding overshoot (a few ulps) at the limits."""
     if positions.shape[1]:
-        lower, upper = _bounds_arrays(robot)
-        continuous = np.array([joint.type is JointType.CONTINUOUS for joint in robot.actuated_joints])
-        lower[continuous], upper[continuous] = -np.inf, np.inf
+        lower, upper = np.array([position_range(joint) for joint in robot.actuated_joints]).T
         np.clip(positions, lower, upper, out=positions)
     return JointTrajectory(tuple(joint.name for joint in robot.actuated_joints), time_ns, positions, velocities)

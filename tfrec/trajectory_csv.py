@@ -25,8 +25,8 @@ import numpy as np
 
 from tfrec.conventions import STAMP_LIMIT_NS, STAMP_RANGE
 from tfrec.errors import TrajectoryError
-from tfrec.model import JointType, Robot
-from tfrec.trajectory import JointTrajectory, center_positions, joint_bounds
+from tfrec.model import Joint, Robot
+from tfrec.trajectory import JointTrajectory, actuated_column, center_positions, position_range
 
 __all__ = ["read_csv_trajectory"]
 
@@ -71,22 +71,16 @@ def read_csv_trajectory(
         raise TrajectoryError(f"{name}: empty file, expected a header with 'time' and joint names")
     header_line, header = rows[0]
     columns = [cell.strip() for cell in header]
-    actuated = {joint.name: i for i, joint in enumerate(robot.actuated_joints)}
+    joints: dict[int, tuple[int, Joint]] = {}  # CSV column → (trajectory column, joint)
     seen: set[str] = set()
-    for column in columns:
+    for c, column in enumerate(columns):
         where = f"{name}:{header_line}: column '{column}'"
         if column in seen:
             raise TrajectoryError(f"{where} appears twice")
         seen.add(column)
         if column == "time":
             continue
-        joint = robot.joint_by_name.get(column)
-        if joint is None:
-            raise TrajectoryError(f"{where} is not a joint of robot '{robot.name}'")
-        if joint.mimic is not None and joint.type.moves:
-            raise TrajectoryError(f"{where} is a mimic joint; give '{joint.mimic.joint}' instead")
-        if column not in actuated:
-            raise TrajectoryError(f"{where} is a {joint.type.value} joint, which has no position")
+        joints[c] = actuated_column(robot, column, where, verb="give")
         if column in overrides:
             raise TrajectoryError(f"{where} is also set by an override")
     if "time" not in seen:
@@ -118,20 +112,15 @@ def read_csv_trajectory(
             f"{name}:{lines[r]}: time {float(seconds[r])!r} does not increase (previous {float(seconds[r - 1])!r})"
         )
 
-    positions = np.broadcast_to(center, (len(rows) - 1, len(actuated))).copy()
-    for c, column in enumerate(columns):
-        if column == "time":
-            continue
-        joint = robot.joint_by_name[column]
-        positions[:, actuated[column]] = values[:, c]
-        if joint.type is JointType.CONTINUOUS:
-            continue
-        lower, upper = joint_bounds(joint)
+    positions = np.broadcast_to(center, (len(rows) - 1, len(center))).copy()
+    for c, (j, joint) in joints.items():
+        positions[:, j] = values[:, c]
+        lower, upper = position_range(joint)
         beyond = np.flatnonzero((values[:, c] < lower) | (values[:, c] > upper))
         if beyond.size:
             r = beyond[0]
             raise TrajectoryError(
-                f"{name}:{lines[r]}: {column} = {float(values[r, c])!r} is beyond its limits [{lower!r}, {upper!r}]"
+                f"{name}:{lines[r]}: {joint.name} = {float(values[r, c])!r} is beyond its limits [{lower!r}, {upper!r}]"
             )
     velocities = np.zeros_like(positions)
     if len(time_ns) > 1 and positions.shape[1]:
@@ -143,7 +132,7 @@ def read_csv_trajectory(
             r, j = fast[0]
             column = robot.actuated_joints[j].name
             raise TrajectoryError(f"{name}:{lines[r]}: {column} changes too fast for a finite velocity")
-    return JointTrajectory(tuple(actuated), time_ns, positions, velocities)
+    return JointTrajectory(tuple(joint.name for joint in robot.actuated_joints), time_ns, positions, velocities)
 
 
 def _number(cell: str, where: str, column: str) -> float:

@@ -2,10 +2,13 @@
 
 Both texts are parsed into :class:`tfrec.model.Robot` and compared by meaning: the robot name,
 the links (added, removed, or changed mass or visuals) and the joints (type, parent, child,
-origin, axis, limits, mimic). Lengths compare within a position tolerance, rotations by the
-angle between them (so ``rpy="3.14159265 0 0"`` and ``"-3.14159265 0 0"`` are the same
-origin), other numbers within a value tolerance. Each added, removed or changed element is
-one line, e.g. ``joint 'joint2' changed: origin xyz (0 0 0.1) → (0 0 0.11)``.
+origin, axis, limits, mimic). Lengths compare within a position tolerance; orientations by the
+angle of the rotation between them (:func:`tfrec.rotations.rotation_error`, as for recorded
+transforms), so ``rpy="3.14159265358979 0 0"`` and ``"-3.14159265358979 0 0"`` are the same
+origin; axes by the angle ``atan2(|a×b|, a·b)`` between them; other numbers within a value
+tolerance. Both angles keep their precision for tiny changes: at a tolerance of 1e-9 rad a
+change of 1e-8 rad shows. Each added, removed or changed element is one line, e.g.
+``joint 'joint2' changed: origin xyz (0 0 0.1) → (0 0 0.11)``.
 """
 
 from __future__ import annotations
@@ -19,9 +22,10 @@ from typing import Any, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
+from .conventions import DIFF_JOINT_TOL, DIFF_POS_TOL, DIFF_ROT_TOL
 from .errors import DescriptionError
 from .model import Joint, Limit, Link, Mimic, Pose, Robot, Visual
-from .rotations import quaternion_from_rpy
+from .rotations import quaternion_from_rpy, rotation_error
 from .urdf_parse import parse_urdf
 
 __all__ = ["ElementChange", "diff_robots", "diff_urdf_texts", "rotation_angle"]
@@ -60,8 +64,12 @@ def _mimic(mimic: Mimic | None) -> str:
 
 def rotation_angle(rpy_a: Sequence[float], rpy_b: Sequence[float]) -> float:
     """The angle (rad) of the rotation taking one URDF rpy orientation to the other."""
-    qa, qb = quaternion_from_rpy(np.array([rpy_a, rpy_b], dtype=np.float64))
-    return float(2.0 * math.acos(min(1.0, abs(float(np.dot(qa, qb))))))
+    return float(rotation_error(quaternion_from_rpy(rpy_a), quaternion_from_rpy(rpy_b)))
+
+
+def _axis_angle(a: Sequence[float], b: Sequence[float]) -> float:
+    """The angle (rad) between two axes, ``atan2(|a×b|, a·b)``: accurate for tiny angles, unlike ``acos``."""
+    return math.atan2(float(np.linalg.norm(np.cross(a, b))), float(np.dot(a, b)))
 
 
 def _differs(a: Sequence[float] | NDArray[Any], b: Sequence[float] | NDArray[Any], tol: float) -> bool:
@@ -98,10 +106,8 @@ class _Comparer:
         if a.child != b.child:
             out.append(f"child '{a.child}' → '{b.child}'")
         out += self.pose("origin", a.origin, b.origin)
-        if a.type.moves and b.type.moves:
-            cos = float(np.clip(np.dot(a.axis, b.axis), -1.0, 1.0))
-            if math.acos(cos) > self.rot_tol:
-                out.append(f"axis {_vec(a.axis)} → {_vec(b.axis)}")
+        if a.type.moves and b.type.moves and _axis_angle(a.axis, b.axis) > self.rot_tol:
+            out.append(f"axis {_vec(a.axis)} → {_vec(b.axis)}")
         if (a.limit is None) != (b.limit is None):
             out.append(f"limit {_limit(a.limit)} → {_limit(b.limit)}")
         elif a.limit is not None and b.limit is not None:
@@ -149,7 +155,8 @@ class _Comparer:
 
 
 def diff_robots(
-    a: Robot, b: Robot, *, pos_tol: float = 1e-9, rot_tol: float = 1e-9, value_tol: float = 1e-9
+    a: Robot, b: Robot, *, pos_tol: float = DIFF_POS_TOL, rot_tol: float = DIFF_ROT_TOL,
+    value_tol: float = DIFF_JOINT_TOL,
 ) -> list[ElementChange]:
     """The elements added, removed or changed from robot ``a`` to robot ``b``.
 
@@ -204,8 +211,8 @@ def _parse(text: str, label: str) -> Robot:
 
 
 def diff_urdf_texts(
-    a: str, b: str, *, pos_tol: float = 1e-9, rot_tol: float = 1e-9, value_tol: float = 1e-9,
-    labels: tuple[str, str] = ("A", "B"),
+    a: str, b: str, *, pos_tol: float = DIFF_POS_TOL, rot_tol: float = DIFF_ROT_TOL,
+    value_tol: float = DIFF_JOINT_TOL, labels: tuple[str, str] = ("A", "B"),
 ) -> list[ElementChange]:
     """:func:`diff_robots` of two URDF texts; a text that does not parse is one change.
 

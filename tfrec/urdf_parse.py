@@ -110,7 +110,7 @@ class _Parser:
         texture = elem.find("texture")
         return Material(name=name, rgba=rgba, texture=texture.get("filename") if texture is not None else None)
 
-    def geometry(self, visual: ET.Element, what: str) -> Geometry | None:
+    def geometry(self, visual: ET.Element, what: str) -> Geometry:
         geometry = visual.find("geometry")
         if geometry is None:
             raise self.fail(visual, f"{what} has no <geometry>")
@@ -144,7 +144,6 @@ class _Parser:
         for index, visual in enumerate(elem.findall("visual")):
             what = f"link '{name}' visual {index}"
             geometry = self.geometry(visual, what)
-            assert geometry is not None
             material = None
             mat = visual.find("material")
             if mat is not None:
