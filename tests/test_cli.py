@@ -236,3 +236,9 @@ def test_help_shows_the_default_tolerances(capsys: pytest.CaptureFixture[str]) -
     assert "translation tolerance (default 1e-6)" in " ".join(out.split())
     _, out, _ = run(capsys, "diff", "--help")
     assert "(rad or m) are equal (default 1e-9)" in " ".join(out.split())
+
+
+def test_xacro_arguments_in_the_wrong_place_get_a_hint(capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = run(capsys, "inspect", str(ROBOTS / "marm.xacro"), "--json", "hand:=true")
+    assert code == 2
+    assert "unrecognized arguments: hand:=true (xacro arguments name:=value go right after ROBOT)" in err

@@ -300,3 +300,62 @@ def test_progress_bar_only_on_a_terminal_and_after_a_second() -> None:
     bar(100, 100)
     bar.close()
     assert piped.getvalue() == ""
+
+
+def test_an_output_written_meanwhile_is_not_replaced_without_force(tmp_path: Path) -> None:
+    """Two recorders writing one name: the second to finish fails instead of replacing the first."""
+    robot = load_robot("marm")
+    trajectory = make_trajectory(robot, "sine", duration_s=0.5, rate_hz=20)
+    out = tmp_path / "x.mcap"
+    plan = plan_outputs(stem="x", out=out, force=False)  # both outputs checked absent here
+    rrd = out.with_suffix(".rrd")
+    calls = []
+
+    def meanwhile(done: int, total: int) -> None:
+        if not calls:
+            rrd.write_bytes(b"the other recorder's")  # appears after the check, before the rename
+        calls.append(done)
+
+    with pytest.raises(RecordingError, match=r"x\.rrd: already exists \(written meanwhile by another process\?\)"):
+        record(robot, trajectory, plan, progress=meanwhile)
+    assert rrd.read_bytes() == b"the other recorder's"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.rrd"]  # no MCAP of ours, no temporaries
+    forced = plan_outputs(stem="x", out=out, force=True)
+    record(robot, trajectory, forced)
+    assert rrd.read_bytes()[:4] != b"the " and out.exists()
+
+
+def test_start_time_is_exact_decimal(tmp_path: Path) -> None:
+    out = tmp_path / "s.mcap"
+    assert main(["record", MARM, "--traj", "center", "--duration", "0.1", "--rate", "10", "--no-rrd",
+                 "--start-time", "1700000000.123456789", "-o", str(out)]) == 0
+    assert [s for s, _ in _read_all_rosbags(out)["/joint_states"]] == [1700000000123456789, 1700000000223456789]
+
+
+def test_csv_trajectory_warns_that_duration_and_rate_do_not_apply(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    csv = tmp_path / "t.csv"
+    csv.write_text("time,joint1\n0,0\n0.5,0.1\n")
+    code, _, err = run(capsys, "record", MARM, "--traj", str(csv), "--duration", "5", "--no-rrd",
+                       "-o", str(tmp_path / "o.mcap"))
+    assert code == 0
+    assert f"tfrec: warning: --duration and --rate do not apply to the CSV trajectory {csv}" in err
+
+
+def test_sigterm_leaves_no_partial_output(tmp_path: Path) -> None:
+    """`kill` / `timeout` send SIGTERM: cleaned up like Ctrl-C, exit 143."""
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "long.mcap"
+    proc = subprocess.Popen([sys.executable, "-m", "tfrec", "record", MARM, "--duration", "3600", "--rate", "100",
+                             "-o", str(out)], stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while not any(p.name.startswith(".long.") for p in tmp_path.iterdir()):  # temporaries being written
+        assert time.monotonic() < deadline and proc.poll() is None
+        time.sleep(0.05)
+    proc.terminate()
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143 and err.strip().endswith("tfrec: terminated")
+    assert list(tmp_path.iterdir()) == []

@@ -9,6 +9,7 @@ sees a path; :func:`check_target` is their common check of an output's name befo
 
 from __future__ import annotations
 
+import errno
 import os
 import shutil
 import uuid
@@ -58,8 +59,11 @@ class AtomicOutputs:
             outputs.commit()
     """
 
-    def __init__(self) -> None:
+    def __init__(self, *, replace: bool = True) -> None:
+        """``replace``: targets that exist at commit time are replaced (``--force``); without it a
+        target that appeared meanwhile (another process writing the same name) is an error."""
         self._pairs: list[tuple[Path, Path]] = []
+        self._replace = replace
 
     def __enter__(self) -> AtomicOutputs:
         return self
@@ -105,12 +109,51 @@ class AtomicOutputs:
         return message
 
     def commit(self) -> None:
-        """Rename every temporary to its target, replacing what is there."""
-        for temp, target in self._pairs:
+        """Rename every temporary to its target.
+
+        Raises:
+            RecordingError: without ``replace``, a target exists now (the outputs committed by
+                this call are removed again, the temporaries deleted).
+        """
+        done: list[Path] = []
+        try:
+            for temp, target in self._pairs:
+                self._rename(temp, target)
+                done.append(target)
+        except FileExistsError:
+            for path in done:
+                if path.is_dir():
+                    shutil.rmtree(path, ignore_errors=True)
+                else:
+                    path.unlink(missing_ok=True)
+            clash = self._pairs[len(done)][1]
+            self.abort()
+            raise RecordingError(f"{clash}: already exists (written meanwhile by another process?); "
+                                 "use --force to overwrite") from None
+        self._pairs.clear()
+
+    def _rename(self, temp: Path, target: Path) -> None:
+        if self._replace:
             if target.is_dir() and temp.is_dir():
                 shutil.rmtree(target)
             os.replace(temp, target)
-        self._pairs.clear()
+        elif temp.is_dir():
+            if target.exists() or target.is_symlink():
+                raise FileExistsError(errno.EEXIST, "exists", str(target))
+            os.rename(temp, target)
+        else:
+            try:
+                os.link(temp, target)  # atomic: fails if target exists
+            except FileExistsError:
+                raise
+            except OSError as err:  # a file system without hard links
+                if err.errno not in (errno.EPERM, errno.EOPNOTSUPP, errno.EXDEV, errno.EMLINK):
+                    raise
+                if target.exists():
+                    raise FileExistsError(errno.EEXIST, "exists", str(target)) from None
+                os.replace(temp, target)
+                return
+            temp.unlink()
 
     def abort(self) -> None:
         """Delete the temporaries not yet renamed."""

@@ -8,10 +8,12 @@ so ``tfrec --help`` stays fast.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import signal
 import sys
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any, NoReturn, TextIO
 
 from . import __version__
@@ -55,6 +57,8 @@ class _Parser(argparse.ArgumentParser):
     """argparse with usage errors as one line, like every other tfrec error (exit 2)."""
 
     def error(self, message: str) -> NoReturn:
+        if message.startswith("unrecognized arguments") and ":=" in message:
+            message += " (xacro arguments name:=value go right after ROBOT)"
         self.exit(2, f"{PROG}: error: {message} (see '{self.prog} --help')\n")
 
 
@@ -88,8 +92,8 @@ def _build_parser() -> argparse.ArgumentParser:
     traj.add_argument("--traj", metavar="KIND", default="sine",
                       help="center, random, sine, sweep, or a CSV file (time column in s + one column per "
                            "joint) (default: sine)")
-    traj.add_argument("--duration", metavar="S", type=float, default=10.0, help="seconds (default 10)")
-    traj.add_argument("--rate", metavar="HZ", type=float, default=50.0, help="samples per second (default 50)")
+    traj.add_argument("--duration", metavar="S", type=float, default=None, help="seconds (default 10)")
+    traj.add_argument("--rate", metavar="HZ", type=float, default=None, help="samples per second (default 50)")
     traj.add_argument("--seed", metavar="N", type=int, default=0, help="seed of --traj random (default 0)")
     traj.add_argument("--period", metavar="S", type=float, default=2.0,
                       help="seconds between random waypoints (Randomize presses); sine periods; at least 1/rate "
@@ -109,7 +113,7 @@ def _build_parser() -> argparse.ArgumentParser:
     out.add_argument("--no-mcap", action="store_true", help="write no MCAP (only the .rrd)")
     out.add_argument("--compression", choices=COMPRESSIONS, default="zstd",
                      help="MCAP chunk compression (default zstd)")
-    out.add_argument("--start-time", metavar="S", type=float, default=None,
+    out.add_argument("--start-time", metavar="S", type=_start_time, default=None,
                      help="stamp of the first sample, seconds since the Unix epoch "
                           f"(default {DEFAULT_START_TIME_NS // NS_PER_S} = 2023-11-14T22:13:20Z, so runs are "
                           "byte-identical)")
@@ -274,17 +278,17 @@ class _Progress:
 
 
 def _cmd_record(ns: argparse.Namespace) -> int:
-    import math
-
     from .recording import default_stem, plan_outputs, record
-    from .trajectory import make_trajectory
+    from .trajectory import TrajectoryKind, make_trajectory
 
-    if ns.start_time is not None and not (math.isfinite(ns.start_time) and ns.start_time >= 0):
-        raise TrajectoryError(f"--start-time {ns.start_time} is not a time since the epoch in seconds")
-    start_ns = DEFAULT_START_TIME_NS if ns.start_time is None else round(ns.start_time * NS_PER_S)
+    start_ns = DEFAULT_START_TIME_NS if ns.start_time is None else ns.start_time
     robot = _load_robot(ns)
+    if ns.traj not in TrajectoryKind._value2member_map_ and (ns.duration is not None or ns.rate is not None):
+        warnings.warn(f"--duration and --rate do not apply to the CSV trajectory {ns.traj}: its own times are used",
+                      stacklevel=1)
     trajectory = make_trajectory(
-        robot, ns.traj, duration_s=ns.duration, rate_hz=ns.rate, seed=ns.seed, period_s=ns.period,
+        robot, ns.traj, duration_s=10.0 if ns.duration is None else ns.duration,
+        rate_hz=50.0 if ns.rate is None else ns.rate, seed=ns.seed, period_s=ns.period,
         amplitude=ns.amplitude, overrides=_parse_overrides(ns.overrides),
     )
     plan = plan_outputs(stem=default_stem(robot, ns.traj), out=ns.output, rrd=ns.rrd, bag=ns.bag,
@@ -325,6 +329,19 @@ def _cmd_info(ns: argparse.Namespace) -> int:
     else:
         sys.stdout.write(format_summary(summary).rstrip("\n") + "\n")
     return 0
+
+
+def _start_time(text: str) -> int:
+    """argparse type of --start-time: decimal seconds since the epoch → exact integer nanoseconds."""
+    import decimal
+
+    try:
+        seconds = decimal.Decimal(text.strip())
+    except decimal.InvalidOperation:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number of seconds") from None
+    if not seconds.is_finite() or seconds < 0:
+        raise argparse.ArgumentTypeError(f"{text} is not a time since the epoch in seconds")
+    return int((seconds * NS_PER_S).to_integral_value(rounding=decimal.ROUND_HALF_EVEN))
 
 
 def _tolerance(text: str) -> float:
@@ -446,7 +463,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         ns = parser.parse_args(argv)
     except SystemExit as exc:  # argparse: --help, --version, or a usage error (exit 2)
         return int(exc.code or 0)
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), _terminate_as_interrupt():
         warnings.simplefilter("default")
         warnings.showwarning = _show_warning
         try:
@@ -454,11 +471,34 @@ def main(argv: Sequence[str] | None = None) -> int:
         except TfrecError as err:
             print(f"{PROG}: error: {err}", file=sys.stderr)
             return 2
+        except _Terminated:
+            print(f"{PROG}: terminated", file=sys.stderr)
+            return 143
         except KeyboardInterrupt:
             print(f"{PROG}: interrupted", file=sys.stderr)
             return 130
         except BrokenPipeError:
             return 0
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM (``kill``, ``timeout``), raised like Ctrl-C so that outputs are cleaned up the same way."""
+
+
+@contextlib.contextmanager
+def _terminate_as_interrupt() -> Iterator[None]:
+    def handler(signum: int, frame: object) -> None:
+        raise _Terminated()
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def main_exit() -> None:

@@ -50,6 +50,8 @@ class RecordingPlan:
     mcap: Path | None
     rrd: Path | None
     bag_dir: Path | None = None
+    force: bool = False
+    """Existing outputs may be replaced (``--force``)."""
 
 
 def plan_outputs(
@@ -97,7 +99,7 @@ def plan_outputs(
         check_target(mcap, suffix=".mcap", what="MCAP", force=force)
     if rrd_path is not None:
         check_target(rrd_path, suffix=".rrd", what="Rerun", force=force)
-    return RecordingPlan(mcap=mcap, rrd=rrd_path, bag_dir=bag_dir)
+    return RecordingPlan(mcap=mcap, rrd=rrd_path, bag_dir=bag_dir, force=force)
 
 
 def recording_id(robot: Robot, trajectory: JointTrajectory, *, start_time_ns: int, frame_prefix: str) -> str:
@@ -165,7 +167,7 @@ def record(
     static = static_transforms(robot, frame_prefix=frame_prefix)
     streams = []
     sinks: list[Any] = []
-    with AtomicOutputs() as outputs:
+    with AtomicOutputs(replace=plan.force) as outputs:
         try:
             mcap_sink: McapSink | None = None
             bag_temp: Path | None = None
