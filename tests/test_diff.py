@@ -16,7 +16,7 @@ from tfrec.errors import RecordingError
 from tfrec.kinematics import Transforms
 from tfrec.mcap_io import DEFAULT_START_TIME_NS
 from tfrec.model import Robot
-from tfrec.readers import FrameSeries, JointStates, Recording, TopicInfo
+from tfrec.readers import FrameSeries, JointStates, Recording, TopicInfo, read_recording
 from tfrec.rotations import quaternion_from_axis_angle, quaternion_multiply
 from tfrec.trajectory import JointTrajectory
 from tfrec.urdf_diff import diff_urdf_texts
@@ -70,6 +70,39 @@ def test_mcap_against_its_own_rrd(tmp_path: Path, marm: Robot, traj: JointTrajec
     strict = compare(plan.mcap, plan.rrd)
     assert not strict.equal and {d.kind for d in strict.differences} == {"tf"}
     assert any("float32" in note and "--pos-tol 1e-05" in note for note in strict.notes)
+
+
+_NO_FIXED_JOINTS = """<?xml version="1.0"?>
+<robot name="nofixed">
+  <link name="base"/><link name="arm"/>
+  <joint name="j" type="revolute"><parent link="base"/><child link="arm"/><origin xyz="0 0 0.1"/>
+    <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>
+"""
+
+
+def test_mcap_against_its_own_rrd_without_fixed_joints(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The MCAP's /tf_static holds one message without transforms, the .rrd has none: the same."""
+    urdf = tmp_path / "nofixed.urdf"
+    urdf.write_text(_NO_FIXED_JOINTS)
+    mcap, rrd, saved = tmp_path / "nf.mcap", tmp_path / "nf.rrd", tmp_path / "nf-replayed.rrd"
+    assert cli.main(["record", str(urdf), "--duration", "0.5", "-o", str(mcap)]) == 0
+    assert cli.main(["replay", str(mcap), "--save", str(saved)]) == 0
+    capsys.readouterr()
+    note = "/tf_static only in A, whose 1 message holds no transforms: the same as no /tf_static"
+    for other in (rrd, saved):
+        report = compare(mcap, other, pos_tol=FLOAT32_TOL, rot_tol=FLOAT32_TOL)
+        assert report.a.topics["/tf_static"].count == 1 and "/tf_static" not in report.b.topics
+        assert report.equal and note in report.notes
+        assert note.replace("only in A", "only in B") in compare(other, mcap, pos_tol=FLOAT32_TOL,
+                                                                 rot_tol=FLOAT32_TOL).notes
+        assert cli.main(["diff", str(mcap), str(other), "--pos-tol", "1e-5", "--rot-tol", "1e-5"]) == 0
+        assert capsys.readouterr().out.startswith("identical within tolerance\n")
+    # a /tf_static that holds transforms is still a difference when the other recording has none
+    rec = read_recording(mcap)
+    rec.tf_static[("base", "extra")] = (np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0]))
+    report = compare(rec, rrd, pos_tol=FLOAT32_TOL, rot_tol=FLOAT32_TOL)
+    assert "/tf_static only in A (1 messages of tf2_msgs/msg/TFMessage)" in [d.detail for d in report.differences]
 
 
 # -- transforms -----------------------------------------------------------------------------------
@@ -165,13 +198,20 @@ def _synthetic(times_ms: list[int] | np.ndarray, *, start_ns: int = 0) -> Record
 
 
 def test_other_rate_is_interpolated() -> None:
-    a = _synthetic(np.arange(0, 1001, 20))  # 50 Hz
-    b = _synthetic(np.arange(0, 1001, 10))  # 100 Hz: same motion, linear in time, slerp-exact
+    a = _synthetic(np.arange(0, 1001, 10))  # 100 Hz
+    b = _synthetic(np.arange(0, 1001, 20))  # 50 Hz: same motion, linear in time, slerp-exact
     report = compare(a, b, pos_tol=1e-12, rot_tol=1e-12, joint_tol=1e-12, topics=["/tf", "/joint_states"])
     assert {d.what for d in report.differences} == {"/tf", "/joint_states"}  # the message counts only
     assert all("messages in A" in d.detail for d in report.differences)
-    assert any("interpolated at A's times" in note and "(A 50 Hz, B 100 Hz)" in note for note in report.notes)
+    interpolated = ("some of A's times fall between B's samples, so B was interpolated at A's times (linear for "
+                    "joint positions and translations, slerp for rotations): /joint_states and /tf a → b "
+                    "(A 100 Hz, B 50 Hz)")
+    assert [note for note in report.notes if "interpolated" in note] == [interpolated]
     assert report.largest["translation"].value < 1e-12 and report.largest["rotation"].value < 1e-12
+    # the other way round, every one of A's times is one of B's: nothing is interpolated
+    reverse = compare(b, a, pos_tol=1e-12, rot_tol=1e-12, joint_tol=1e-12)
+    assert not any("interpolated" in note for note in reverse.notes)
+    assert reverse.largest["translation"].value == 0.0 and reverse.largest["joint position"].value == 0.0
     # B at odd times: still interpolated exactly
     c = _synthetic(np.arange(3, 1000, 7))  # on A's time base: A's samples at 0 and 1000 ms are outside C's span
     report = compare(a, c, pos_tol=1e-9, rot_tol=1e-9, joint_tol=1e-9, absolute=True)
@@ -198,6 +238,22 @@ def test_an_early_latched_description_does_not_shift_the_alignment(tmp_path: Pat
     assert json.loads(report.to_json())["a"]["origin_ns"] == marm_rec.start_ns
     # the same with --topics: the start does not depend on which topics are compared
     assert compare(bag, marm_mcap, topics=["/robot_description"]).differences == report.differences[:1]
+
+
+def test_longer_recording_at_the_same_rate_is_not_interpolated() -> None:
+    """B goes on after A at the same rate: the samples coincide where both have data."""
+    a = _synthetic(np.arange(0, 1001, 20))
+    b = _synthetic(np.arange(0, 2001, 20))
+    for rec in (a, b):  # a joint missing from one message in both: NaN, the same in both
+        assert rec.joint_states is not None
+        rec.joint_states.positions[10] = np.nan
+    report = compare(a, b)
+    assert not any("interpolated" in note for note in report.notes)
+    assert {d.kind for d in report.differences} == {"topic", "joint_states", "tf"}
+    assert "/joint_states: 50 sample(s) of B lie outside A's time span (no data in A)" in [
+        d.detail for d in report.differences]
+    assert not any("NaN" in d.detail or "differs" in d.detail for d in report.differences)
+    assert report.largest["joint position"].value == 0.0 and report.largest["translation"].value == 0.0
 
 
 def test_shorter_recording(marm_rec: Recording) -> None:

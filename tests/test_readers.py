@@ -700,3 +700,72 @@ def test_summary_messages_in_mcaps_order(tmp_path: Path, chunking: bool) -> None
             theirs = [(msg.channel_id, msg.log_time, msg.data)
                       for _, _, msg in make_reader(other).iter_messages(topics=[topic])]
             assert ours == theirs and len(ours) == (27 if topic == "/tf" else 13)
+
+
+@pytest.mark.parametrize("chunking", [True, False])
+def test_out_of_order_log_times(tmp_path: Path, marm_rec: Recording, chunking: bool) -> None:
+    """An MCAP whose messages are not in log-time order (the later half first, backwards): each
+    topic spans its earliest to its latest message, and the series come out in time order."""
+    from mcap.writer import CompressionType, Writer
+
+    from .recording_helpers import _Messages, _typestore, recording_messages
+
+    store = _typestore(ros1=False)
+    messages = recording_messages(marm_rec, _Messages(store, ros1=False))
+    half = len(messages) // 2
+    path = tmp_path / "unordered.mcap"
+    with open(path, "wb") as stream:
+        writer = Writer(stream, chunk_size=4096, compression=CompressionType.ZSTD, use_chunking=chunking)
+        writer.start(profile="ros2", library="test")
+        channels: dict[str, int] = {}
+        for topic, msgtype, time_ns, msg in messages[half:][::-1] + messages[:half]:
+            if topic not in channels:
+                schema = writer.register_schema(msgtype, "ros2msg", message_definition(msgtype)[0].encode())
+                channels[topic] = writer.register_channel(topic, "cdr", schema)
+            writer.add_message(channels[topic], log_time=time_ns, publish_time=time_ns,
+                               data=bytes(store.serialize_cdr(msg, msgtype)))
+        writer.finish()  # type: ignore[no-untyped-call]
+    rec = read_recording(path)
+    assert rec.read_error is None
+    _assert_same(rec, marm_rec)
+    assert {k: (v.first_ns, v.last_ns) for k, v in rec.topics.items()} == {
+        k: (v.first_ns, v.last_ns) for k, v in marm_rec.topics.items()}
+
+
+def _index_data_records(data: bytes) -> list[int]:
+    """Where the data of each index data record (op 4) of a ROS 1 bag begins."""
+    out, pos = [], len(b"#ROSBAG V2.0\n")
+    while pos + 4 <= len(data):
+        header_len = int.from_bytes(data[pos : pos + 4], "little")
+        header = data[pos + 4 : pos + 4 + header_len]
+        pos += 4 + header_len
+        data_len = int.from_bytes(data[pos : pos + 4], "little")
+        if b"op=\x04" in header:
+            out.append(pos + 4)
+        pos += 4 + data_len
+    return out
+
+
+def test_ros1_bag_that_rosbags_trips_over(tmp_path: Path, marm_rec: Recording,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    """rosbags fails an assertion (not one of its errors) on a bz2 bag whose index gives a message
+    another time than the message has: the bag is read record by record instead."""
+    from rosbags.highlevel import AnyReader
+
+    from tfrec import cli
+
+    full = _ros1_bag(tmp_path / "full.bag", marm_rec, compression="bz2", chunk_bytes=8192)
+    data = bytearray(full.read_bytes())
+    at = _index_data_records(bytes(data))[1]
+    data[at : at + 4] = (int.from_bytes(data[at : at + 4], "little") + 1).to_bytes(4, "little")  # 1 s later
+    bad = tmp_path / "bad.bag"
+    bad.write_bytes(bytes(data))
+    with pytest.raises(AssertionError), AnyReader([bad]) as reader:
+        for _ in reader.messages():
+            pass
+    rec = read_recording(bad)
+    assert rec.format == "rosbag1" and rec.details == {"compression": "bz2"}
+    _assert_same(rec, marm_rec)
+    assert cli.main(["info", str(bad)]) == 0
+    out = capsys.readouterr().out
+    assert "ROS 1 bag, bz2 chunks" in out and "Traceback" not in out

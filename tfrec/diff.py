@@ -6,13 +6,17 @@ counts, time span), the joint positions per joint and the transforms per (parent
 static and dynamic. The result is a :class:`DiffReport`; :func:`assert_recordings_match` turns
 one into a failing test with the readable report.
 
+A /tf_static whose messages hold no transforms (tfrec records one for a robot without fixed
+joints; its ``.rrd`` has none) is the same as no /tf_static: the report's notes say so.
+
 Time: samples are aligned by time since each recording's start, so two recordings made at
 different wall-clock times compare; ``absolute=True`` aligns on the stamps. A recording's start
 (:func:`tfrec.resample.data_start_ns`) is the first stamp of its time series, /joint_states or /tf, whichever
 comes first — not its first message: a latched /robot_description or /tf_static published
 seconds before the data does not shift it. ``tfrec replay --start`` counts from the same start.
-Where B's samples are not at A's times, B is interpolated at A's times — linearly for joint
-positions and translations, by slerp for rotations — and the report says so. A's samples
+Where A's times fall between B's samples, B is interpolated at A's times — linearly for joint
+positions and translations, by slerp for rotations — and the report says so (not when B merely
+has more samples or a longer span, its samples at A's times where both have data). A's samples
 outside B's time span have no counterpart and are reported as such.
 
 Errors: a translation error is the distance between the two translations (m); a rotation error
@@ -39,6 +43,7 @@ from .conventions import FLOAT32_TOL, JOINT_STATES, NS_PER_S, ROBOT_DESCRIPTION,
 from .diff_report import Difference, DiffReport, Largest, at_time, format_time
 from .errors import RecordingError
 from .readers import FrameSeries, Recording, read_recording
+from .recorded import decodes_type
 from .resample import Alignment, align, data_start_ns
 from .rotations import rotation_error
 
@@ -130,8 +135,14 @@ class _Comparison:
                 continue
             ia, ib = a.topics.get(name), b.topics.get(name)
             if ia is None or ib is None:
-                side, info = ("A", ia) if ib is None else ("B", ib)
+                side, info, rec = ("A", ia, a) if ib is None else ("B", ib, b)
                 assert info is not None
+                if name == TF_STATIC and not rec.tf_static and decodes_type(name, info.type):
+                    self.report.notes.append(
+                        f"{name} only in {side}, whose {info.count} message{'s' if info.count != 1 else ''} "
+                        f"hold{'s' if info.count == 1 else ''} no transforms: the same as no {name}"
+                    )
+                    continue
                 self.diff("topic", name, f"{name} only in {side} ({info.count} messages of {info.type})")
                 continue
             if ros_types and ia.type.replace("/msg/", "/") != ib.type.replace("/msg/", "/"):
@@ -211,7 +222,7 @@ class _Comparison:
         ta = ja.time_ns - self.origin(self.a)
         tb = jb.time_ns - self.origin(self.b)
         alignment = align(ta, tb)
-        if not alignment.same:
+        if alignment.interpolates:
             self.note_interpolation("/joint_states", ta, tb)
         self.coverage("joint_states", "/joint_states", ta, alignment)
         if not common or not alignment.inside.any():
@@ -258,7 +269,7 @@ class _Comparison:
         ta = sa.time_ns - self.origin(self.a)
         tb = sb.time_ns - self.origin(self.b)
         alignment = align(ta, tb)
-        if not alignment.same:
+        if alignment.interpolates:
             self.note_interpolation(f"/tf {label}", ta, tb)
         self.coverage("tf", label, ta, alignment)
         if not alignment.inside.any():
@@ -365,7 +376,7 @@ def compare(
                 named.extend(pairs)
             groups.append(f"{' and '.join(named)} ({rates})")
         report.notes.append(
-            "B's samples are not at A's times, so B was interpolated at A's times (linear for joint "
+            "some of A's times fall between B's samples, so B was interpolated at A's times (linear for joint "
             f"positions and translations, slerp for rotations): {'; '.join(groups)}"
         )
     float32 = [rec.path for rec in (rec_a, rec_b) if rec.float32]

@@ -66,9 +66,17 @@ from .salvage import decompress, salvage
 __all__ = ["read_mcap"]
 
 
+_NO_TIME = 1 << 64
+"""A channel's ``first_ns`` and ``last_ns`` before its first message: above any log time (uint64)."""
+
+
 class _Channel(TopicStats):
     """A channel: its topic, whether its messages are decoded, those not yet handed to the
-    collector, and its count (``first_ns``, ``last_ns``: of its first and last message in the file)."""
+    collector, and its count (``first_ns``, ``last_ns``: its earliest and latest log time).
+
+    A message's time is taken with one comparison when it is not earlier than the latest so
+    far (the usual case) — see :meth:`add_time`, which the chunk loop inlines.
+    """
 
     __slots__ = ("datas", "decoded", "topic")
 
@@ -77,6 +85,19 @@ class _Channel(TopicStats):
         self.topic = topic
         self.decoded = decoded
         self.datas: list[memoryview] = []
+        self.first_ns = self.last_ns = _NO_TIME
+
+    def add_time(self, log_time: int) -> None:
+        """Count one message logged at ``log_time``, in any order."""
+        first, last = self.first_ns, self.last_ns
+        assert first is not None and last is not None  # _NO_TIME before the first message
+        if log_time >= last:  # never true for the first message
+            self.last_ns = log_time
+        elif log_time < first:  # the first message, or one earlier than all so far
+            self.first_ns = log_time
+            if last == _NO_TIME:
+                self.last_ns = log_time
+        self.count += 1
 
 
 class _Damage:
@@ -237,10 +258,13 @@ class _McapReader:
                     channel = channels.get(channel_id)
                     if channel is None:
                         return f"a message on unknown channel {channel_id}"
-                    if channel.count == 0:
+                    if log_time >= channel.last_ns:  # channel.add_time(log_time), inlined
+                        channel.last_ns = log_time
+                    elif log_time < channel.first_ns:
                         channel.first_ns = log_time
+                        if channel.last_ns == _NO_TIME:
+                            channel.last_ns = log_time
                     channel.count += 1
-                    channel.last_ns = log_time
                     if channel.decoded:
                         channel.datas.append(view[pos + MESSAGE_HEAD_SIZE : pos + length])
                 elif opcode in (OP_SCHEMA, OP_CHANNEL):
@@ -310,10 +334,7 @@ class _McapReader:
             channel = self.channels.get(channel_id)
             if channel is None:
                 raise ValueError(f"message on unknown channel {channel_id}")
-            if channel.count == 0:
-                channel.first_ns = log_time
-            channel.count += 1
-            channel.last_ns = log_time
+            channel.add_time(log_time)
             if channel.decoded:
                 channel.datas.append(view[pos + MESSAGE_HEAD_SIZE : pos + length])
                 self.pending += 1

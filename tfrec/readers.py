@@ -12,7 +12,8 @@ How each format is read:
 - rosbag2 folders (mcap or sqlite3 storage) and ROS 1 ``.bag`` files: ``rosbags``' ``AnyReader``
   (a rosbag2 folder of one uncompressed MCAP: :mod:`tfrec.mcap_read`). What rosbags refuses is
   read as far as possible, with :attr:`Recording.read_error` saying where reading stopped: a ROS 1
-  bag cut short, without an index or with a damaged chunk record by record
+  bag cut short, without an index, with a damaged chunk or with an index that rosbags trips over
+  (an assertion fails, a lookup misses) record by record
   (:mod:`tfrec.rosbag1_read`); a sqlite3 ``.db3`` cut short through SQLite, from a copy whose
   header's page count is lowered to the pages the file still has, its ``messages`` table in row
   order up to the first missing page.
@@ -29,7 +30,7 @@ import os
 import sqlite3
 import struct
 import tempfile
-from collections.abc import Collection, Sequence
+from collections.abc import Collection, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -200,15 +201,23 @@ def _read_rosbags(path: Path, fmt: str, wanted: frozenset[str], meta: BagMetadat
     return recording
 
 
+_DAMAGED_DATA: tuple[type[Exception], ...] = (AssertionError, IndexError, KeyError, ValueError, struct.error)
+"""What rosbags raises, besides its own errors, on damaged data that it does not check: its
+assertions about the data (a message's time against its index entry), a connection or chunk
+missing from its tables, a buffer shorter than its length field, an offset or text that is not
+one. Caught only around rosbags' own calls (opening the bag, taking the next message), so that
+tfrec's bugs keep their traceback."""
+
+
 def _read_anyreader(path: Path, fmt: str, wanted: frozenset[str]) -> Recording:
     """Read a bag with rosbags' AnyReader.
 
     Raises:
-        _Refused: rosbags cannot read it (its message is one line).
+        _Refused: rosbags cannot read it, or stopped at damaged data (its message is one line).
+        RecordingError: the file cannot be read (an OSError with an errno), or its message
+            types cannot be decoded.
     """
-    from rosbags.highlevel import AnyReader, AnyReaderError
-    from rosbags.rosbag1 import ReaderError as Reader1Error
-    from rosbags.rosbag2 import ReaderError as Reader2Error
+    from rosbags.highlevel import AnyReader
     from rosbags.serde import SerdeError
 
     where = os.fspath(path)
@@ -216,40 +225,76 @@ def _read_anyreader(path: Path, fmt: str, wanted: frozenset[str]) -> Recording:
     recording = Recording(path=where, format=fmt)
     collector = Collector(recording, wanted, ros1=ros1)
     try:
-        with AnyReader([path], default_typestore=typestore(ros1=ros1)) as reader:
-            decoded = []
-            durability: dict[str, str | None] = {}
-            for connection in reader.connections:
-                durability.setdefault(connection.topic, _durability(connection.ext))
-                if collector.decodes(connection.topic, connection.msgtype):
-                    if not ros1 and getattr(connection.ext, "serialization_format", "cdr") != "cdr":
-                        raise RecordingError(f"{where}: topic {connection.topic} is not cdr-serialized")
-                    decoded.append(connection)
-                    collector.set_deserializer(connection.topic, topic_deserializer(
-                        connection.msgtype, where=where, topic=connection.topic, ros1=ros1, store=reader.typestore))
-            pending: dict[str, list[bytes]] = {}
-            for connection, log_time, raw in reader.messages():
-                topic = connection.topic
-                collector.topic(topic, connection.msgtype, durability[topic]).add(log_time)
-                if connection in decoded:
-                    batch = pending.setdefault(topic, [])
-                    batch.append(raw)
-                    if len(batch) >= DECODE_BATCH:
-                        collector.add(topic, batch)
-                        pending[topic] = []
-            for topic, batch in pending.items():
-                collector.add(topic, batch)
-    except (AnyReaderError, Reader1Error, Reader2Error, sqlite3.DatabaseError) as err:
-        raise _Refused(one_line(str(err))) from None
+        reader = AnyReader([path], default_typestore=typestore(ros1=ros1))
+        reader.open()
+    except _rosbags_errors() as err:
+        raise _refusal(where, err) from None
+    try:
+        decoded = []
+        durability: dict[str, str | None] = {}
+        for connection in reader.connections:
+            durability.setdefault(connection.topic, _durability(connection.ext))
+            if collector.decodes(connection.topic, connection.msgtype):
+                if not ros1 and getattr(connection.ext, "serialization_format", "cdr") != "cdr":
+                    raise RecordingError(f"{where}: topic {connection.topic} is not cdr-serialized")
+                decoded.append(connection)
+                collector.set_deserializer(connection.topic, topic_deserializer(
+                    connection.msgtype, where=where, topic=connection.topic, ros1=ros1, store=reader.typestore))
+        pending: dict[str, list[bytes]] = {}
+        for connection, log_time, raw in _messages(reader, where):
+            topic = connection.topic
+            collector.topic(topic, connection.msgtype, durability[topic]).add(log_time)
+            if connection in decoded:
+                batch = pending.setdefault(topic, [])
+                batch.append(raw)
+                if len(batch) >= DECODE_BATCH:
+                    collector.add(topic, batch)
+                    pending[topic] = []
+        for topic, batch in pending.items():
+            collector.add(topic, batch)
     except SerdeError as err:
         raise RecordingError(f"{where}: cannot decode a message: {one_line(str(err))}") from None
-    except (EOFError, RuntimeError) as err:  # a chunk that does not decompress (bz2, lz4)
-        raise _Refused(f"a damaged chunk ({type(err).__name__}: {one_line(str(err))})") from None
-    except OSError as err:  # bz2 says "Invalid data stream" as an OSError without an errno
-        if err.errno is not None:
-            raise RecordingError(f"{where}: cannot read: {err.strerror or err}") from None
-        raise _Refused(f"a damaged chunk ({one_line(str(err))})") from None
+    finally:
+        reader.close()
     return collector.finish()
+
+
+def _messages(reader: Any, where: str) -> Iterator[tuple[Any, int, bytes]]:
+    """``reader.messages()``, with what rosbags raises on damaged data turned into :class:`_Refused`."""
+    messages = reader.messages()
+    while True:
+        try:
+            message = next(messages)
+        except StopIteration:
+            return
+        except _rosbags_errors() as err:
+            raise _refusal(where, err) from None
+        yield message
+
+
+def _rosbags_errors() -> tuple[type[Exception], ...]:
+    """What rosbags raises when it cannot read a bag: see :func:`_refusal`."""
+    from rosbags.highlevel import AnyReaderError
+    from rosbags.rosbag1 import ReaderError as Reader1Error
+    from rosbags.rosbag2 import ReaderError as Reader2Error
+
+    return (AnyReaderError, Reader1Error, Reader2Error, sqlite3.DatabaseError, EOFError, RuntimeError, OSError,
+            *_DAMAGED_DATA)
+
+
+def _refusal(where: str, err: Exception) -> Exception:
+    """What an error of :func:`_rosbags_errors` means: :class:`_Refused` (the bag is damaged, or
+    rosbags refuses it), or a :class:`RecordingError` when the file cannot be read at all."""
+    text = one_line(str(err))
+    if isinstance(err, OSError) and (err.errno is not None or isinstance(err, FileNotFoundError)):
+        return RecordingError(f"{where}: cannot read: {err.strerror or text}")
+    if isinstance(err, OSError):  # bz2 says "Invalid data stream" as an OSError without an errno
+        return _Refused(f"a damaged chunk ({text})")
+    if isinstance(err, (EOFError, RuntimeError)):  # a chunk that does not decompress (bz2, lz4)
+        return _Refused(f"a damaged chunk ({type(err).__name__}: {text})")
+    if isinstance(err, _DAMAGED_DATA):
+        return _Refused(f"damaged data ({type(err).__name__}{': ' + text if text else ''})")
+    return _Refused(text)
 
 
 def _durability(ext: Any) -> str | None:

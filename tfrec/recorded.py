@@ -32,6 +32,7 @@ __all__ = [
     "Recording",
     "TopicInfo",
     "TopicStats",
+    "decodes_type",
     "read_error_line",
     "with_article",
 ]
@@ -227,6 +228,12 @@ _KINDS = {
 }
 
 
+def decodes_type(topic: str, msgtype: str) -> bool:
+    """Whether a message of this type on this topic is decoded (else only counted): a
+    /tf_static topic of another type, for one, gives no :attr:`Recording.tf_static`."""
+    return _short_type(msgtype) in _KINDS.get(topic, ())
+
+
 class Collector:
     """Receives raw messages per topic and builds the :class:`Recording`."""
 
@@ -243,7 +250,7 @@ class Collector:
 
     def decodes(self, topic: str, msgtype: str) -> bool:
         """Whether messages of this topic are decoded (else only counted)."""
-        return topic in self.wanted and _short_type(msgtype) in _KINDS.get(topic, ())
+        return topic in self.wanted and decodes_type(topic, msgtype)
 
     def set_deserializer(self, topic: str, deserialize: Callable[[bytes], Any]) -> None:
         self.deserializers[topic] = deserialize

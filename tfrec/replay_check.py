@@ -22,8 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .conventions import CHECK_POS_TOL as DEFAULT_POS_TOL
-from .conventions import CHECK_ROT_TOL as DEFAULT_ROT_TOL
+from .conventions import CHECK_POS_TOL, CHECK_ROT_TOL
 from .errors import RecordingError
 from .kinematics import dynamic_transforms, static_transforms
 from .model import Joint, JointType
@@ -32,7 +31,7 @@ from .replay import Replay, joint_positions
 from .resample import align
 from .rotations import rotation_error
 
-__all__ = ["DEFAULT_POS_TOL", "DEFAULT_ROT_TOL", "CheckReport", "FrameCheck", "check_replay", "format_check"]
+__all__ = ["CheckReport", "FrameCheck", "check_replay", "format_check"]
 
 Array = NDArray[np.float64]
 
@@ -179,7 +178,7 @@ class _Checker:
                         rotation_rad=r_max, rotation_time_s=r_at)
 
 
-def check_replay(replay: Replay, *, pos_tol: float = DEFAULT_POS_TOL, rot_tol: float = DEFAULT_ROT_TOL) -> CheckReport:
+def check_replay(replay: Replay, *, pos_tol: float = CHECK_POS_TOL, rot_tol: float = CHECK_ROT_TOL) -> CheckReport:
     """Recompute TF from the recorded joint states and compare it with the recorded TF.
 
     Args:

@@ -66,8 +66,15 @@ class Alignment:
     frac: Array
     outside: int
 
+    @property
+    def interpolates(self) -> bool:
+        """Whether some inside stamp falls between two known ones; else every value is a known
+        sample's own (the stamps coincide where both have data)."""
+        return not self.same and bool(np.any(self.frac != 0.0))
+
     def linear(self, values: Array) -> Array:
-        """The series' ``values`` (one row per known stamp) at the inside stamps, linearly interpolated."""
+        """The series' ``values`` (one row per known stamp) at the inside stamps, linearly
+        interpolated; a known sample's own values on its stamp."""
         if self.same:
             return values
         if len(values) == 1:
@@ -75,15 +82,24 @@ class Alignment:
         lo = values[self.index]
         hi = values[np.minimum(self.index + 1, len(values) - 1)]
         f = self.frac.reshape((-1,) + (1,) * (values.ndim - 1))
-        return lo + f * (hi - lo)
+        out: Array = np.where(f == 0.0, lo, lo + f * (hi - lo))  # on a known stamp: not NaN from the next one
+        return out
 
     def rotations(self, values: Array) -> Array:
-        """The series' quaternions (n, 4) at the inside stamps, by slerp."""
+        """The series' quaternions (n, 4) at the inside stamps, by slerp; a known sample's own
+        quaternion on its stamp."""
         if self.same:
             return values
         if len(values) == 1:
             return np.repeat(values, len(self.index), axis=0)
-        return slerp(values[self.index], values[np.minimum(self.index + 1, len(values) - 1)], self.frac)
+        lo: Array = values[self.index]
+        between = self.frac != 0.0
+        if not between.any():
+            return lo
+        out: Array = lo.copy()
+        out[between] = slerp(lo[between], values[np.minimum(self.index + 1, len(values) - 1)][between],
+                             self.frac[between])
+        return out
 
 
 def align(at: NDArray[np.int64], known: NDArray[np.int64]) -> Alignment:
