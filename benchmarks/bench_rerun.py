@@ -31,7 +31,8 @@ from tfrec.description import load_description
 from tfrec.kinematics import DynamicChunk, iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
 from tfrec.recording import DEFAULT_START_TIME_NS
-from tfrec.rerun_io import TIMELINE, RerunSink, joint_entity, tf_entity, velocity_entity
+from tfrec.rerun_io import RerunSink
+from tfrec.rerun_paths import TIMELINE, joint_entity, tf_entity, velocity_entity
 from tfrec.trajectory import make_trajectory
 
 REPO = Path(__file__).resolve().parents[1]

@@ -27,8 +27,7 @@ from tfrec.readers import JointStates
 from tfrec.recording import DEFAULT_START_TIME_NS, plan_outputs, record
 from tfrec.replay import derive_transforms, detect_frame_prefix, load_replay
 from tfrec.replay_check import check_replay
-from tfrec.rerun_io import joint_entity, link_entity, tf_entity, tf_static_entity
-from tfrec.rerun_replay import pair_entity
+from tfrec.rerun_paths import joint_entity, link_entity, pair_entity, tf_entity, tf_static_entity
 from tfrec.trajectory import JointTrajectory, all_joint_states, make_trajectory
 
 REPO = Path(__file__).resolve().parents[1]
@@ -612,20 +611,34 @@ def test_loop_needs_a_live_sink(recorded: Path) -> None:
         play(load_replay(recorded), ListSink(), loop=True)
 
 
-def test_connect_streams_to_a_running_server(recorded: Path) -> None:
+def test_connect_streams_to_a_running_server(recorded: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import socket
 
     import rerun as rr
+
+    from tfrec import rerun_replay
 
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
     server = rr.RecordingStream("tfrec-test-server")
     url = server.serve_grpc(grpc_port=port)
+    probed: list[str] = []
+    check_can_connect = rerun_replay.check_can_connect
+
+    def counted(url: str) -> None:
+        probed.append(url)
+        check_can_connect(url)
+
+    monkeypatch.setattr(rerun_replay, "check_can_connect", counted)
     try:
         clock = FakeClock()
         result = replay_to_rerun(load_replay(recorded), connect=url, rate=4.0, clock=clock)
         assert result.passes == 1 and sum(clock.sleeps) == pytest.approx(0.5)
+        assert probed == [url]
+        # options checked already (the CLI checks them before reading the recording): no second probe
+        replay_to_rerun(load_replay(recorded), connect=url, rate=4.0, clock=FakeClock(), checked=True)
+        assert probed == [url]
     finally:
         server.disconnect()
 

@@ -15,14 +15,15 @@ import numpy as np
 import pytest
 import rerun as rr
 
+from tfrec import rerun_io
 from tfrec.description import load_description, parse_urdf
 from tfrec.errors import RecordingError
 from tfrec.kinematics import Transforms, iter_dynamic_chunks, static_transforms
 from tfrec.model import Box, Cylinder, Mesh, Robot, Sphere
-from tfrec.rerun_io import (
+from tfrec.rerun_io import RerunSink
+from tfrec.rerun_paths import (
     APPLICATION_ID,
     TIMELINE,
-    RerunSink,
     joint_entity,
     link_entity,
     pair_entity,
@@ -404,6 +405,28 @@ def test_same_inputs_give_recordings_rerun_finds_identical(tmp_path: Path) -> No
                             timeout=120)
     assert result.returncode == 0, result.stderr
     assert not any("log_time" in column for rows in Rrd(first).temporal.values() for column in rows[0])
+
+
+def test_waiting_for_the_writer_every_few_bytes_changes_nothing_in_the_recording(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    robot = load_robot("marm")
+    whole = write_rrd(tmp_path / "whole.rrd", robot, recording_id="same")
+    flushes = 0
+    flush = RerunSink.flush
+
+    def counted(sink: RerunSink) -> None:
+        nonlocal flushes
+        flushes += 1
+        flush(sink)
+
+    monkeypatch.setattr(RerunSink, "flush", counted)
+    monkeypatch.setattr(rerun_io, "_FLUSH_BYTES", 4096)
+    flushed = write_rrd(tmp_path / "flushed.rrd", robot, recording_id="same")
+    assert flushes > 10  # not only finish's: Rerun's queue stays short, whatever the recording's length
+    for command in (["compare", whole, flushed], ["verify", flushed]):
+        result = subprocess.run([RERUN, "rrd", *command], check=False, capture_output=True, text=True, timeout=120)
+        assert result.returncode == 0, result.stderr
 
 
 # -- meshes -----------------------------------------------------------------------------------

@@ -443,7 +443,7 @@ def _cmd_replay(ns: argparse.Namespace) -> int:
         if not live:
             return status
     replay_to_rerun(replay, save=ns.save, connect=ns.connect, rate=ns.rate, loop=ns.loop,
-                    package_paths=ns.package_path, force=ns.force)
+                    package_paths=ns.package_path, force=ns.force, checked=True)
     span = 0.0 if replay.start_ns is None or replay.end_ns is None else (replay.end_ns - replay.start_ns) / NS_PER_S
     derived = f", {replay.derived_summary()}" if replay.derived else ""
     print(f"replayed {ns.file}: {span:g} s{derived}" + (f"; wrote {ns.save}" if ns.save else ""),

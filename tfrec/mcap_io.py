@@ -40,6 +40,21 @@ from .conventions import (
     TF_STATIC,
 )
 from .errors import RecordingError
+from .mcap_format import (
+    MCAP_MAGIC,
+    MESSAGE_HEAD_SIZE,
+    OP_CHANNEL,
+    OP_CHUNK,
+    OP_CHUNK_INDEX,
+    OP_FOOTER,
+    OP_MESSAGE,
+    OP_MESSAGE_INDEX,
+    OP_METADATA_INDEX,
+    OP_SCHEMA,
+    OP_STATISTICS,
+    RECORD,
+)
+from .ros_types import typestore
 
 if TYPE_CHECKING:
     from .kinematics import Transforms
@@ -73,19 +88,12 @@ joint_state_publisher publish reliable, /robot_description and /tf_static latche
 
 _CH_DESCRIPTION, _CH_TF_STATIC, _CH_JOINT_STATES, _CH_TF = 1, 2, 3, 4
 
-_MAGIC = b"\x89MCAP0\r\n"
-_OP_MESSAGE, _OP_CHUNK, _OP_MESSAGE_INDEX = 0x05, 0x06, 0x07
-_MESSAGE_FIXED = 2 + 4 + 8 + 8  # channel id, sequence, log time, publish time
-_RECORD_PREFIX = 1 + 8  # opcode, length
-
 
 @cache
 def message_definition(msgtype: str) -> tuple[str, str]:
     """The ``ros2msg`` schema text of a ROS 2 type (its .msg, then each dependency once) and its
     RIHS01 type hash, from rosbags' ROS 2 Humble type store."""
-    from rosbags.typesys import Stores, get_typestore
-
-    store = get_typestore(Stores.ROS2_HUMBLE)
+    store = typestore()
     text, _ = store.generate_msgdef(msgtype, ros_version=2)
     return text, store.hash_rihs01(msgtype)
 
@@ -144,7 +152,7 @@ def _serialize(*records: Any) -> bytes:
 
 def _message_record(channel_id: int, sequence: int, time_ns: int, data: bytes) -> bytes:
     return struct.pack(
-        "<BQHIQQ", _OP_MESSAGE, _MESSAGE_FIXED + len(data), channel_id, sequence, time_ns, time_ns
+        "<BQHIQQ", OP_MESSAGE, MESSAGE_HEAD_SIZE + len(data), channel_id, sequence, time_ns, time_ns
     ) + data
 
 
@@ -231,7 +239,7 @@ class McapSink:
                 metadata={"offered_qos_profiles": qos_yaml([qos]), "topic_type_hash": type_hash},
             )
             self._channels.append(channel)
-        self._write(_MAGIC + _serialize(Header(profile=PROFILE, library=LIBRARY), *self._schemas, *self._channels))
+        self._write(MCAP_MAGIC + _serialize(Header(profile=PROFILE, library=LIBRARY), *self._schemas, *self._channels))
 
         if static.translation.shape[0] != 1:
             raise ValueError(f"static transforms must have N = 1, got {static.translation.shape[0]}")
@@ -322,11 +330,11 @@ class McapSink:
         """Fix the row layout: a JointState Message record then a TF Message record per sample."""
         self._joint_states = JointStateEncoder(names)
         self._tf = TFMessageEncoder(parents, children)
-        js_len = _RECORD_PREFIX + _MESSAGE_FIXED + self._joint_states.size
+        js_len = RECORD.size + MESSAGE_HEAD_SIZE + self._joint_states.size
         row = bytearray()
-        row += struct.pack("<BQH", _OP_MESSAGE, _MESSAGE_FIXED + self._joint_states.size, _CH_JOINT_STATES)
+        row += struct.pack("<BQH", OP_MESSAGE, MESSAGE_HEAD_SIZE + self._joint_states.size, _CH_JOINT_STATES)
         row += bytes(20) + self._joint_states.template.tobytes()
-        row += struct.pack("<BQH", _OP_MESSAGE, _MESSAGE_FIXED + self._tf.size, _CH_TF)
+        row += struct.pack("<BQH", OP_MESSAGE, MESSAGE_HEAD_SIZE + self._tf.size, _CH_TF)
         row += bytes(20) + self._tf.template.tobytes()
         self._row_len = len(row)
         self._js_len = js_len
@@ -355,7 +363,7 @@ class McapSink:
             rows[:, base + 11 : base + 15] = sequence
             rows[:, base + 15 : base + 23] = times
             rows[:, base + 23 : base + 31] = times
-        data = _RECORD_PREFIX + _MESSAGE_FIXED
+        data = RECORD.size + MESSAGE_HEAD_SIZE
         self._joint_states.encode_into(
             rows[:, data : data + self._joint_states.size], stamps, positions[part], velocities[part]
         )
@@ -395,7 +403,7 @@ class McapSink:
         start, end = min(times), max(times)
         compressed = self._compress(body)
         header = struct.pack(
-            "<BQQQQI", _OP_CHUNK, 8 + 8 + 8 + 4 + 4 + len(self._compression) + 8 + len(compressed),
+            "<BQQQQI", OP_CHUNK, 8 + 8 + 8 + 4 + 4 + len(self._compression) + 8 + len(compressed),
             start, end, len(body), zlib.crc32(body),
         )
         header += struct.pack("<I", len(self._compression)) + self._compression.encode()
@@ -413,7 +421,7 @@ class McapSink:
             pairs[:, 1] = offsets_
             index_offsets[channel] = self._offset
             self._write(
-                struct.pack("<BQHI", _OP_MESSAGE_INDEX, 2 + 4 + pairs.nbytes, channel, pairs.nbytes) + pairs.tobytes()
+                struct.pack("<BQHI", OP_MESSAGE_INDEX, 2 + 4 + pairs.nbytes, channel, pairs.nbytes) + pairs.tobytes()
             )
         self._chunk_indexes.append(ChunkIndex(
             message_start_time=start, message_end_time=end, chunk_start_offset=chunk_start,
@@ -427,7 +435,6 @@ class McapSink:
     # -- summary ------------------------------------------------------------------------------
 
     def _write_summary(self) -> None:
-        from mcap.opcode import Opcode
         from mcap.records import DataEnd, Footer, Metadata, MetadataIndex, Statistics, SummaryOffset
 
         start = self._start_ns or 0
@@ -449,11 +456,11 @@ class McapSink:
         summary = b""
         offsets = []
         for opcode, records in (
-            (Opcode.SCHEMA, self._schemas),
-            (Opcode.CHANNEL, self._channels),
-            (Opcode.STATISTICS, [statistics]),
-            (Opcode.CHUNK_INDEX, self._chunk_indexes),
-            (Opcode.METADATA_INDEX, [metadata_index]),
+            (OP_SCHEMA, self._schemas),
+            (OP_CHANNEL, self._channels),
+            (OP_STATISTICS, [statistics]),
+            (OP_CHUNK_INDEX, self._chunk_indexes),
+            (OP_METADATA_INDEX, [metadata_index]),
         ):
             if records:
                 group = _serialize(*records)
@@ -464,9 +471,9 @@ class McapSink:
         summary_offset_start = summary_start + len(summary)
         summary += _serialize(*offsets)
         crc = zlib.crc32(summary)
-        crc = zlib.crc32(struct.pack("<BQQQ", Opcode.FOOTER, 8 + 8 + 4, summary_start, summary_offset_start), crc)
+        crc = zlib.crc32(struct.pack("<BQQQ", OP_FOOTER, 8 + 8 + 4, summary_start, summary_offset_start), crc)
         footer = Footer(summary_start=summary_start, summary_offset_start=summary_offset_start, summary_crc=crc)
-        self._write(summary + _serialize(footer) + _MAGIC)
+        self._write(summary + _serialize(footer) + MCAP_MAGIC)
         self._stream.flush()
 
     def _write(self, data: bytes) -> None:

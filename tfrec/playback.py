@@ -96,8 +96,7 @@ def play(
     Returns:
         Passes made, batches sent and seconds slept.
     """
-    if loop and pacer is None:
-        raise RecordingError("--loop replays forever; it needs a live viewer, not --save")
+    _check_loop(loop, live=pacer is not None)
     if span_ns is None:
         span_ns = round(BATCH_WALL_S * pacer.rate * 1e9) if pacer is not None else 1 << 62
     span_ns = max(span_ns, 1)
@@ -137,6 +136,12 @@ def play(
         sink.abort()
         raise
     return PlayResult(passes, sent, slept)
+
+
+def _check_loop(loop: bool, *, live: bool) -> None:
+    """A loop plays forever, so only into a live viewer (paced), never into a file."""
+    if loop and not live:
+        raise RecordingError("--loop replays forever; it needs a live viewer, not --save")
 
 
 def _send_batch(sink: ReplaySink, series: list[tuple[Pair, FrameSeries]], tf_index: list[NDArray[np.intp]],
@@ -179,6 +184,7 @@ def check_play_options(
         raise RecordingError(f"--rate {rate:g} is not a speed > 0")
     if save is not None and connect is not None:
         raise RecordingError("--save and --connect exclude each other")
+    _check_loop(loop, live=save is None)
     if save is None:
         from .rerun_replay import check_can_connect, check_can_spawn
 
@@ -187,8 +193,6 @@ def check_play_options(
         else:
             check_can_connect(connect)
         return
-    if loop:
-        raise RecordingError("--loop replays forever; it needs a live viewer, not --save")
     check_target(Path(save), suffix=".rrd", what="Rerun", force=force)
 
 
@@ -203,6 +207,7 @@ def replay_to_rerun(
     clock: Clock | None = None,
     max_loops: int | None = None,
     force: bool = False,
+    checked: bool = False,
 ) -> PlayResult:
     """Play a replay into Rerun: a spawned viewer (default), a running one, or an ``.rrd`` file.
 
@@ -217,6 +222,8 @@ def replay_to_rerun(
         clock: the clock a live replay is paced by (default: the wall clock).
         max_loops: passes of a loop (for tests).
         force: overwrite an existing ``save`` file.
+        checked: the options were checked with :func:`check_play_options` already (before the
+            recording was read, as the CLI does), so the viewer is not probed a second time.
 
     Raises:
         RecordingError: bad options, an output that exists, no viewer to spawn or reach, or a
@@ -224,12 +231,13 @@ def replay_to_rerun(
     """
     from .rerun_replay import open_rerun_sink
 
-    check_play_options(save=save, connect=connect, rate=rate, loop=loop, force=force)
+    if not checked:
+        check_play_options(save=save, connect=connect, rate=rate, loop=loop, force=force)
     if save is None:
         sink = open_rerun_sink(connect=connect, robot=replay.robot, frame_prefix=replay.frame_prefix,
                                package_paths=package_paths)
         return play(replay, sink, pacer=Pacer(clock or MonotonicClock(), rate=rate), loop=loop, max_loops=max_loops)
-    with AtomicOutputs() as outputs:
+    with AtomicOutputs(replace=force) as outputs:
         sink = open_rerun_sink(save=outputs.path(Path(save)), recording_id=_recording_id(replay), robot=replay.robot,
                                frame_prefix=replay.frame_prefix, package_paths=package_paths)
         result = play(replay, sink)  # aborts the sink (closing its file) on any error

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from .atomic import AtomicOutputs, check_target
 from .bag_metadata import write_bag_metadata
 from .conventions import DEFAULT_START_TIME_NS
@@ -108,8 +110,8 @@ def recording_id(robot: Robot, trajectory: JointTrajectory, *, start_time_ns: in
     digest.update(robot.urdf.encode())
     for name in trajectory.joint_names:
         digest.update(name.encode() + b"\0")
-    digest.update(trajectory.time_ns.tobytes())
-    digest.update(trajectory.positions.tobytes())
+    for array in (trajectory.time_ns, trajectory.positions):  # hashed in place, not copied
+        digest.update(np.ascontiguousarray(array).data.cast("B"))
     digest.update(f"{start_time_ns}|{frame_prefix}".encode())
     return str(uuid.UUID(bytes=digest.digest()[:16], version=5))
 

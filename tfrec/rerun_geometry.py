@@ -34,7 +34,7 @@ from .model import Box, Cylinder, Material, Mesh, Robot, Sphere, Visual
 from .packages import PackageFinder
 from .rotations import quaternion_from_rpy, quaternion_rotate
 
-__all__ = ["MeshAsset", "MeshLoader", "fit_eye", "rgba8", "visual_columns", "visual_radius"]
+__all__ = ["MeshAsset", "MeshLoader", "default_axis_length", "fit_eye", "rgba8", "visual_columns", "visual_radius"]
 
 _NATIVE_MEDIA_TYPES = {
     ".stl": "model/stl",
@@ -233,6 +233,15 @@ def visual_radius(visual: Visual, asset: MeshAsset | None = None) -> float:
     if isinstance(geometry, Cylinder):
         return float(np.hypot(geometry.radius, geometry.length / 2.0))
     return geometry.radius
+
+
+def default_axis_length(robot: Robot) -> float:
+    """The length of the links' TF axes: a tenth of the longest chain of joint offsets from the root,
+    within [2 cm, 25 cm]."""
+    reach: dict[str, float] = {robot.root: 0.0}
+    for joint in robot.tree_order:
+        reach[joint.child] = reach.get(joint.parent, 0.0) + float(np.linalg.norm(joint.origin.xyz))
+    return min(max(0.1 * max(reach.values()), 0.02), 0.25)
 
 
 def fit_eye(

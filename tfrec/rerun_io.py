@@ -29,10 +29,14 @@ from numpy.typing import NDArray
 from .errors import KinematicsError, RecordingError
 from .kinematics import Transforms, world_from_link
 from .model import Mesh, Robot
-from .rerun_geometry import MeshLoader, fit_eye, visual_columns, visual_radius
+from .rerun_geometry import MeshLoader, default_axis_length, fit_eye, visual_columns, visual_radius
 from .rerun_paths import (
     APPLICATION_ID,
+    DESCRIPTION_ROOT,
+    JOINTS_ROOT,
+    ROBOT_ROOT,
     TIMELINE,
+    VELOCITIES_ROOT,
     joint_entity,
     link_entity,
     pair_entity,
@@ -43,12 +47,7 @@ from .rerun_paths import (
     visual_entity,
 )
 
-__all__ = [
-    "APPLICATION_ID",  # re-exported for tfrec.rerun_replay until it imports these three from rerun_paths
-    "RerunSink",
-    "pair_entity",
-    "static_pair_entity",
-]
+__all__ = ["RerunSink"]
 
 Array = NDArray[np.float64]
 
@@ -58,6 +57,12 @@ _EYE_SAMPLES = 256
 _FRAME_AXIS_LENGTH_M = 0.1
 """Length of the TF axes of frames that are not links of the robot."""
 
+_FLUSH_BYTES = 16 << 20
+"""Payload bytes sent between two blocking flushes. ``send_columns`` only queues a chunk for Rerun's
+writer thread (which encodes, compresses and writes it), and the queue has no limit: a writer
+slower than the sender would hold any amount of the recording in memory."""
+
+
 class RerunSink:
     """Logs one robot recording to Rerun, streamed: to a ``.rrd`` file, or to any recording stream.
 
@@ -65,7 +70,8 @@ class RerunSink:
     :meth:`abort`. ``tfrec record`` logs a trajectory with :meth:`write_chunk`, all joints at
     shared stamps increasing from chunk to chunk; a replay logs each frame pair with
     :meth:`write_transforms` and the joint states with :meth:`write_joint_positions`, in any
-    order (only each pair's own stamps must not go back). Memory stays bounded by the chunk size.
+    order (only each pair's own stamps must not go back). Memory stays flat with the recording's
+    duration: the sink waits for Rerun's writer after every 16 MiB of data sent.
 
     Args:
         path: the file to write (the caller renames it into place on success); see
@@ -147,7 +153,7 @@ class RerunSink:
         self._prefix = frame_prefix
         self._package_paths = tuple(package_paths)
         if axis_length_m is None:
-            axis_length_m = _default_axis_length(robot) if robot is not None else _FRAME_AXIS_LENGTH_M
+            axis_length_m = default_axis_length(robot) if robot is not None else _FRAME_AXIS_LENGTH_M
         self._axis_length_m = axis_length_m
         links = robot.links if robot is not None else ()
         self._link_frames = frozenset(frame_prefix + link.name for link in links)
@@ -161,6 +167,7 @@ class RerunSink:
         self._last_pair_ns: dict[tuple[str, str], int] = {}
         self._has_velocities = False
         self._blueprint_sent = False
+        self._unflushed_bytes = 0
 
     @property
     def path(self) -> Path | None:
@@ -205,11 +212,10 @@ class RerunSink:
         if robot is not None:
             root = self._prefix + robot.root
         if root is not None:
-            self._send_static("/robot", rr.CoordinateFrame.columns(frame=[root]))
+            self._send_static(f"/{ROBOT_ROOT}", rr.CoordinateFrame.columns(frame=[root]))
         if robot_description is not None:
-            self._send_static(
-                "/robot_description", rr.TextDocument.columns(text=[robot_description], media_type=["text/plain"])
-            )
+            self._send_static(f"/{DESCRIPTION_ROOT}",
+                              rr.TextDocument.columns(text=[robot_description], media_type=["text/plain"]))
         self.log_robot()
         for k, (parent, child) in enumerate(zip(static.parents, static.children)):
             joint = self._joint_of_child.get(child)
@@ -294,7 +300,8 @@ class RerunSink:
             transforms: parent_from_child of the moving joints, N = n.
 
         Raises:
-            RecordingError: arrays whose shapes do not match, or stamps that go back in time.
+            RecordingError: arrays whose shapes do not match, stamps that go back in time, or a
+                failed write (see :meth:`flush`).
         """
         stamps = _stamps(time_ns)
         n = len(stamps)
@@ -334,7 +341,8 @@ class RerunSink:
             rotation: float64 (n, 4), quaternions (x, y, z, w).
 
         Raises:
-            RecordingError: arrays whose shapes do not match, or stamps that go back in time.
+            RecordingError: arrays whose shapes do not match, stamps that go back in time, or a
+                failed write (see :meth:`flush`).
         """
         stamps = _stamps(time_ns)
         n = len(stamps)
@@ -353,7 +361,7 @@ class RerunSink:
             positions: float64 (n, J).
 
         Raises:
-            RecordingError: arrays whose shapes do not match.
+            RecordingError: arrays whose shapes do not match, or a failed write (see :meth:`flush`).
         """
         stamps = _stamps(time_ns)
         if np.shape(positions) != (len(stamps), len(names)):
@@ -385,10 +393,11 @@ class RerunSink:
     def blueprint(self) -> rrb.Blueprint:
         """The layout: a 3D view of ``/robot`` (camera from :meth:`fit_camera`) beside a plot of the
         joint positions, and in a second tab of the joint velocities when some were logged."""
-        view3d = rrb.Spatial3DView(name="robot", origin="/robot", eye_controls=self._eye)
-        plots: rrb.Container | rrb.View = rrb.TimeSeriesView(name="joint positions", origin="/joints")
+        view3d = rrb.Spatial3DView(name="robot", origin=f"/{ROBOT_ROOT}", eye_controls=self._eye)
+        plots: rrb.Container | rrb.View = rrb.TimeSeriesView(name="joint positions", origin=f"/{JOINTS_ROOT}")
         if self._has_velocities:
-            plots = rrb.Tabs(plots, rrb.TimeSeriesView(name="joint velocities", origin="/joint_velocities"))
+            velocities = rrb.TimeSeriesView(name="joint velocities", origin=f"/{VELOCITIES_ROOT}")
+            plots = rrb.Tabs(plots, velocities)
         return rrb.Blueprint(
             rrb.Horizontal(view3d, plots, column_shares=[3, 2]),
             rrb.BlueprintPanel(state="collapsed"),
@@ -410,6 +419,7 @@ class RerunSink:
             RecordingError: Rerun's file writer failed (disk full, file too large…) or the
                 viewer cannot be reached.
         """
+        self._unflushed_bytes = 0
         try:
             self._rec.flush()
         except RuntimeError as err:
@@ -437,8 +447,11 @@ class RerunSink:
 
     # -- helpers ---------------------------------------------------------------------------
 
-    def _send(self, entity: str, index: list[rr.TimeColumn], columns: Any) -> None:
+    def _send(self, entity: str, index: list[rr.TimeColumn], columns: Any, *, nbytes: int = 0) -> None:
         rr.send_columns(entity, indexes=index, columns=columns, recording=self._rec, strict=True)
+        self._unflushed_bytes += nbytes
+        if self._unflushed_bytes >= _FLUSH_BYTES:
+            self.flush()
 
     def _send_static(self, entity: str, columns: Any) -> None:
         self._send(entity, [], columns)
@@ -448,9 +461,10 @@ class RerunSink:
         """One column of joint values at ``index`` (the ``stamps``); values that are NaN are left out."""
         given = np.isfinite(values)
         if given.all():
-            self._send(entity, index, rr.Scalars.columns(scalars=values))
+            self._send(entity, index, rr.Scalars.columns(scalars=values), nbytes=stamps.nbytes + values.nbytes)
         elif given.any():
-            self._send(entity, [_time_column(stamps[given])], rr.Scalars.columns(scalars=values[given]))
+            kept = stamps[given]
+            self._send(entity, [_time_column(kept)], rr.Scalars.columns(scalars=values[given]), nbytes=2 * kept.nbytes)
 
     def _write_pair(self, parent: str, child: str, index: list[rr.TimeColumn], stamps: NDArray[np.int64],
                     translation: Array, rotation: Array) -> None:
@@ -469,6 +483,7 @@ class RerunSink:
                 parent_frame=_repeated(parent, n),
                 child_frame=_repeated(child, n),
             ),
+            nbytes=stamps.nbytes + translation.nbytes + rotation.nbytes + n * (len(parent) + len(child)),
         )
 
 
@@ -489,11 +504,3 @@ def _repeated(text: str, n: int) -> pa.Array:
     data = text.encode()
     offsets = np.arange(n + 1, dtype=np.int32) * len(data)
     return pa.StringArray.from_buffers(n, pa.py_buffer(offsets), pa.py_buffer(data * n))
-
-
-def _default_axis_length(robot: Robot) -> float:
-    """A tenth of the longest chain of joint offsets from the root, within [2 cm, 25 cm]."""
-    reach: dict[str, float] = {robot.root: 0.0}
-    for joint in robot.tree_order:
-        reach[joint.child] = reach.get(joint.parent, 0.0) + float(np.linalg.norm(joint.origin.xyz))
-    return min(max(0.1 * max(reach.values()), 0.02), 0.25)

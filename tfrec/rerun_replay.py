@@ -33,10 +33,10 @@ from numpy.typing import NDArray
 from .errors import RecordingError
 from .kinematics import Transforms
 from .model import Robot
-from .rerun_io import APPLICATION_ID, RerunSink, pair_entity, static_pair_entity
+from .rerun_io import RerunSink
+from .rerun_paths import APPLICATION_ID
 
-__all__ = ["RerunReplaySink", "check_can_connect", "check_can_spawn", "open_rerun_sink", "pair_entity",
-           "static_pair_entity"]
+__all__ = ["RerunReplaySink", "check_can_connect", "check_can_spawn", "open_rerun_sink"]
 
 _SCHEMES = ("rerun", "rerun+http", "rerun+https")
 """The URL schemes of a Rerun viewer's gRPC endpoint."""
