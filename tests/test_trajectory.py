@@ -15,6 +15,7 @@ from tfrec.description import load_description, parse_urdf
 from tfrec.errors import TrajectoryError
 from tfrec.model import JointType, Robot
 from tfrec.trajectory import (
+    GeneratedTrajectory,
     JointTrajectory,
     TrajectoryKind,
     all_joint_states,
@@ -516,3 +517,44 @@ def test_continuous_joint_type_is_exempt_from_csv_limits(toy: Robot, tmp_path: P
     assert toy.joint_by_name["wheel"].type is JointType.CONTINUOUS
     path = write(tmp_path, "time,wheel\n0,100\n")
     assert make_trajectory(toy, str(path)).positions[0, 3] == 100.0
+
+
+# Lazy evaluation -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("size", [1, 7, 64, 10_000])
+def test_generated_chunks_are_exactly_the_whole(toy: Robot, kind: str, size: int) -> None:
+    """Each piece is evaluated on its own, from its times only, and gives the whole's values bit for bit."""
+    def make() -> JointTrajectory:
+        return make_trajectory(toy, kind, duration_s=7.3, rate_hz=37.0, period_s=0.9, overrides={"lifted": 1.2})
+
+    lazy = make()
+    pieces = list(lazy.chunks(size))
+    whole = make()
+    assert isinstance(lazy, GeneratedTrajectory)
+    assert all(type(piece) is JointTrajectory for piece in pieces)
+    assert [len(piece) for piece in pieces][:-1] == [size] * (len(pieces) - 1)
+    assert np.array_equal(np.concatenate([p.time_ns for p in pieces]), whole.time_ns)
+    for name in ("positions", "velocities"):
+        joined = np.concatenate([getattr(p, name) for p in pieces])
+        assert joined.tobytes() == getattr(whole, name).tobytes(), name
+        assert getattr(whole, name).shape == (len(whole), len(ACTUATED))
+    assert [p.positions.tobytes() for p in whole.chunks(size)] == [p.positions.tobytes() for p in pieces]
+
+
+def test_recording_id_hashes_time_then_positions(toy: Robot) -> None:
+    """The id streams the positions chunk by chunk, but hashes the same bytes as the whole arrays."""
+    import hashlib
+    import uuid
+
+    from tfrec.recording import recording_id
+
+    trajectory = make_trajectory(toy, "random", duration_s=400.0, rate_hz=50.0)  # several chunks
+    assert len(trajectory) > 2 * 8192
+    digest = hashlib.sha256(toy.urdf.encode() + b"".join(n.encode() + b"\0" for n in trajectory.joint_names))
+    digest.update(trajectory.time_ns.tobytes())
+    digest.update(trajectory.positions.tobytes())
+    digest.update(b"5|p/")
+    expected = str(uuid.UUID(bytes=digest.digest()[:16], version=5))
+    assert recording_id(toy, make_trajectory(toy, "random", duration_s=400.0, rate_hz=50.0),
+                        start_time_ns=5, frame_prefix="p/") == expected

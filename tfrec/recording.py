@@ -110,8 +110,9 @@ def recording_id(robot: Robot, trajectory: JointTrajectory, *, start_time_ns: in
     digest.update(robot.urdf.encode())
     for name in trajectory.joint_names:
         digest.update(name.encode() + b"\0")
-    for array in (trajectory.time_ns, trajectory.positions):  # hashed in place, not copied
-        digest.update(np.ascontiguousarray(array).data.cast("B"))
+    digest.update(np.ascontiguousarray(trajectory.time_ns).data.cast("B"))  # hashed in place, not copied
+    for piece in trajectory.chunks(DEFAULT_CHUNK_SIZE):  # the positions' bytes in order, never all at once
+        digest.update(np.ascontiguousarray(piece.positions).data.cast("B"))
     digest.update(f"{start_time_ns}|{frame_prefix}".encode())
     return str(uuid.UUID(bytes=digest.digest()[:16], version=5))
 

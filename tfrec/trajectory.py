@@ -10,7 +10,9 @@ joint_state_publisher publishes it.
 Sampling rule of the generated kinds: sample ``i`` is at ``time_ns[i] = round(i * 1e9 / rate_hz)``
 for every ``i`` with ``time_ns[i] <= round(duration_s * 1e9)``, so both ends are included when
 the duration is a whole number of periods (10 s at 50 Hz gives 501 samples). Positions and
-velocities are evaluated at exactly those times.
+velocities are evaluated at exactly those times. The generated kinds are
+:class:`GeneratedTrajectory` objects: only the times are held, and each chunk is evaluated from
+its own times when it is streamed, so memory stays flat whatever the duration.
 
 In ``center``, ``random`` and ``sine`` a joint's motion depends only on its own index, bounds
 and the options, never on the joints after it: appending a joint (a gripper to an arm) leaves the
@@ -22,7 +24,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
@@ -36,6 +38,7 @@ from tfrec.errors import TrajectoryError
 from tfrec.model import Joint, JointType, Robot
 
 __all__ = [
+    "GeneratedTrajectory",
     "JointTrajectory",
     "TrajectoryKind",
     "actuated_column",
@@ -114,6 +117,59 @@ class JointTrajectory:
                 self.positions[start:stop],
                 self.velocities[start:stop],
             )
+
+
+Sampler = Callable[[NDArray[np.int64]], tuple[Array, Array]]
+"""Positions and velocities (float64 (n, J)) of a generated trajectory at the given times."""
+
+
+class GeneratedTrajectory(JointTrajectory):
+    """A generated trajectory (``center``, ``random``, ``sine``, ``sweep``), evaluated lazily.
+
+    Only ``time_ns`` is held; :meth:`chunks` evaluates each piece from its own times, so
+    streaming a long trajectory never holds its positions and velocities whole. The
+    ``positions`` and ``velocities`` attributes evaluate the whole trajectory on first use (and
+    keep it). Every sample depends only on its own time, so a piece's values are exactly those
+    of the whole.
+    """
+
+    __slots__ = ("_sample", "_whole")
+    _sample: Sampler
+    _whole: tuple[Array, Array] | None
+
+    def __init__(self, joint_names: tuple[str, ...], time_ns: NDArray[np.int64], sample: Sampler) -> None:
+        if time_ns.dtype != np.int64 or time_ns.ndim != 1:
+            raise ValueError(f"time_ns must be int64 of shape (N,), got {time_ns.dtype} {time_ns.shape}")
+        object.__setattr__(self, "joint_names", joint_names)
+        object.__setattr__(self, "time_ns", time_ns)
+        object.__setattr__(self, "_sample", sample)
+        object.__setattr__(self, "_whole", None)
+
+    @property
+    def positions(self) -> Array:
+        return self._evaluate()[0]
+
+    @property
+    def velocities(self) -> Array:
+        return self._evaluate()[1]
+
+    def _evaluate(self) -> tuple[Array, Array]:
+        whole: tuple[Array, Array] | None = self._whole
+        if whole is None:
+            whole = self._sample(self.time_ns)
+            object.__setattr__(self, "_whole", whole)
+        return whole
+
+    def chunks(self, size: int) -> Iterator[JointTrajectory]:
+        """Consecutive pieces of at most ``size`` samples, each evaluated on its own."""
+        if size < 1:
+            raise ValueError(f"chunk size must be at least 1, got {size}")
+        if self._whole is not None:
+            yield from super().chunks(size)
+            return
+        for start in range(0, len(self), size):
+            time_ns = self.time_ns[start:start + size]
+            yield JointTrajectory(self.joint_names, time_ns, *self._sample(time_ns))
 
 
 def make_trajectory(
@@ -250,8 +306,12 @@ def center_trajectory(
     """Every actuated joint held at its center (:func:`center_positions`)."""
     center = center_positions(robot, overrides=overrides)
     time_ns = sample_times_ns(duration_s, rate_hz)
-    positions = np.broadcast_to(center, (len(time_ns), len(center))).copy()
-    return _trajectory(robot, time_ns, positions, np.zeros_like(positions))
+
+    def sample(times: NDArray[np.int64]) -> tuple[Array, Array]:
+        positions = np.broadcast_to(center, (len(times), len(center))).copy()
+        return positions, np.zeros_like(positions)
+
+    return _trajectory(robot, time_ns, sample)
 
 
 def random_trajectory(
@@ -285,8 +345,11 @@ def random_trajectory(
         else:
             waypoints[1:, j] = np.random.default_rng([seed, j]).uniform(lower[j], upper[j], size=count - 1)
     knot_s = np.arange(count) * period_s
-    positions, velocities = _min_jerk(time_ns * 1e-9, knot_s, waypoints)
-    return _trajectory(robot, time_ns, positions, velocities)
+
+    def sample(times: NDArray[np.int64]) -> tuple[Array, Array]:
+        return _min_jerk(times * 1e-9, knot_s, waypoints)
+
+    return _trajectory(robot, time_ns, sample)
 
 
 def sine_trajectory(
@@ -313,13 +376,17 @@ def sine_trajectory(
     phase = 2.0 * np.pi * fraction
     middle = (lower + upper) / 2.0
     reach = amplitude * (upper - lower) / 2.0
-    angle = np.outer(time_ns * 1e-9, omega) + phase
-    positions = middle + reach * np.sin(angle)
-    velocities = reach * omega * np.cos(angle)
-    for i, value in pinned.items():
-        positions[:, i] = value
-        velocities[:, i] = 0.0
-    return _trajectory(robot, time_ns, positions, velocities)
+
+    def sample(times: NDArray[np.int64]) -> tuple[Array, Array]:
+        angle = np.outer(times * 1e-9, omega) + phase
+        positions = middle + reach * np.sin(angle)
+        velocities = reach * omega * np.cos(angle)
+        for i, value in pinned.items():
+            positions[:, i] = value
+            velocities[:, i] = 0.0
+        return positions, velocities
+
+    return _trajectory(robot, time_ns, sample)
 
 
 def sweep_trajectory(
@@ -340,11 +407,9 @@ def sweep_trajectory(
     center = center_positions(robot, overrides=overrides)
     lower, upper = _bounds_arrays(robot)
     time_ns = sample_times_ns(duration_s, rate_hz)
-    t = time_ns * 1e-9
-    positions = np.broadcast_to(center, (len(t), len(center))).copy()
-    velocities = np.zeros_like(positions)
     swept = [i for i in range(len(center)) if i not in pinned]
     slot = duration_s / max(len(swept), 1)
+    segments: list[tuple[int, Floats, Floats]] = []  # (column, knot times, knot positions (K, 1))
     for k, i in enumerate(swept):
         values = np.array([center[i], lower[i], upper[i], center[i]])
         lengths = np.abs(np.diff(values))
@@ -352,13 +417,23 @@ def sweep_trajectory(
             continue
         start = k * slot
         knot_s = np.concatenate([[0.0], start + slot * np.cumsum(np.r_[0.0, lengths]) / lengths.sum(), [duration_s]])
-        knot_s = t[np.clip(np.rint(knot_s * rate_hz).astype(np.int64), 0, len(t) - 1)]  # on samples: limits are hit
+        on_sample = np.clip(np.rint(knot_s * rate_hz).astype(np.int64), 0, len(time_ns) - 1)
+        knot_s = time_ns[on_sample] * 1e-9  # on samples: limits are hit
         knot_q = np.concatenate([[center[i]], values, [center[i]]])
         keep = np.diff(knot_s, prepend=-np.inf) > 0.0  # drop empty segments (zero length or less than a sample)
-        pos, vel = _min_jerk(t, knot_s[keep], knot_q[keep, np.newaxis])
-        positions[:, i] = pos[:, 0]
-        velocities[:, i] = vel[:, 0]
-    return _trajectory(robot, time_ns, positions, velocities)
+        segments.append((i, knot_s[keep], knot_q[keep, np.newaxis]))
+
+    def sample(times: NDArray[np.int64]) -> tuple[Array, Array]:
+        t = times * 1e-9
+        positions = np.broadcast_to(center, (len(t), len(center))).copy()
+        velocities = np.zeros_like(positions)
+        for i, knots, knot_q in segments:
+            pos, vel = _min_jerk(t, knots, knot_q)
+            positions[:, i] = pos[:, 0]
+            velocities[:, i] = vel[:, 0]
+        return positions, velocities
+
+    return _trajectory(robot, time_ns, sample)
 
 
 def all_joint_states(robot: Robot, trajectory: JointTrajectory) -> tuple[tuple[str, ...], Array, Array]:
@@ -509,9 +584,14 @@ def _min_jerk(t: Floats, knot_s: Floats, knot_q: Floats) -> tuple[Array, Array]:
     return positions, delta * rate[:, np.newaxis]
 
 
-def _trajectory(robot: Robot, time_ns: NDArray[np.int64], positions: Array, velocities: Array) -> JointTrajectory:
-    """Wrap arrays as a trajectory, first clipping rounding overshoot (a few ulps) at the limits."""
-    if positions.shape[1]:
-        lower, upper = np.array([position_range(joint) for joint in robot.actuated_joints]).T
-        np.clip(positions, lower, upper, out=positions)
-    return JointTrajectory(tuple(joint.name for joint in robot.actuated_joints), time_ns, positions, velocities)
+def _trajectory(robot: Robot, time_ns: NDArray[np.int64], sample: Sampler) -> GeneratedTrajectory:
+    """A lazy trajectory of ``sample``, whose positions are clipped of rounding overshoot (a few ulps) at the limits."""
+    lower, upper = np.array([position_range(joint) for joint in robot.actuated_joints]).reshape(-1, 2).T
+
+    def clipped(times: NDArray[np.int64]) -> tuple[Array, Array]:
+        positions, velocities = sample(times)
+        if positions.shape[1]:
+            np.clip(positions, lower, upper, out=positions)
+        return positions, velocities
+
+    return GeneratedTrajectory(tuple(joint.name for joint in robot.actuated_joints), time_ns, clipped)
