@@ -165,8 +165,9 @@ def record(
             output remains.
     """
     total = len(trajectory)
-    if total:
-        check_time_range(int(trajectory.time_ns[0]) + start_time_ns, int(trajectory.time_ns[-1]) + start_time_ns)
+    first = int(trajectory.time_ns[0]) + start_time_ns if total else start_time_ns
+    last = int(trajectory.time_ns[-1]) + start_time_ns if total else start_time_ns
+    check_time_range(first, last)
     static = static_transforms(robot, frame_prefix=frame_prefix)
     streams = []
     sinks: list[Any] = []
@@ -205,8 +206,6 @@ def record(
                     progress(done, total)
             for sink in sinks:
                 sink.finish()
-            for stream in streams:
-                stream.close()
             if bag_temp is not None and mcap_sink is not None:
                 write_bag_metadata(bag_temp, mcap_sink.bag_info)
         except BaseException:
@@ -216,6 +215,4 @@ def record(
             for stream in streams:
                 stream.close()
         outputs.commit()
-    first = int(trajectory.time_ns[0]) + start_time_ns if total else start_time_ns
-    last = int(trajectory.time_ns[-1]) + start_time_ns if total else start_time_ns
     return RecordResult(plan=plan, samples=total, start_time_ns=first, end_time_ns=last)
