@@ -29,10 +29,10 @@ from pathlib import Path
 from _common import machine, timed
 
 from tfrec.description import load_description
-from tfrec.diff import compare
-from tfrec.readers import read_recording
-from tfrec.recording import plan_outputs, record
-from tfrec.trajectory import make_trajectory
+from tfrec.diff.compare import compare
+from tfrec.formats.reader import read_recording
+from tfrec.record import plan_outputs, record
+from tfrec.trajectory.generators import make_trajectory
 
 REPO = Path(__file__).resolve().parents[1]
 TARGET_S = 30.0

@@ -22,9 +22,11 @@ import numpy as np
 from _common import best_of, machine
 
 from tfrec.description import load_description, parse_urdf
-from tfrec.kinematics import dynamic_transforms, link_poses
+from tfrec.kinematics.fk import dynamic_transforms, link_poses
+from tfrec.kinematics.joints import all_joint_states
 from tfrec.model import Robot
-from tfrec.trajectory import JointTrajectory, all_joint_states, joint_bounds
+from tfrec.trajectory.joints import joint_bounds
+from tfrec.trajectory.types import JointTrajectory
 
 CORPUS = Path(__file__).resolve().parents[2] / "shared" / "corpus"
 PANDA = CORPUS / "franka_description" / "robots" / "panda" / "panda.urdf.xacro"

@@ -31,11 +31,12 @@ from _common import best_of, machine
 
 from tfrec.conventions import DEFAULT_START_TIME_NS, NS_PER_S
 from tfrec.description import load_description, parse_urdf
-from tfrec.kinematics import DynamicChunk, iter_dynamic_chunks, static_transforms
-from tfrec.mcap_io import McapSink, message_definition
+from tfrec.formats.mcap.writer import McapSink, message_definition
+from tfrec.kinematics.fk import DynamicChunk, iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
-from tfrec.recording import plan_outputs, record
-from tfrec.trajectory import JointTrajectory, make_trajectory
+from tfrec.record import plan_outputs, record
+from tfrec.trajectory.generators import make_trajectory
+from tfrec.trajectory.types import JointTrajectory
 
 REPO = Path(__file__).resolve().parents[1]
 TARGET_RATIO = 10.0

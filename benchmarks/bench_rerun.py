@@ -28,12 +28,12 @@ import numpy as np
 from _common import machine
 
 from tfrec.description import load_description
-from tfrec.kinematics import DynamicChunk, iter_dynamic_chunks, static_transforms
+from tfrec.formats.rrd.paths import TIMELINE, joint_entity, tf_entity, velocity_entity
+from tfrec.formats.rrd.sink import RerunSink
+from tfrec.kinematics.fk import DynamicChunk, iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
-from tfrec.recording import DEFAULT_START_TIME_NS
-from tfrec.rerun_io import RerunSink
-from tfrec.rerun_paths import TIMELINE, joint_entity, tf_entity, velocity_entity
-from tfrec.trajectory import make_trajectory
+from tfrec.record import DEFAULT_START_TIME_NS
+from tfrec.trajectory.generators import make_trajectory
 
 REPO = Path(__file__).resolve().parents[1]
 TARGET_RATIO = 100.0

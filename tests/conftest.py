@@ -10,8 +10,8 @@ import pytest
 
 if TYPE_CHECKING:
     from tfrec.model import Robot
-    from tfrec.readers import Recording
-    from tfrec.trajectory import JointTrajectory
+    from tfrec.recording import Recording
+    from tfrec.trajectory.types import JointTrajectory
 
 REPO = Path(__file__).resolve().parents[1]
 ROBOTS = REPO / "robots"
@@ -54,6 +54,6 @@ def marm_mcap(tmp_path_factory: pytest.TempPathFactory, marm: Robot, traj: Joint
 
 @pytest.fixture(scope="module")
 def marm_rec(marm_mcap: Path) -> Recording:
-    from tfrec.readers import read_recording
+    from tfrec.formats.reader import read_recording
 
     return read_recording(marm_mcap)

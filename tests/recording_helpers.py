@@ -11,11 +11,12 @@ from typing import Any
 import numpy as np
 
 from tfrec.description import load_description
-from tfrec.kinematics import Transforms, iter_dynamic_chunks, static_transforms
-from tfrec.mcap_io import DEFAULT_START_TIME_NS, McapSink
+from tfrec.formats.mcap.writer import DEFAULT_START_TIME_NS, McapSink
+from tfrec.kinematics.fk import Transforms, iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
-from tfrec.readers import Recording
-from tfrec.trajectory import JointTrajectory, make_trajectory
+from tfrec.recording import Recording
+from tfrec.trajectory.generators import make_trajectory
+from tfrec.trajectory.types import JointTrajectory
 
 from .conftest import ROBOTS
 

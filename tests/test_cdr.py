@@ -11,7 +11,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tfrec.cdr import JointStateEncoder, TFMessageEncoder, align, encode_string, ns_from_stamps, stamps_from_ns
+from tfrec.formats.ros.cdr import (
+    JointStateEncoder,
+    TFMessageEncoder,
+    align,
+    encode_string,
+    ns_from_stamps,
+    stamps_from_ns,
+)
 
 T0 = 1_700_000_000_123_456_789
 

@@ -11,15 +11,16 @@ import numpy as np
 import pytest
 
 from tfrec import cli
-from tfrec.diff import FLOAT32_TOL, assert_recordings_match, compare, rotation_error
+from tfrec.diff.compare import FLOAT32_TOL, assert_recordings_match, compare, rotation_error
+from tfrec.diff.urdf import diff_urdf_texts
 from tfrec.errors import RecordingError
-from tfrec.kinematics import Transforms
-from tfrec.mcap_io import DEFAULT_START_TIME_NS
+from tfrec.formats.mcap.writer import DEFAULT_START_TIME_NS
+from tfrec.formats.reader import read_recording
+from tfrec.kinematics.fk import Transforms
+from tfrec.kinematics.rotations import quaternion_from_axis_angle, quaternion_multiply
 from tfrec.model import Robot
-from tfrec.readers import FrameSeries, JointStates, Recording, TopicInfo, read_recording
-from tfrec.rotations import quaternion_from_axis_angle, quaternion_multiply
-from tfrec.trajectory import JointTrajectory
-from tfrec.urdf_diff import diff_urdf_texts
+from tfrec.recording import FrameSeries, JointStates, Recording, TopicInfo
+from tfrec.trajectory.types import JointTrajectory
 
 from .recording_helpers import write_mcap, write_rosbag1, write_rosbag2
 
@@ -59,7 +60,7 @@ def test_other_formats_are_identical(tmp_path: Path, marm_rec: Recording, marm_m
 
 
 def test_mcap_against_its_own_rrd(tmp_path: Path, marm: Robot, traj: JointTrajectory) -> None:
-    from tfrec.recording import plan_outputs, record
+    from tfrec.record import plan_outputs, record
 
     plan = plan_outputs(stem="marm", out=tmp_path / "marm.mcap")
     record(marm, traj, plan)

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from tfrec.description import load_description, parse_urdf
 from tfrec.errors import KinematicsError
-from tfrec.kinematics import (
+from tfrec.kinematics.fk import (
     Transforms,
     dynamic_transforms,
     iter_dynamic_chunks,
@@ -24,9 +24,12 @@ from tfrec.kinematics import (
     static_transforms,
     world_from_link,
 )
+from tfrec.kinematics.joints import all_joint_states
+from tfrec.kinematics.rotations import matrix_from_quaternion, quaternion_from_rpy
 from tfrec.model import JointType, Robot
-from tfrec.rotations import matrix_from_quaternion, quaternion_from_rpy
-from tfrec.trajectory import JointTrajectory, all_joint_states, joint_bounds, make_trajectory
+from tfrec.trajectory.generators import make_trajectory
+from tfrec.trajectory.joints import joint_bounds
+from tfrec.trajectory.types import JointTrajectory
 
 REPO = Path(__file__).resolve().parents[1]
 CORPUS = Path(__file__).resolve().parents[2] / "shared" / "corpus"

@@ -15,15 +15,16 @@ import numpy as np
 import pytest
 import yaml
 
-from tfrec.bag_metadata import QOS_LATCHED, QOS_VOLATILE, qos_yaml, write_bag_metadata
 from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.description import load_description, parse_urdf
 from tfrec.errors import RecordingError
+from tfrec.formats.mcap.writer import LIBRARY, McapSink, check_time_range, message_definition
+from tfrec.formats.rosbag2.metadata import QOS_LATCHED, QOS_VOLATILE, qos_yaml, write_bag_metadata
 from tfrec.info import format_summary, summarize
-from tfrec.kinematics import iter_dynamic_chunks, static_transforms
-from tfrec.mcap_io import LIBRARY, McapSink, check_time_range, message_definition
+from tfrec.kinematics.fk import iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
-from tfrec.trajectory import JointTrajectory, make_trajectory
+from tfrec.trajectory.generators import make_trajectory
+from tfrec.trajectory.types import JointTrajectory
 
 from .conftest import ROBOTS
 
@@ -443,7 +444,7 @@ def test_summarize_every_format(tmp_path: Path, marm_mcap: Path) -> None:
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
 
-    from tfrec.readers import read_recording
+    from tfrec.formats.reader import read_recording
 
     from .recording_helpers import write_rosbag1, write_rosbag2
 

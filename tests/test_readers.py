@@ -12,12 +12,14 @@ import numpy as np
 import pytest
 
 from tfrec.errors import RecordingError
-from tfrec.kinematics import iter_dynamic_chunks, static_transforms
-from tfrec.mcap_io import DEFAULT_CHUNK_BYTES, DEFAULT_START_TIME_NS, McapSink, message_definition
+from tfrec.formats.mcap.writer import DEFAULT_CHUNK_BYTES, DEFAULT_START_TIME_NS, McapSink, message_definition
+from tfrec.formats.reader import read_recording, recording_format
+from tfrec.formats.ros.decode import JointStateAccumulator, TFAccumulator, message_layout
+from tfrec.kinematics.fk import iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
-from tfrec.readers import JointStates, Recording, read_recording, recording_format
-from tfrec.ros_decode import JointStateAccumulator, TFAccumulator, message_layout
-from tfrec.trajectory import JointTrajectory, make_trajectory
+from tfrec.recording import JointStates, Recording
+from tfrec.trajectory.generators import make_trajectory
+from tfrec.trajectory.types import JointTrajectory
 
 from .recording_helpers import (
     cdr_messages,
@@ -111,7 +113,7 @@ def test_rosbag2_folder(tmp_path: Path, marm_rec: Recording, storage: str) -> No
 
 
 def test_tfrec_bag_folder(tmp_path: Path, marm: Robot, traj: JointTrajectory, marm_rec: Recording) -> None:
-    from tfrec.recording import plan_outputs, record
+    from tfrec.record import plan_outputs, record
 
     plan = plan_outputs(stem="marm", bag=tmp_path / "marm_bag", no_rrd=True)
     record(marm, traj, plan)
@@ -129,7 +131,7 @@ def test_ros1_bag(tmp_path: Path, marm_rec: Recording) -> None:
 
 
 def test_rrd(tmp_path: Path, marm: Robot, traj: JointTrajectory, marm_rec: Recording) -> None:
-    from tfrec.recording import plan_outputs, record
+    from tfrec.record import plan_outputs, record
 
     plan = plan_outputs(stem="marm", out=tmp_path / "marm.mcap")
     record(marm, traj, plan)
@@ -161,7 +163,7 @@ def test_topics_filter(marm_mcap: Path) -> None:
 
 
 def test_truncated_mcap(tmp_path: Path, marm: Robot) -> None:
-    from tfrec.trajectory import make_trajectory
+    from tfrec.trajectory.generators import make_trajectory
 
     long = make_trajectory(marm, "sine", duration_s=20.0, rate_hz=100.0)
     full = write_mcap(tmp_path / "full.mcap", marm, long)
@@ -625,7 +627,7 @@ def test_tf_layout_varies(marm_rec: Recording) -> None:
 
 def test_entity_paths_parse_back() -> None:
     """parse_entity undoes Rerun's escaping, control characters and \\u{…} escapes included."""
-    from tfrec.rerun_paths import joint_entity, pair_entity, parse_entity, tf_entity
+    from tfrec.formats.rrd.paths import joint_entity, pair_entity, parse_entity, tf_entity
 
     names = ("joint 1", "a/b", "x.y", "ü", "a\\b", "tab\there", "new\nline", "\x00", "\u00a0", "😀", "u{41}", "\\u{41}", "")
     for name in names:
@@ -686,7 +688,7 @@ def test_summary_messages_in_mcaps_order(tmp_path: Path, chunking: bool) -> None
     """tfrec info reads messages through the summary in the order mcap's reader gives them."""
     from mcap.reader import make_reader
 
-    from tfrec.mcap_summary import iter_messages, read_summary
+    from tfrec.formats.mcap.summary import iter_messages, read_summary
 
     path = _foreign_mcap(tmp_path / "foreign.mcap", chunking=chunking)
     size = path.stat().st_size

@@ -13,8 +13,8 @@ import pytest
 from tfrec.cli import main
 from tfrec.errors import RecordingError
 from tfrec.model import Robot
-from tfrec.recording import default_stem, plan_outputs, record
-from tfrec.trajectory import make_trajectory
+from tfrec.record import default_stem, plan_outputs, record
+from tfrec.trajectory.generators import make_trajectory
 
 from .conftest import ROBOTS
 
@@ -93,7 +93,7 @@ def test_tf_in_file_equals_fk_of_joint_states_in_file(marm_recording: Path) -> N
     /joint_states, on the URDF from the file's /robot_description."""
     import yourdfpy
 
-    from tfrec.rotations import matrix_from_quaternion
+    from tfrec.kinematics.rotations import matrix_from_quaternion
 
     msgs = _read_all_rosbags(marm_recording)
     urdf_text = msgs["/robot_description"][0][1].data  # type: ignore[attr-defined]
@@ -260,8 +260,8 @@ def test_mbot_record_and_info_json(tmp_path: Path, capsys: pytest.CaptureFixture
 def test_sink_streams_chunk_by_chunk() -> None:
     """Bytes reach the stream as chunks complete, not all at the end (the one-hour peak-memory figure
     is measured by benchmarks/bench_mcap.py)."""
-    from tfrec.kinematics import iter_dynamic_chunks, static_transforms
-    from tfrec.mcap_io import McapSink
+    from tfrec.formats.mcap.writer import McapSink
+    from tfrec.kinematics.fk import iter_dynamic_chunks, static_transforms
 
     robot = load_robot("marm")
     trajectory = make_trajectory(robot, "sine", duration_s=20, rate_hz=100)
@@ -278,7 +278,7 @@ def test_sink_streams_chunk_by_chunk() -> None:
 
 
 def test_progress_bar_only_on_a_terminal_and_after_a_second() -> None:
-    from tfrec.cli import _Progress
+    from tfrec.cli._common import Progress
 
     class Terminal(io.StringIO):
         def isatty(self) -> bool:
@@ -286,7 +286,7 @@ def test_progress_bar_only_on_a_terminal_and_after_a_second() -> None:
 
     now = [0.0]
     term = Terminal()
-    bar = _Progress(term, clock=lambda: now[0])
+    bar = Progress(term, clock=lambda: now[0])
     bar(10, 100)
     assert term.getvalue() == ""  # under a second: nothing
     now[0] = 1.5
@@ -296,7 +296,7 @@ def test_progress_bar_only_on_a_terminal_and_after_a_second() -> None:
     assert term.getvalue() == ("\r[###############...............]  50% 50/100 samples"
                                "\r[##############################] 100% 100/100 samples\n")
     piped = io.StringIO()  # not a terminal: never
-    bar = _Progress(piped, clock=lambda: 10.0)
+    bar = Progress(piped, clock=lambda: 10.0)
     bar(100, 100)
     bar.close()
     assert piped.getvalue() == ""

@@ -18,17 +18,19 @@ import pytest
 from tfrec import cli
 from tfrec.description import load_description, parse_urdf
 from tfrec.errors import RecordingError
-from tfrec.kinematics import Transforms, dynamic_transforms, iter_dynamic_chunks, static_transforms
-from tfrec.mcap_io import McapSink
+from tfrec.formats.mcap.writer import McapSink
+from tfrec.formats.rrd.paths import joint_entity, link_entity, pair_entity, tf_entity, tf_static_entity
+from tfrec.kinematics.fk import Transforms, dynamic_transforms, iter_dynamic_chunks, static_transforms
+from tfrec.kinematics.joints import all_joint_states
 from tfrec.model import Robot
-from tfrec.pacing import Pacer, batches
-from tfrec.playback import play, replay_to_rerun
-from tfrec.readers import JointStates
-from tfrec.recording import DEFAULT_START_TIME_NS, plan_outputs, record
-from tfrec.replay import derive_transforms, detect_frame_prefix, load_replay
-from tfrec.replay_check import check_replay
-from tfrec.rerun_paths import joint_entity, link_entity, pair_entity, tf_entity, tf_static_entity
-from tfrec.trajectory import JointTrajectory, all_joint_states, make_trajectory
+from tfrec.record import DEFAULT_START_TIME_NS, plan_outputs, record
+from tfrec.recording import JointStates
+from tfrec.replay.check import check_replay
+from tfrec.replay.load import derive_transforms, detect_frame_prefix, load_replay
+from tfrec.replay.pacing import Pacer, batches
+from tfrec.replay.play import play, replay_to_rerun
+from tfrec.trajectory.generators import make_trajectory
+from tfrec.trajectory.types import JointTrajectory
 
 REPO = Path(__file__).resolve().parents[1]
 START_NS = DEFAULT_START_TIME_NS
@@ -387,7 +389,7 @@ def test_an_unusable_description_warns_and_replays_without_a_model(tfrec_main: C
 
 def test_no_viewer_executable(tfrec_main: Callable[[list[str]], int], recorded: Path,
                               monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
-    from tfrec import rerun_replay
+    from tfrec.formats.rrd import viewer as rerun_replay
 
     monkeypatch.setenv("DISPLAY", ":0")
     monkeypatch.setattr(rerun_replay.shutil, "which", lambda name: None)
@@ -616,7 +618,7 @@ def test_connect_streams_to_a_running_server(recorded: Path, monkeypatch: pytest
 
     import rerun as rr
 
-    from tfrec import rerun_replay
+    from tfrec.formats.rrd import viewer as rerun_replay
 
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))

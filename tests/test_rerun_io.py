@@ -15,13 +15,10 @@ import numpy as np
 import pytest
 import rerun as rr
 
-from tfrec import rerun_io
 from tfrec.description import load_description, parse_urdf
 from tfrec.errors import RecordingError
-from tfrec.kinematics import Transforms, iter_dynamic_chunks, static_transforms
-from tfrec.model import Box, Cylinder, Mesh, Robot, Sphere
-from tfrec.rerun_io import RerunSink
-from tfrec.rerun_paths import (
+from tfrec.formats.rrd import sink as rerun_io
+from tfrec.formats.rrd.paths import (
     APPLICATION_ID,
     TIMELINE,
     joint_entity,
@@ -33,8 +30,11 @@ from tfrec.rerun_paths import (
     velocity_entity,
     visual_entity,
 )
-from tfrec.rotations import matrix_from_quaternion
-from tfrec.trajectory import make_trajectory
+from tfrec.formats.rrd.sink import RerunSink
+from tfrec.kinematics.fk import Transforms, iter_dynamic_chunks, static_transforms
+from tfrec.kinematics.rotations import matrix_from_quaternion
+from tfrec.model import Box, Cylinder, Mesh, Robot, Sphere
+from tfrec.trajectory.generators import make_trajectory
 
 REPO = Path(__file__).resolve().parents[1]
 CORPUS = REPO.parent / "shared" / "corpus"
@@ -375,9 +375,9 @@ def test_a_stream_made_elsewhere(tmp_path: Path) -> None:
 
 
 def test_a_replay_has_the_recordings_layout_and_a_fitted_camera(tmp_path: Path) -> None:
-    from tfrec.playback import replay_to_rerun
-    from tfrec.recording import plan_outputs, record
-    from tfrec.replay import load_replay
+    from tfrec.record import plan_outputs, record
+    from tfrec.replay.load import load_replay
+    from tfrec.replay.play import replay_to_rerun
 
     robot = load_robot("marm")
     source = tmp_path / "marm.mcap"

@@ -13,19 +13,12 @@ from hypothesis import strategies as st
 
 from tfrec.description import load_description, parse_urdf
 from tfrec.errors import TrajectoryError
+from tfrec.kinematics.joints import all_joint_states, apply_mimic
 from tfrec.model import JointType, Robot
-from tfrec.trajectory import (
-    GeneratedTrajectory,
-    JointTrajectory,
-    TrajectoryKind,
-    all_joint_states,
-    apply_mimic,
-    center_positions,
-    joint_bounds,
-    make_trajectory,
-    sample_times_ns,
-)
-from tfrec.trajectory_csv import read_csv_trajectory
+from tfrec.trajectory.csv_file import read_csv_trajectory
+from tfrec.trajectory.generators import make_trajectory, sample_times_ns
+from tfrec.trajectory.joints import center_positions, joint_bounds
+from tfrec.trajectory.types import GeneratedTrajectory, JointTrajectory, TrajectoryKind
 
 TOY_URDF = """<robot name="toy">
   <link name="base"/><link name="a"/><link name="b"/><link name="c"/><link name="d"/>
@@ -547,7 +540,7 @@ def test_recording_id_hashes_time_then_positions(toy: Robot) -> None:
     import hashlib
     import uuid
 
-    from tfrec.recording import recording_id
+    from tfrec.record import recording_id
 
     trajectory = make_trajectory(toy, "random", duration_s=400.0, rate_hz=50.0)  # several chunks
     assert len(trajectory) > 2 * 8192

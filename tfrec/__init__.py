@@ -29,14 +29,14 @@ __all__ = [
     "read_recording",
 ]
 
-from .errors import DescriptionError, KinematicsError, RecordingError, TfrecError, TrajectoryError
-from .model import Joint, JointType, Link, Robot
+from tfrec.errors import DescriptionError, KinematicsError, RecordingError, TfrecError, TrajectoryError
+from tfrec.model import Joint, JointType, Link, Robot
 
 if TYPE_CHECKING:
-    from .description import load_description, parse_urdf
-    from .diff import assert_recordings_match, compare
-    from .readers import read_recording
-    from .trajectory import make_trajectory
+    from tfrec.description import load_description, parse_urdf
+    from tfrec.diff.compare import assert_recordings_match, compare
+    from tfrec.formats.reader import read_recording
+    from tfrec.trajectory.generators import make_trajectory
 
 _LAZY = {
     "load_description": "description",

@@ -24,14 +24,14 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import IO, Any
 
-from .bag_metadata import BagMetadata, qos_durability
-from .conventions import JOINT_STATES, NS_PER_S, ROBOT_DESCRIPTION, TF, TF_STATIC
-from .errors import RecordingError
-from .mcap_format import MCAP_MAGIC
-from .mcap_summary import McapSummary, channel_spans, iter_messages, read_header, read_summary
-from .readers import Recording, identify_recording, read_recording
-from .recorded import TopicStats
-from .ros_types import UndecodableMessage, deserializer
+from tfrec.conventions import JOINT_STATES, NS_PER_S, ROBOT_DESCRIPTION, TF, TF_STATIC
+from tfrec.errors import RecordingError
+from tfrec.formats.mcap.records import MCAP_MAGIC
+from tfrec.formats.mcap.summary import McapSummary, channel_spans, iter_messages, read_header, read_summary
+from tfrec.formats.reader import identify_recording, read_recording
+from tfrec.formats.ros.types import UndecodableMessage, deserializer
+from tfrec.formats.rosbag2.metadata import BagMetadata, qos_durability
+from tfrec.recording import Recording, TopicStats
 
 __all__ = ["TF_MESSAGES_DECODED", "format_summary", "summarize"]
 

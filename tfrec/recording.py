@@ -1,218 +1,165 @@
-"""``tfrec record``: robot + trajectory → FK in chunks → MCAP / rosbag2 directory / Rerun sinks.
+"""What a recording holds, format aside: the :class:`Recording` every reader builds.
 
-Every output of one recording is written to a temporary file (or folder) beside its target and
-renamed only when all of them are complete; after an error or Ctrl-C no partial output remains
-and older files of those names are untouched.
+The readers in :mod:`tfrec.formats` build one (:func:`tfrec.formats.read_recording`); ``info``,
+``replay``, ``diff``, ``convert`` and ``check`` only read it.
 """
 
 from __future__ import annotations
 
-import hashlib
-import os
-import time
-import uuid
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from pathlib import Path
-from typing import Any
+from dataclasses import dataclass, field
 
 import numpy as np
-
-from .atomic import AtomicOutputs, check_target
-from .bag_metadata import write_bag_metadata
-from .conventions import DEFAULT_START_TIME_NS
-from .errors import RecordingError
-from .kinematics import DEFAULT_CHUNK_SIZE, iter_dynamic_chunks, static_transforms
-from .mcap_io import McapSink, check_time_range
-from .model import Robot
-from .trajectory import JointTrajectory, TrajectoryKind
+from numpy.typing import NDArray
 
 __all__ = [
-    "DEFAULT_START_TIME_NS",  # re-exported from tfrec.conventions
-    "RecordResult",
-    "RecordingPlan",
-    "default_stem",
-    "plan_outputs",
-    "record",
-    "recording_id",
+    "FrameSeries",
+    "JointStates",
+    "Recording",
+    "TopicInfo",
+    "TopicStats",
 ]
 
-
-def default_stem(robot: Robot, traj: str, *, now: float | None = None) -> str:
-    """``<robot>-<traj>-<YYYYmmdd-HHMMSS>`` (local time), like ros2 bag's default names."""
-    label = traj if traj in {kind.value for kind in TrajectoryKind} else Path(traj).stem
-    stamp = time.strftime("%Y%m%d-%H%M%S", time.localtime(time.time() if now is None else now))
-    return f"{robot.name}-{label}-{stamp}"
+Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True, slots=True)
-class RecordingPlan:
-    """Where a recording goes. ``bag_dir`` set means a rosbag2 folder holding the MCAP."""
+class TopicInfo:
+    """One topic of a recording.
 
-    mcap: Path | None
-    rrd: Path | None
-    bag_dir: Path | None = None
-    force: bool = False
-    """Existing outputs may be replaced (``--force``)."""
-
-
-def plan_outputs(
-    *,
-    stem: str,
-    out: str | os.PathLike[str] | None = None,
-    rrd: str | os.PathLike[str] | None = None,
-    bag: str | os.PathLike[str] | None = None,
-    no_mcap: bool = False,
-    no_rrd: bool = False,
-    folder: str | os.PathLike[str] = "recordings",
-    force: bool = False,
-) -> RecordingPlan:
-    """Decide the output paths and check them before anything is written.
-
-    Raises:
-        RecordingError: nothing to write, conflicting options, or a target that
-            :func:`tfrec.atomic.check_target` refuses (wrong extension, exists without ``force``).
+    Attributes:
+        type: the message type as the recording names it (``tf2_msgs/msg/TFMessage``).
+        count: messages on the topic.
+        first_ns, last_ns: log times (receive times) of the first and last message, ns since
+            the epoch; None for data without a time (static data in an ``.rrd``).
+        durability: the offered QoS durability (``transient_local``, ``volatile``…) where the
+            format records it (MCAP channels, rosbag2 topics); ``latched`` for a latching
+            topic of a ROS 1 bag; else None.
     """
-    if no_mcap and no_rrd:
-        raise RecordingError("--no-mcap and --no-rrd together leave nothing to write")
-    if bag is not None and (out is not None or no_mcap):
-        raise RecordingError("--bag DIR writes the MCAP inside DIR; it goes with neither -o nor --no-mcap")
-    if no_rrd and rrd is not None:
-        raise RecordingError("--rrd and --no-rrd contradict each other")
-    bag_dir = Path(bag) if bag is not None else None
-    mcap: Path | None = None
-    if bag_dir is not None:
-        mcap = bag_dir / f"{bag_dir.name}_0.mcap"
-    elif not no_mcap:
-        mcap = Path(out) if out is not None else Path(folder) / f"{stem}.mcap"
-    rrd_path: Path | None = None
-    if not no_rrd:
-        if rrd is not None:
-            rrd_path = Path(rrd)
-        elif bag_dir is not None:
-            rrd_path = bag_dir.with_name(bag_dir.name + ".rrd")
-        elif mcap is not None:
-            rrd_path = mcap.with_suffix(".rrd")
-        else:
-            rrd_path = Path(folder) / f"{stem}.rrd"
-    if bag_dir is not None:
-        check_target(bag_dir, suffix=None, what="rosbag2", force=force, folder=True)
-    elif mcap is not None:
-        check_target(mcap, suffix=".mcap", what="MCAP", force=force)
-    if rrd_path is not None:
-        check_target(rrd_path, suffix=".rrd", what="Rerun", force=force)
-    return RecordingPlan(mcap=mcap, rrd=rrd_path, bag_dir=bag_dir, force=force)
+
+    type: str
+    count: int
+    first_ns: int | None
+    last_ns: int | None
+    durability: str | None = None
 
 
-def recording_id(robot: Robot, trajectory: JointTrajectory, *, start_time_ns: int, frame_prefix: str) -> str:
-    """A recording id derived from the inputs: the same command gives the same id."""
-    digest = hashlib.sha256()
-    digest.update(robot.urdf.encode())
-    for name in trajectory.joint_names:
-        digest.update(name.encode() + b"\0")
-    digest.update(np.ascontiguousarray(trajectory.time_ns).data.cast("B"))  # hashed in place, not copied
-    for piece in trajectory.chunks(DEFAULT_CHUNK_SIZE):  # the positions' bytes in order, never all at once
-        digest.update(np.ascontiguousarray(piece.positions).data.cast("B"))
-    digest.update(f"{start_time_ns}|{frame_prefix}".encode())
-    return str(uuid.UUID(bytes=digest.digest()[:16], version=5))
+class TopicStats:
+    """A reader's running count of one topic's (or one channel's) messages; becomes a :class:`TopicInfo`.
+
+    Attributes: as :class:`TopicInfo`'s; ``first_ns`` and ``last_ns`` are None until a message
+    with a time is counted.
+    """
+
+    __slots__ = ("count", "durability", "first_ns", "last_ns", "type")
+
+    def __init__(self, msgtype: str, durability: str | None = None) -> None:
+        self.type = msgtype
+        self.durability = durability
+        self.count = 0
+        self.first_ns: int | None = None
+        self.last_ns: int | None = None
+
+    def add(self, time_ns: int) -> None:
+        """Count one message logged at ``time_ns``."""
+        if self.first_ns is None or time_ns < self.first_ns:
+            self.first_ns = time_ns
+        if self.last_ns is None or time_ns > self.last_ns:
+            self.last_ns = time_ns
+        self.count += 1
+
+    def add_times(self, first_ns: int | None, last_ns: int | None) -> None:
+        """Widen the time span to include [``first_ns``, ``last_ns``] (None: no time)."""
+        if first_ns is not None and (self.first_ns is None or first_ns < self.first_ns):
+            self.first_ns = first_ns
+        if last_ns is not None and (self.last_ns is None or last_ns > self.last_ns):
+            self.last_ns = last_ns
+
+    def merge(self, other: TopicStats) -> None:
+        """Add the messages ``other`` counted (another channel or file of the same topic)."""
+        self.count += other.count
+        self.add_times(other.first_ns, other.last_ns)
+        self.durability = self.durability or other.durability
+
+    def info(self) -> TopicInfo:
+        return TopicInfo(self.type, self.count, self.first_ns, self.last_ns, self.durability)
 
 
 @dataclass(frozen=True, slots=True)
-class RecordResult:
-    """What a recording wrote: the outputs, and the samples with the stamps of the first and last."""
+class JointStates:
+    """Every /joint_states message as one array.
 
-    plan: RecordingPlan
-    samples: int
-    start_time_ns: int
-    end_time_ns: int
-
-
-def _abort_sinks(sinks: Sequence[Any]) -> None:
-    """Close sinks that hold files open (Rerun's writer) before their temporary files are removed."""
-    for sink in sinks:
-        abort = getattr(sink, "abort", None)
-        if abort is not None:
-            abort()
-
-
-def record(
-    robot: Robot,
-    trajectory: JointTrajectory,
-    plan: RecordingPlan,
-    *,
-    compression: str = "zstd",
-    start_time_ns: int = DEFAULT_START_TIME_NS,
-    frame_prefix: str = "",
-    package_paths: Sequence[str | os.PathLike[str]] = (),
-    chunk_size: int = DEFAULT_CHUNK_SIZE,
-    progress: Callable[[int, int], None] | None = None,
-) -> RecordResult:
-    """Write the recording ``plan`` describes, streaming the trajectory in chunks.
-
-    Args:
-        robot: the robot (its ``urdf`` goes to /robot_description).
-        trajectory: the joint trajectory, times from 0.
-        plan: the outputs, from :func:`plan_outputs`.
-        compression: MCAP chunk compression, one of :data:`~tfrec.conventions.COMPRESSIONS`.
-        start_time_ns: the stamp of the first sample.
-        frame_prefix: put in front of every TF frame id.
-        package_paths: where meshes' packages are looked up (Rerun geometry).
-        chunk_size: samples per chunk; memory is bounded by it.
-        progress: called with (samples done, samples in all) after every chunk.
-
-    Raises:
-        RecordingError: the outputs could not be written (or an unknown compression); no partial
-            output remains.
+    Attributes:
+        time_ns: int64 (N,) header stamps, non-decreasing.
+        names: the union of the joint names of all messages, in order of first appearance.
+        positions: float64 (N, J); NaN where a message has no position for a joint.
     """
-    total = len(trajectory)
-    first = int(trajectory.time_ns[0]) + start_time_ns if total else start_time_ns
-    last = int(trajectory.time_ns[-1]) + start_time_ns if total else start_time_ns
-    check_time_range(first, last)
-    static = static_transforms(robot, frame_prefix=frame_prefix)
-    streams = []
-    sinks: list[Any] = []
-    with AtomicOutputs(replace=plan.force) as outputs:
-        try:
-            mcap_sink: McapSink | None = None
-            bag_temp: Path | None = None
-            if plan.mcap is not None:
-                if plan.bag_dir is not None:
-                    bag_temp = outputs.path(plan.bag_dir, directory=True)
-                    mcap_temp = bag_temp / plan.mcap.name
-                else:
-                    mcap_temp = outputs.path(plan.mcap)
-                stream = open(mcap_temp, "wb")  # noqa: SIM115 - closed below
-                streams.append(stream)
-                mcap_sink = McapSink(stream, compression=compression, file_name=plan.mcap.name)
-                sinks.append(mcap_sink)
-            if plan.rrd is not None:
-                from .rerun_io import RerunSink
 
-                sinks.append(RerunSink(
-                    outputs.path(plan.rrd), robot=robot, package_paths=package_paths, frame_prefix=frame_prefix,
-                    recording_id=recording_id(robot, trajectory, start_time_ns=start_time_ns,
-                                              frame_prefix=frame_prefix),
-                ))
-            for sink in sinks:
-                sink.begin(robot_description=robot.urdf, static=static, start_time_ns=start_time_ns)
-            done = 0
-            for chunk in iter_dynamic_chunks(robot, trajectory, chunk_size=chunk_size, frame_prefix=frame_prefix):
-                stamps = chunk.time_ns + start_time_ns
-                for sink in sinks:
-                    sink.write_chunk(time_ns=stamps, joint_names=chunk.names, positions=chunk.positions,
-                                     velocities=chunk.velocities, transforms=chunk.transforms)
-                done += len(chunk.time_ns)
-                if progress is not None:
-                    progress(done, total)
-            for sink in sinks:
-                sink.finish()
-            if bag_temp is not None and mcap_sink is not None:
-                write_bag_metadata(bag_temp, mcap_sink.bag_info)
-        except BaseException:
-            _abort_sinks(sinks)  # before their temporary files are removed
-            raise
-        finally:
-            for stream in streams:
-                stream.close()
-        outputs.commit()
-    return RecordResult(plan=plan, samples=total, start_time_ns=first, end_time_ns=last)
+    time_ns: NDArray[np.int64]
+    names: tuple[str, ...]
+    positions: Array
+
+    def __len__(self) -> int:
+        return len(self.time_ns)
+
+
+@dataclass(frozen=True, slots=True)
+class FrameSeries:
+    """The transforms of one (parent, child) pair on /tf, in time order.
+
+    Attributes:
+        time_ns: int64 (M,) stamps of the transforms.
+        translation: float64 (M, 3), metres.
+        rotation: float64 (M, 4), quaternions (x, y, z, w) as recorded.
+    """
+
+    time_ns: NDArray[np.int64]
+    translation: Array
+    rotation: Array
+
+    def __len__(self) -> int:
+        return len(self.time_ns)
+
+
+@dataclass
+class Recording:
+    """What a recording holds, format aside.
+
+    Attributes:
+        path: the file or folder read.
+        format: ``"mcap"``, ``"rosbag2"``, ``"rosbag1"`` or ``"rrd"``.
+        robot_description: the URDF text of the last /robot_description message, or None.
+        topics: topic name → :class:`TopicInfo`. An ``.rrd`` has no topics: its entities are
+            listed under the topics they stand for.
+        joint_states: /joint_states, or None when the recording has none.
+        tf: (parent, child) → :class:`FrameSeries` of the transforms on /tf.
+        tf_static: (parent, child) → (translation (3,), rotation (4,)) of the last /tf_static
+            transform of that pair.
+        start_ns, end_ns: log times of the first and last message (ns since the epoch), or
+            None for an empty recording. When a damaged file lost messages, the recording's
+            true start (and end) as far as the file still tells — an MCAP's summary
+            statistics or chunk headers — so times count from the real start, not from the
+            first message that could be read.
+        read_error: None, or one line saying what a damaged file lost (where reading stopped,
+            or which chunks were skipped); the rest of the recording holds what was readable.
+        float32: True when the format stores transforms as float32 (``.rrd``).
+        details: what ``tfrec info`` shows about the container, where known: ``profile``,
+            ``library`` (MCAP header), ``compression`` (chunk or file compression, ``none``),
+            ``storage`` (rosbag2 storage plugin).
+    """
+
+    path: str
+    format: str
+    robot_description: str | None = None
+    topics: dict[str, TopicInfo] = field(default_factory=dict)
+    joint_states: JointStates | None = None
+    tf: dict[tuple[str, str], FrameSeries] = field(default_factory=dict)
+    tf_static: dict[tuple[str, str], tuple[Array, Array]] = field(default_factory=dict)
+    start_ns: int | None = None
+    end_ns: int | None = None
+    read_error: str | None = None
+    float32: bool = False
+    details: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def duration_ns(self) -> int:
+        return 0 if self.start_ns is None or self.end_ns is None else self.end_ns - self.start_ns

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .readers import Recording
-from .rotations import slerp
+from tfrec.kinematics.rotations import slerp
+from tfrec.recording import Recording
 
 __all__ = ["Alignment", "align", "data_end_ns", "data_start_ns"]
 

@@ -1,0 +1,117 @@
+"""What the subcommands share: the robot arguments, argument types, the progress bar."""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+from typing import TYPE_CHECKING, NoReturn, TextIO
+
+from tfrec.conventions import (
+    NS_PER_S,
+)
+
+if TYPE_CHECKING:
+    from tfrec.model import Robot
+
+__all__ = ["PROG", "Parser", "Progress", "add_robot_arguments", "fmt", "load_robot", "number", "start_time", "tolerance"]
+
+PROG = "tfrec"
+
+
+def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("robot", metavar="ROBOT", help="a .urdf, .xacro or .urdf.xacro file")
+    parser.add_argument("xacro_args", metavar="name:=value", nargs="*", default=[], help="xacro arguments, as for ROS")
+    parser.add_argument(
+        "--package-path", metavar="DIR", action="append", default=[],
+        help="a package, or a folder of packages, for $(find pkg) and package:// (repeatable; searched "
+             "before ROS_PACKAGE_PATH, AMENT_PREFIX_PATH and the input's own workspace)",
+    )
+    parser.add_argument(
+        "--strict-xacro", action="store_true",
+        help="refuse macro calls without the 'xacro:' prefix (legacy xacro <= 1.13 dialect) "
+             "instead of expanding them with a warning",
+    )
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with usage errors as one line, like every other tfrec error (exit 2)."""
+
+    def error(self, message: str) -> NoReturn:
+        if message.startswith("unrecognized arguments") and ":=" in message:
+            message += " (xacro arguments name:=value go right after ROBOT)"
+        self.exit(2, f"{PROG}: error: {message} (see '{self.prog} --help')\n")
+
+
+def load_robot(ns: argparse.Namespace) -> Robot:
+    from tfrec.description import load_description, parse_xacro_args
+
+    return load_description(
+        ns.robot,
+        args=parse_xacro_args(ns.xacro_args),
+        package_paths=ns.package_path,
+        strict_xacro=ns.strict_xacro,
+    )
+
+
+def fmt(x: float) -> str:
+    return f"{x:.6g}"
+
+
+def number(x: float) -> str:
+    """A default in help texts, as a user would type it: ``1e-9``, not ``1e-09``."""
+    mantissa, _, exponent = f"{x:g}".partition("e")
+    return f"{mantissa}e{int(exponent)}" if exponent else mantissa
+
+
+class Progress:
+    """A progress bar on stderr, shown only on a terminal and once a recording takes over a second."""
+
+    def __init__(self, stream: TextIO, *, clock: Callable[[], float] | None = None) -> None:
+        import time
+
+        self._clock = time.monotonic if clock is None else clock
+        self._start = self._clock()
+        self._enabled = stream.isatty()
+        self._stream = stream
+        self._shown = False
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self._enabled or (not self._shown and self._clock() - self._start < 1.0):
+            return
+        self._shown = True
+        width = 30
+        filled = int(width * done / max(total, 1))
+        self._stream.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {100 * done // max(total, 1):3d}% "
+                           f"{done}/{total} samples")
+        self._stream.flush()
+
+    def close(self) -> None:
+        if self._shown:
+            self._stream.write("\n")
+            self._stream.flush()
+
+
+def start_time(text: str) -> int:
+    """argparse type of --start-time: decimal seconds since the epoch → exact integer nanoseconds."""
+    import decimal
+
+    try:
+        seconds = decimal.Decimal(text.strip())
+    except decimal.InvalidOperation:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number of seconds") from None
+    if not seconds.is_finite() or seconds < 0:
+        raise argparse.ArgumentTypeError(f"{text} is not a time since the epoch in seconds")
+    return int((seconds * NS_PER_S).to_integral_value(rounding=decimal.ROUND_HALF_EVEN))
+
+
+def tolerance(text: str) -> float:
+    """argparse type of the tolerances of diff and replay --check: a finite number >= 0."""
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"{text} is not a tolerance (a number >= 0)")
+    return value

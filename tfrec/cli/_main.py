@@ -1,0 +1,94 @@
+"""The ``tfrec`` command line: the only package that parses argv, prints and picks exit codes.
+
+Exit codes: 0 ok, 1 differences found, 2 user error (``tfrec: error: ...`` on stderr).
+Heavy libraries (xacro, numpy, rerun, rosbags, yourdfpy) are imported inside the handlers,
+so ``tfrec --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import signal
+import sys
+import warnings
+from collections.abc import Iterator, Sequence
+from typing import TextIO
+
+from tfrec import __version__
+from tfrec.cli._common import (
+    PROG,
+    Parser,
+)
+from tfrec.errors import TfrecError
+
+__all__ = ["main", "main_exit"]
+
+
+def _build_parser() -> argparse.ArgumentParser:
+    from tfrec.cli import _diff, _info, _inspect, _record, _replay
+
+    parser = Parser(
+        prog=PROG,
+        description="Record, replay and compare what a robot description does — headless, without ROS.",
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for command in (_inspect, _record, _info, _diff, _replay):
+        command.add_parser(sub)
+    return parser
+
+
+def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                  file: TextIO | None = None, line: str | None = None) -> None:
+    print(f"{PROG}: warning: {message}", file=sys.stderr)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit code."""
+    parser = _build_parser()
+    try:
+        ns = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse: --help, --version, or a usage error (exit 2)
+        return int(exc.code or 0)
+    with warnings.catch_warnings(), _terminate_as_interrupt():
+        warnings.simplefilter("default")
+        warnings.showwarning = _show_warning
+        try:
+            return int(ns.handler(ns))
+        except TfrecError as err:
+            print(f"{PROG}: error: {err}", file=sys.stderr)
+            return 2
+        except _Terminated:
+            print(f"{PROG}: terminated", file=sys.stderr)
+            return 143
+        except KeyboardInterrupt:
+            print(f"{PROG}: interrupted", file=sys.stderr)
+            return 130
+        except BrokenPipeError:
+            return 0
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM (``kill``, ``timeout``), raised like Ctrl-C so that outputs are cleaned up the same way."""
+
+
+@contextlib.contextmanager
+def _terminate_as_interrupt() -> Iterator[None]:
+    def handler(signum: int, frame: object) -> None:
+        raise _Terminated()
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def main_exit() -> None:
+    """Console-script entry point: ``sys.exit(main())``."""
+    sys.exit(main())

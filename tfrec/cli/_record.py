@@ -1,0 +1,122 @@
+"""``tfrec record``: drive the joints along a trajectory and record TF."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from collections.abc import Sequence
+from typing import Any
+
+from tfrec.cli._common import (
+    Progress,
+    add_robot_arguments,
+    load_robot,
+    start_time,
+)
+from tfrec.conventions import (
+    COMPRESSIONS,
+    DEFAULT_START_TIME_NS,
+    NS_PER_S,
+)
+from tfrec.errors import TrajectoryError
+
+__all__ = ["add_parser"]
+
+
+def add_parser(sub: Any) -> None:
+    """Add the subcommand to ``sub`` (argparse subparsers)."""
+    rec = sub.add_parser(
+        "record", help="drive the joints along a trajectory and record TF (MCAP, rosbag2, Rerun)",
+        description="What joint_state_publisher + robot_state_publisher + `ros2 bag record -s mcap` would "
+                    "record: /robot_description, /tf_static, /joint_states and /tf, as a ROS 2 MCAP file, "
+                    "plus a Rerun .rrd beside it.",
+    )
+    add_robot_arguments(rec)
+    traj = rec.add_argument_group("trajectory")
+    traj.add_argument("--traj", metavar="KIND", default="sine",
+                      help="center, random, sine, sweep, or a CSV file (time column in s + one column per "
+                           "joint) (default: sine)")
+    traj.add_argument("--duration", metavar="S", type=float, default=None, help="seconds (default 10)")
+    traj.add_argument("--rate", metavar="HZ", type=float, default=None, help="samples per second (default 50)")
+    traj.add_argument("--seed", metavar="N", type=int, default=0, help="seed of --traj random (default 0)")
+    traj.add_argument("--period", metavar="S", type=float, default=2.0,
+                      help="seconds between random waypoints (Randomize presses); sine periods; at least 1/rate "
+                           "(default 2)")
+    traj.add_argument("--amplitude", metavar="F", type=float, default=0.8,
+                      help="sine amplitude, a fraction of each joint's half-range (default 0.8)")
+    traj.add_argument("--set", metavar="JOINT=VALUE", action="append", default=[], dest="overrides",
+                      help="hold a joint at a value (repeatable), like joint_state_publisher's zeros")
+    traj.add_argument("--frame-prefix", metavar="P", default="",
+                      help="put P in front of every TF frame id, as robot_state_publisher's frame_prefix")
+    out = rec.add_argument_group("output")
+    out.add_argument("-o", "--output", metavar="OUT.mcap",
+                     help="MCAP file (default recordings/<robot>-<traj>-<YYYYmmdd-HHMMSS>.mcap)")
+    out.add_argument("--bag", metavar="DIR", help="write a rosbag2 folder (metadata.yaml + .mcap) instead")
+    out.add_argument("--rrd", metavar="OUT.rrd", help="Rerun recording (default: beside the MCAP, same stem)")
+    out.add_argument("--no-rrd", action="store_true", help="write no Rerun recording")
+    out.add_argument("--no-mcap", action="store_true", help="write no MCAP (only the .rrd)")
+    out.add_argument("--compression", choices=COMPRESSIONS, default="zstd",
+                     help="MCAP chunk compression (default zstd)")
+    out.add_argument("--start-time", metavar="S", type=start_time, default=None,
+                     help="stamp of the first sample, seconds since the Unix epoch "
+                          f"(default {DEFAULT_START_TIME_NS // NS_PER_S} = 2023-11-14T22:13:20Z, so runs are "
+                          "byte-identical)")
+    out.add_argument("--force", action="store_true", help="overwrite existing outputs")
+    rec.set_defaults(handler=_cmd_record)
+
+
+def _parse_overrides(items: Sequence[str]) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            sep = ""
+        if not sep or not name.strip():
+            raise TrajectoryError(f"--set '{item}' is not of the form joint=number")
+    return out
+
+
+def _cmd_record(ns: argparse.Namespace) -> int:
+    from tfrec.record import default_stem, plan_outputs, record
+    from tfrec.trajectory.generators import make_trajectory
+    from tfrec.trajectory.types import TrajectoryKind
+
+    start_ns = DEFAULT_START_TIME_NS if ns.start_time is None else ns.start_time
+    robot = load_robot(ns)
+    if ns.traj not in TrajectoryKind._value2member_map_ and (ns.duration is not None or ns.rate is not None):
+        warnings.warn(f"--duration and --rate do not apply to the CSV trajectory {ns.traj}: its own times are used",
+                      stacklevel=1)
+    trajectory = make_trajectory(
+        robot, ns.traj, duration_s=10.0 if ns.duration is None else ns.duration,
+        rate_hz=50.0 if ns.rate is None else ns.rate, seed=ns.seed, period_s=ns.period,
+        amplitude=ns.amplitude, overrides=_parse_overrides(ns.overrides),
+    )
+    plan = plan_outputs(stem=default_stem(robot, ns.traj), out=ns.output, rrd=ns.rrd, bag=ns.bag,
+                        no_mcap=ns.no_mcap, no_rrd=ns.no_rrd, force=ns.force)
+    progress = Progress(sys.stderr)
+    try:
+        result = record(robot, trajectory, plan, compression=ns.compression, start_time_ns=start_ns,
+                        frame_prefix=ns.frame_prefix, package_paths=ns.package_path, progress=progress)
+    finally:
+        progress.close()
+    seconds = (result.end_time_ns - result.start_time_ns) / NS_PER_S
+    print(f"recorded {robot.name}: {result.samples} samples over {seconds:g} s "
+          f"({len(trajectory.joint_names)} actuated joints, --traj {ns.traj})")
+    if plan.bag_dir is not None:
+        print(f"wrote {plan.bag_dir}/  (rosbag2: metadata.yaml + {plan.mcap.name if plan.mcap else ''})")
+    elif plan.mcap is not None:
+        print(f"wrote {plan.mcap}")
+    if plan.rrd is not None:
+        print(f"wrote {plan.rrd}")
+    hints = []
+    if plan.rrd is not None:
+        hints.append(f"rerun {plan.rrd}")
+    target = plan.bag_dir or plan.mcap
+    if target is not None:
+        hints.append(f"tfrec info {target}")
+    if hints:
+        print("open with: " + "   |   ".join(hints))
+    return 0

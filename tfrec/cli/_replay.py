@@ -1,0 +1,106 @@
+"""``tfrec replay``: play a recording back into Rerun, or re-simulate it (``--check``)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from tfrec.cli._common import (
+    number,
+    tolerance,
+)
+from tfrec.conventions import (
+    CHECK_POS_TOL,
+    CHECK_ROT_TOL,
+    NS_PER_S,
+    RECORDED_TOPICS,
+)
+
+__all__ = ["add_parser"]
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """The ``replay`` subcommand."""
+    rep: argparse.ArgumentParser = sub.add_parser(
+        "replay", help="play a recording back into Rerun, like ros2 bag play into RViz (or check it)",
+        description="Play /robot_description, /tf_static, /joint_states and /tf of a recording into the Rerun "
+                    "viewer in real time: tfrec's or ros2 bag's MCAP, a rosbag2 folder (mcap or sqlite3), a ROS 1 "
+                    ".bag, or an .rrd. Where /tf lacks a joint of the robot, its transforms are computed from "
+                    "/joint_states as robot_state_publisher does. With --check, re-simulate instead: recompute TF "
+                    "from the joint states and report how far the recorded TF is from it (exit 1 above tolerance).",
+    )
+    rep.add_argument("file", metavar="FILE", help="a .mcap file, a rosbag2 folder, a ROS 1 .bag or a .rrd")
+    model = rep.add_argument_group("robot model")
+    model.add_argument("--robot", metavar=("FILE", "name:=value"), nargs="+",
+                       help="use this .urdf/.xacro (with xacro arguments) instead of the recording's "
+                            "/robot_description")
+    model.add_argument("--package-path", metavar="DIR", action="append", default=[],
+                       help="a package, or a folder of packages, for $(find pkg) and package:// meshes (repeatable)")
+    model.add_argument("--strict-xacro", action="store_true",
+                       help="refuse macro calls without the 'xacro:' prefix in --robot")
+    where = rep.add_argument_group("where to (default: spawn the Rerun viewer)")
+    target = where.add_mutually_exclusive_group()
+    target.add_argument("--save", metavar="OUT.rrd", help="write a Rerun recording instead, as fast as possible")
+    target.add_argument("--connect", metavar="URL",
+                        help="stream to a running viewer, e.g. rerun+http://127.0.0.1:9876/proxy")
+    where.add_argument("--force", action="store_true", help="overwrite an existing --save file")
+    how = rep.add_argument_group("playback")
+    how.add_argument("--rate", metavar="F", type=float, default=1.0,
+                     help="speed factor of a live replay: 0.5 half speed, 2 twice as fast (default 1)")
+    how.add_argument("--loop", action="store_true", help="start again at the end, until Ctrl-C (live only)")
+    how.add_argument("--start", metavar="S", type=float, default=None,
+                     help="begin this many seconds after the recording's start (its first /joint_states or /tf "
+                          "stamp); latched data is re-emitted at the cut")
+    how.add_argument("--end", metavar="S", type=float, default=None,
+                     help="stop this many seconds after the recording's start")
+    how.add_argument("--topics", metavar="TOPIC", nargs="+",
+                     help=f"replay only these of {' '.join(RECORDED_TOPICS)}")
+    check = rep.add_argument_group("re-simulation")
+    check.add_argument("--check", action="store_true",
+                       help="recompute TF from /joint_states and the description and compare with the recorded "
+                            "TF, per frame; exit 1 above tolerance (replays too only with --save or --connect)")
+    check.add_argument("--pos-tol", metavar="M", type=tolerance, default=CHECK_POS_TOL,
+                       help=f"translation tolerance (default {number(CHECK_POS_TOL)})")
+    check.add_argument("--rot-tol", metavar="RAD", type=tolerance, default=CHECK_ROT_TOL,
+                       help=f"rotation tolerance (default {number(CHECK_ROT_TOL)})")
+    check.add_argument("--json", action="store_true", help="print the --check report as JSON")
+    rep.set_defaults(handler=_cmd_replay)
+    return rep
+
+
+def _cmd_replay(ns: argparse.Namespace) -> int:
+    from tfrec.replay.check import check_replay, format_check
+    from tfrec.replay.load import load_replay
+    from tfrec.replay.play import check_play_options, replay_to_rerun
+
+    live = not ns.check or ns.save is not None or ns.connect is not None
+    if live:
+        check_play_options(save=ns.save, connect=ns.connect, rate=ns.rate, loop=ns.loop, force=ns.force)
+    robot = None
+    if ns.robot:
+        from tfrec.description import load_description, parse_xacro_args
+
+        robot = load_description(ns.robot[0], args=parse_xacro_args(ns.robot[1:]), package_paths=ns.package_path,
+                                 strict_xacro=ns.strict_xacro)
+    replay = load_replay(ns.file, robot=robot, topics=ns.topics, start_s=ns.start, end_s=ns.end,
+                         need_robot=ns.check)
+    status = 0
+    if ns.check:
+        report = check_replay(replay, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol)
+        if ns.json:
+            json.dump(report.to_dict(), sys.stdout, indent=2)
+            sys.stdout.write("\n")
+        else:
+            sys.stdout.write(format_check(report))
+        status = 0 if report.passed else 1
+        if not live:
+            return status
+    replay_to_rerun(replay, save=ns.save, connect=ns.connect, rate=ns.rate, loop=ns.loop,
+                    package_paths=ns.package_path, force=ns.force, checked=True)
+    span = 0.0 if replay.start_ns is None or replay.end_ns is None else (replay.end_ns - replay.start_ns) / NS_PER_S
+    derived = f", {replay.derived_summary()}" if replay.derived else ""
+    print(f"replayed {ns.file}: {span:g} s{derived}" + (f"; wrote {ns.save}" if ns.save else ""),
+          file=sys.stdout if ns.save and not ns.json else sys.stderr)
+    return status

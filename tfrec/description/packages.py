@@ -1,0 +1,177 @@
+"""Finding ROS packages without ROS: what ``$(find pkg)`` and ``package://pkg/`` name.
+
+A package is a folder whose ``package.xml`` has that ``<name>``. Packages are searched in
+this order (first match wins):
+
+1. the ``--package-path`` folders (each a package or a folder of packages);
+2. ``ROS_PACKAGE_PATH`` (folders crawled like rospack does) and ``AMENT_PREFIX_PATH``
+   (``<prefix>/share/<pkg>``);
+3. the package enclosing the input file, and its sibling packages (the folder holding it,
+   and the ``src/`` folder of a catkin or colcon workspace above it).
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+import xml.etree.ElementTree as ET
+from collections.abc import Iterator, Mapping, Sequence
+from pathlib import Path
+from urllib.parse import unquote, urlparse
+
+from tfrec.errors import DescriptionError
+
+__all__ = ["PackageFinder", "package_name"]
+
+_MAX_DEPTH = 6  # how deep a folder of packages is crawled
+_SKIP_DIRS = {"node_modules", "__pycache__", "build", "install", "log", "devel"}
+
+
+def package_name(folder: Path) -> str | None:
+    """The ``<name>`` in ``folder/package.xml``, or None when it has none (or no such file)."""
+    manifest = folder / "package.xml"
+    if not manifest.is_file():
+        return None
+    try:
+        root = ET.parse(manifest).getroot()
+    except (ET.ParseError, OSError):
+        return None
+    name = root.findtext("name")
+    return name.strip() if name and name.strip() else None
+
+
+def _crawl(folder: Path, depth: int = 0) -> Iterator[tuple[str, Path]]:
+    """Yield (name, path) of the packages in folder: folder itself, or those below it."""
+    if not folder.is_dir():
+        return
+    name = package_name(folder)
+    if name is not None:
+        yield name, folder
+        return
+    if depth >= _MAX_DEPTH:
+        return
+    try:
+        entries = sorted(folder.iterdir())
+    except OSError:
+        return
+    for entry in entries:
+        if entry.name.startswith(".") or entry.name in _SKIP_DIRS:
+            continue
+        if entry.is_dir() and not (entry / "CATKIN_IGNORE").exists() and not (entry / "COLCON_IGNORE").exists():
+            yield from _crawl(entry, depth + 1)
+
+
+def _enclosing_package(path: Path) -> Path | None:
+    for folder in path.parents:
+        if package_name(folder) is not None:
+            return folder
+    return None
+
+
+class PackageFinder:
+    """Resolves package names to folders, from explicit paths, the environment and the input's place.
+
+    Args:
+        package_paths: ``--package-path`` folders, searched first.
+        near: the input file; its enclosing package and siblings are searched last.
+        environ: environment to read ``ROS_PACKAGE_PATH`` and ``AMENT_PREFIX_PATH`` from
+            (default ``os.environ``).
+    """
+
+    def __init__(
+        self,
+        package_paths: Sequence[str | os.PathLike[str]] = (),
+        *,
+        near: str | os.PathLike[str] | None = None,
+        environ: Mapping[str, str] | None = None,
+    ) -> None:
+        env = os.environ if environ is None else environ
+        self._explicit = [Path(p).expanduser().resolve() for p in package_paths]
+        # relative entries mean the working folder's, as for ROS tools (resolved now: xacro joins a
+        # relative include onto the including file's folder)
+        self._ros_package_path = [Path(p).expanduser().resolve()
+                                  for p in env.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
+        self._ament_prefixes = [Path(p).expanduser().resolve()
+                                for p in env.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
+        self._local: list[Path] = []
+        if near is not None:
+            enclosing = _enclosing_package(Path(near).resolve())
+            if enclosing is not None:
+                self._local.append(enclosing)
+                self._local.append(enclosing.parent)
+                for folder in enclosing.parents:
+                    if folder.name == "src":
+                        self._local.append(folder)
+                        break
+        self._cache: dict[str, Path] = {}
+        self._indexes: dict[Path, dict[str, Path]] = {}
+
+    def _index(self, folder: Path) -> dict[str, Path]:
+        if folder not in self._indexes:
+            index: dict[str, Path] = {}
+            for name, path in _crawl(folder):
+                if name in index:
+                    warnings.warn(f"package '{name}' is in {index[name]} and {path}; using {index[name]} "
+                                  "(the first in sorted order)", stacklevel=4)
+                    continue
+                index[name] = path
+            self._indexes[folder] = index
+        return self._indexes[folder]
+
+    def searched(self) -> list[str]:
+        """The places searched, in order, for error messages."""
+        places = [f"--package-path {p}" for p in self._explicit]
+        places += [f"ROS_PACKAGE_PATH {p}" for p in self._ros_package_path]
+        places += [f"AMENT_PREFIX_PATH {p}/share" for p in self._ament_prefixes]
+        places += [f"{p}" for p in self._local]
+        return places
+
+    def find(self, name: str) -> Path:
+        """The folder of package ``name``.
+
+        Raises:
+            DescriptionError: no package of that name in any searched place.
+        """
+        if name in self._cache:
+            return self._cache[name]
+        found = self._lookup(name)
+        if found is None:
+            places = self.searched()
+            where = "; ".join(places) if places else "no places (give --package-path DIR)"
+            raise DescriptionError(f"package '{name}' not found; searched: {where}")
+        self._cache[name] = found
+        return found
+
+    def _lookup(self, name: str) -> Path | None:
+        for folder in [*self._explicit, *self._ros_package_path]:
+            hit = self._index(folder).get(name)
+            if hit is not None:
+                return hit
+        for prefix in self._ament_prefixes:
+            share = prefix / "share" / name
+            if share.is_dir():
+                return share
+        for folder in self._local:
+            hit = self._index(folder).get(name)
+            if hit is not None:
+                return hit
+        return None
+
+    def resolve_uri(self, uri: str, *, relative_to: str | os.PathLike[str] | None = None) -> Path:
+        """The file a URDF resource name points to: ``package://``, ``file://`` or a path.
+
+        Relative paths resolve against ``relative_to``'s folder (the description file).
+
+        Raises:
+            DescriptionError: a ``package://`` URI naming an unknown package.
+        """
+        if uri.startswith("package://"):
+            rest = uri[len("package://"):]
+            pkg, _, sub = rest.partition("/")
+            return self.find(pkg) / unquote(sub)
+        if uri.startswith("file://"):
+            return Path(unquote(urlparse(uri).path))
+        path = Path(uri).expanduser()
+        if not path.is_absolute() and relative_to is not None:
+            path = Path(relative_to).resolve().parent / path
+        return path

@@ -1,0 +1,342 @@
+"""URDF text → :class:`tfrec.model.Robot`, with urdfdom's checks and a few more.
+
+Every failure is one :class:`DescriptionError` line naming the file, the line when the text
+is the user's own file, and the element: ``arm.urdf:42: joint 'elbow' names unknown parent
+link 'uper_arm'``.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+import xml.etree.ElementTree as ET
+import xml.parsers.expat
+from collections.abc import Callable
+
+from tfrec.errors import DescriptionError, display_path
+from tfrec.model import (
+    Box,
+    Cylinder,
+    Geometry,
+    Joint,
+    JointType,
+    Limit,
+    Link,
+    Material,
+    Mesh,
+    Mimic,
+    Pose,
+    Robot,
+    Sphere,
+    Visual,
+)
+
+__all__ = ["parse_urdf"]
+
+# Top-level elements a URDF may hold besides links and joints (read by other tools, ignored here).
+_OTHER_TOP_LEVEL = {"material", "transmission", "gazebo", "ros2_control", "sensor", "webots", "drake"}
+
+
+def _parse_xml(text: str, where: str) -> tuple[ET.Element, dict[int, int]]:
+    """Parse XML keeping each element's line number (ElementTree drops them)."""
+    builder = ET.TreeBuilder()
+    lines: dict[int, int] = {}
+    parser = xml.parsers.expat.ParserCreate()
+
+    def start(tag: str, attrs: dict[str, str]) -> None:
+        elem = builder.start(tag, attrs)
+        lines[id(elem)] = parser.CurrentLineNumber
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = builder.end
+    parser.CharacterDataHandler = builder.data
+    try:
+        parser.Parse(text.encode("utf-8") if isinstance(text, str) else text, True)
+    except xml.parsers.expat.ExpatError as err:
+        raise DescriptionError(
+            f"{where}:{err.lineno}:{err.offset}: malformed XML: {xml.parsers.expat.ErrorString(err.code)}"
+        ) from None
+    return builder.close(), lines
+
+
+class _Parser:
+    def __init__(self, where: str, lines: dict[int, int] | None) -> None:
+        self.where = where
+        self.lines = lines  # None: line numbers are not the user's (expanded xacro)
+
+    def fail(self, elem: ET.Element | None, message: str) -> DescriptionError:
+        line = self.lines.get(id(elem)) if (self.lines is not None and elem is not None) else None
+        return DescriptionError(f"{self.where}:{line}: {message}" if line else f"{self.where}: {message}")
+
+    def warn(self, elem: ET.Element | None, message: str) -> None:
+        warnings.warn(str(self.fail(elem, message)), stacklevel=4)
+
+    # ---- attribute readers -------------------------------------------------------------
+
+    def floats(self, elem: ET.Element, attr: str, count: int, what: str, default: tuple[float, ...] | None) -> tuple[float, ...]:
+        raw = elem.get(attr)
+        if raw is None:
+            if default is None:
+                raise self.fail(elem, f"{what} has no '{attr}'")
+            return default
+        try:
+            values = tuple(float(v) for v in raw.split())
+        except ValueError:
+            raise self.fail(elem, f"{what}: malformed {attr}=\"{raw}\" (expected {count} numbers)") from None
+        if len(values) != count or not all(math.isfinite(v) for v in values):
+            raise self.fail(elem, f"{what}: malformed {attr}=\"{raw}\" (expected {count} finite numbers)")
+        return values
+
+    def number(self, elem: ET.Element, attr: str, what: str, default: float | None = None) -> float:
+        return self.floats(elem, attr, 1, what, None if default is None else (default,))[0]
+
+    def pose(self, parent: ET.Element, what: str) -> Pose:
+        origin = parent.find("origin")
+        if origin is None:
+            return Pose()
+        xyz = self.floats(origin, "xyz", 3, f"{what} origin", (0.0, 0.0, 0.0))
+        rpy = self.floats(origin, "rpy", 3, f"{what} origin", (0.0, 0.0, 0.0))
+        return Pose(xyz=(xyz[0], xyz[1], xyz[2]), rpy=(rpy[0], rpy[1], rpy[2]))
+
+    # ---- elements ----------------------------------------------------------------------
+
+    def material(self, elem: ET.Element, what: str) -> Material:
+        name = elem.get("name", "")
+        color = elem.find("color")
+        rgba = None
+        if color is not None:
+            c = self.floats(color, "rgba", 4, f"{what} material '{name}' color", None)
+            rgba = (c[0], c[1], c[2], c[3])
+        texture = elem.find("texture")
+        return Material(name=name, rgba=rgba, texture=texture.get("filename") if texture is not None else None)
+
+    def geometry(self, visual: ET.Element, what: str) -> Geometry:
+        geometry = visual.find("geometry")
+        if geometry is None:
+            raise self.fail(visual, f"{what} has no <geometry>")
+        shapes = [child for child in geometry if isinstance(child.tag, str)]
+        if not shapes:
+            raise self.fail(geometry, f"{what} <geometry> is empty")
+        shape = shapes[0]
+        if shape.tag == "box":
+            s = self.floats(shape, "size", 3, f"{what} box", None)
+            return Box(size=(s[0], s[1], s[2]))
+        if shape.tag == "cylinder":
+            return Cylinder(
+                radius=self.number(shape, "radius", f"{what} cylinder"),
+                length=self.number(shape, "length", f"{what} cylinder"),
+            )
+        if shape.tag == "sphere":
+            return Sphere(radius=self.number(shape, "radius", f"{what} sphere"))
+        if shape.tag == "mesh":
+            filename = shape.get("filename")
+            if not filename:
+                raise self.fail(shape, f"{what} mesh has no filename")
+            s = self.floats(shape, "scale", 3, f"{what} mesh", (1.0, 1.0, 1.0))
+            return Mesh(filename=filename, scale=(s[0], s[1], s[2]))
+        raise self.fail(shape, f"{what} has unknown geometry <{shape.tag}>")
+
+    def link(self, elem: ET.Element, materials: dict[str, Material]) -> Link:
+        name = elem.get("name")
+        if not name:
+            raise self.fail(elem, "<link> has no name")
+        visuals = []
+        for index, visual in enumerate(elem.findall("visual")):
+            what = f"link '{name}' visual {index}"
+            geometry = self.geometry(visual, what)
+            material = None
+            mat = visual.find("material")
+            if mat is not None:
+                material = self.material(mat, what)
+                if material.rgba is None and material.texture is None:
+                    if material.name in materials:
+                        material = materials[material.name]
+                    else:
+                        self.warn(mat, f"{what} uses material '{material.name}', which is not defined")
+            visuals.append(Visual(geometry=geometry, origin=self.pose(visual, what), material=material,
+                                  name=visual.get("name")))
+        mass = None
+        inertial = elem.find("inertial")
+        if inertial is not None and inertial.find("mass") is not None:
+            mass = self.number(inertial.find("mass"), "value", f"link '{name}' mass")  # type: ignore[arg-type]
+        return Link(name=name, visuals=tuple(visuals), mass=mass)
+
+    def joint(self, elem: ET.Element) -> Joint:
+        name = elem.get("name")
+        if not name:
+            raise self.fail(elem, "<joint> has no name")
+        what = f"joint '{name}'"
+        raw_type = elem.get("type")
+        try:
+            jtype = JointType(raw_type)
+        except ValueError:
+            raise self.fail(elem, f"{what} has type '{raw_type}', not one of URDF's "
+                            + ", ".join(t.value for t in JointType)) from None
+        links = {}
+        for role in ("parent", "child"):
+            node = elem.find(role)
+            if node is None or not node.get("link"):
+                raise self.fail(elem, f"{what} has no <{role} link=...>")
+            links[role] = node.get("link", "")
+        axis: tuple[float, ...] = (1.0, 0.0, 0.0)
+        axis_elem = elem.find("axis")
+        if axis_elem is not None:
+            axis = self.floats(axis_elem, "xyz", 3, f"{what} axis", (1.0, 0.0, 0.0))
+        norm = math.sqrt(sum(a * a for a in axis))
+        if jtype in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC, JointType.PLANAR):
+            if not norm > 1e-12:
+                raise self.fail(axis_elem, f"{what} has a zero axis")
+            axis = tuple(a / norm for a in axis)
+        limit = None
+        limit_elem = elem.find("limit")
+        if limit_elem is not None:
+            limit = Limit(
+                lower=self.number(limit_elem, "lower", f"{what} limit", 0.0),
+                upper=self.number(limit_elem, "upper", f"{what} limit", 0.0),
+                effort=self.number(limit_elem, "effort", f"{what} limit", 0.0),
+                velocity=self.number(limit_elem, "velocity", f"{what} limit", 0.0),
+            )
+        if jtype in (JointType.REVOLUTE, JointType.PRISMATIC):
+            if limit is None:
+                raise self.fail(elem, f"{what} is {jtype.value} but has no <limit>")
+            if limit.lower > limit.upper:
+                raise self.fail(limit_elem, f"{what} has lower limit {limit.lower:g} above upper limit {limit.upper:g}")
+        mimic = None
+        mimic_elem = elem.find("mimic")
+        if mimic_elem is not None:
+            master = mimic_elem.get("joint")
+            if not master:
+                raise self.fail(mimic_elem, f"{what} <mimic> has no joint")
+            mimic = Mimic(
+                joint=master,
+                multiplier=self.number(mimic_elem, "multiplier", f"{what} mimic", 1.0),
+                offset=self.number(mimic_elem, "offset", f"{what} mimic", 0.0),
+            )
+        return Joint(
+            name=name, type=jtype, parent=links["parent"], child=links["child"],
+            origin=self.pose(elem, what), axis=(axis[0], axis[1], axis[2]), limit=limit, mimic=mimic,
+        )
+
+
+def parse_urdf(text: str, *, source: str | None = None, user_lines: bool = True) -> Robot:
+    """Build a validated :class:`Robot` from URDF text.
+
+    Args:
+        text: the URDF document.
+        source: the file it came from, for messages (and kept on the Robot).
+        user_lines: whether line numbers in ``text`` are the user's (False for expanded xacro).
+
+    Raises:
+        DescriptionError: malformed XML or an invalid robot, one line naming the element.
+    """
+    where = display_path(source) if source else "<urdf>"
+    root, lines = _parse_xml(text, where)
+    p = _Parser(where, lines if user_lines else None)
+    if root.tag != "robot":
+        raise p.fail(root, f"root element is <{root.tag}>, not <robot>")
+    name = root.get("name")
+    if not name:
+        raise p.fail(root, "<robot> has no name")
+
+    for elem in root.iter():
+        if ":" in elem.tag:
+            raise p.fail(elem, f"<{elem.tag}> is left over after xacro expansion (not URDF)")
+    materials: dict[str, Material] = {}
+    for elem in root:
+        if elem.tag not in ("link", "joint") and elem.tag not in _OTHER_TOP_LEVEL:
+            raise p.fail(elem, f"<{elem.tag}> is not a URDF element (an unexpanded macro call?)")
+        if elem.tag == "material":
+            material = p.material(elem, "robot")
+            if material.name in materials and materials[material.name] != material:
+                p.warn(elem, f"material '{material.name}' is defined twice; the first definition is used")
+            materials.setdefault(material.name, material)
+
+    links: list[Link] = []
+    joints: list[Joint] = []
+    link_elems: dict[str, ET.Element] = {}
+    joint_elems: dict[str, ET.Element] = {}
+    for elem in root.findall("link"):
+        link = p.link(elem, materials)
+        if link.name in link_elems:
+            raise p.fail(elem, f"duplicate link name '{link.name}'")
+        link_elems[link.name] = elem
+        links.append(link)
+    for elem in root.findall("joint"):
+        joint = p.joint(elem)
+        if joint.name in joint_elems:
+            raise p.fail(elem, f"duplicate joint name '{joint.name}'")
+        joint_elems[joint.name] = elem
+        joints.append(joint)
+
+    _check_tree(p, name, links, joints, joint_elems.__getitem__)
+    _check_mimic(p, joints, joint_elems.__getitem__)
+    for joint in joints:
+        if joint.type is JointType.PLANAR:
+            p.warn(joint_elems[joint.name], f"joint '{joint.name}' is planar: treated as fixed, "
+                   "as robot_state_publisher does")
+        elif joint.type is JointType.FLOATING:
+            p.warn(joint_elems[joint.name], f"joint '{joint.name}' is floating: it gets no transform, "
+                   "as robot_state_publisher does")
+    return Robot(name=name, links=tuple(links), joints=tuple(joints), urdf=text, source=source)
+
+
+def _check_tree(p: _Parser, robot: str, links: list[Link], joints: list[Joint],
+                elem_of: Callable[[str], ET.Element]) -> None:
+    if not links:
+        raise p.fail(None, f"robot '{robot}' has no links")
+    names = {link.name for link in links}
+    parent_of: dict[str, str] = {}
+    for joint in joints:
+        for role in ("parent", "child"):
+            link = getattr(joint, role)
+            if link not in names:
+                raise p.fail(elem_of(joint.name), f"joint '{joint.name}' names unknown {role} link '{link}'")
+        if joint.parent == joint.child:
+            raise p.fail(elem_of(joint.name), f"joint '{joint.name}' has link '{joint.child}' as both parent and child")
+        if joint.child in parent_of:
+            raise p.fail(elem_of(joint.name), f"link '{joint.child}' is the child of two joints: "
+                         f"'{parent_of[joint.child]}' and '{joint.name}'")
+        parent_of[joint.child] = joint.name
+    roots = [link.name for link in links if link.name not in parent_of]
+    if len(roots) > 1:
+        raise p.fail(None, f"robot '{robot}' has several root links: {', '.join(roots)} "
+                     "(every link but one must be a joint's child)")
+    if not roots:
+        raise p.fail(None, f"robot '{robot}' has no root link: its joints form a cycle")
+    joint_by_child = {joint.child: joint for joint in joints}
+    reached = {roots[0]}
+    frontier = [roots[0]]
+    children: dict[str, list[str]] = {}
+    for joint in joints:
+        children.setdefault(joint.parent, []).append(joint.child)
+    while frontier:
+        link = frontier.pop()
+        for child in children.get(link, []):
+            if child not in reached:
+                reached.add(child)
+                frontier.append(child)
+    unreached = [link.name for link in links if link.name not in reached]
+    if unreached:
+        order = {joint.name: i for i, joint in enumerate(joints)}
+        cycle = sorted((joint_by_child[name].name for name in unreached if name in joint_by_child), key=order.__getitem__)
+        raise p.fail(elem_of(cycle[0]) if cycle else None,
+                     f"joints {', '.join(repr(c) for c in cycle)} form a cycle (links "
+                     f"{', '.join(unreached)} are not reachable from root '{roots[0]}')")
+
+
+def _check_mimic(p: _Parser, joints: list[Joint], elem_of: Callable[[str], ET.Element]) -> None:
+    by_name = {joint.name: joint for joint in joints}
+    for joint in joints:
+        if joint.mimic is not None and joint.mimic.joint not in by_name:
+            raise p.fail(elem_of(joint.name), f"joint '{joint.name}' mimics unknown joint '{joint.mimic.joint}'")
+    for joint in joints:
+        if joint.mimic is None:
+            continue
+        seen = [joint.name]
+        current = by_name[joint.mimic.joint]
+        while current.mimic is not None:
+            if current.name in seen:
+                raise p.fail(elem_of(joint.name), "mimic joints form a cycle: "
+                             + " -> ".join([*seen[seen.index(current.name):], current.name]))
+            seen.append(current.name)
+            current = by_name[current.mimic.joint]

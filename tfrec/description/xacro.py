@@ -1,0 +1,211 @@
+"""Running the PyPI ``xacro`` 2.x library in-process, without ROS.
+
+Three things stock xacro does not do for us, done here for the duration of one expansion:
+
+* ``$(find pkg)`` goes to :class:`tfrec.packages.PackageFinder` instead of
+  ``ament_index_python`` (not on PyPI);
+* calls to defined macros written without the ``xacro:`` prefix (the dialect of
+  xacro <= 1.13, used by ROS Kinetic/Melodic course packages) are expanded, with one
+  warning naming them, or rejected with ``strict=True``. Stock xacro >= 1.14 copies them
+  to the output unexpanded, silently;
+* xacro's global file and include stacks are reset, its stderr chatter becomes Python
+  warnings, and its exceptions become one-line :class:`DescriptionError` naming the file.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import threading
+import warnings
+import xml.parsers.expat
+from collections.abc import Iterator, Mapping
+from typing import Any
+
+from tfrec.description.packages import PackageFinder
+from tfrec.errors import DescriptionError, display_path, one_line
+
+__all__ = ["expand_xacro"]
+
+_LOCK = threading.Lock()  # xacro keeps module-level state: one expansion at a time
+
+
+class _LegacyCall(Exception):
+    """Raised inside xacro for an un-prefixed macro call under strict mode."""
+
+
+@contextlib.contextmanager
+def _patched_xacro(finder: PackageFinder, *, strict: bool, legacy: list[tuple[str, str]]) -> Iterator[Any]:
+    import xacro
+    import xacro.substitution_args as subst
+
+    original_find = subst._eval_find
+    original_eval_find = subst._eval_dict.get("find")
+    original_handle = xacro.handle_macro_call
+
+    def find(pkg: str) -> str:
+        return str(finder.find(pkg))
+
+    def handle_macro_call(node: Any, macros: Any, symbols: Any) -> bool:
+        tag = node.tagName
+        if ":" not in tag and not _inside_foreign_block(node):
+            try:
+                _, _, macro = xacro.resolve_macro(tag, macros, symbols)
+            except KeyError:
+                macro = None  # not a macro: an ordinary element
+            if macro is not None and _fits(node, macro):
+                where = _call_site(xacro)
+                if strict:
+                    raise _LegacyCall(
+                        f"{display_path(where)}: macro call <{tag}> without the 'xacro:' prefix "
+                        f"(legacy xacro dialect refused by --strict-xacro; write <xacro:{tag} .../>)"
+                    )
+                legacy.append((tag, display_path(where)))
+                node.tagName = node.nodeName = "xacro:" + tag
+        return bool(original_handle(node, macros, symbols))
+
+    subst._eval_find = find
+    subst._eval_dict["find"] = find
+    xacro.handle_macro_call = handle_macro_call
+    try:
+        yield xacro
+    finally:
+        subst._eval_find = original_find
+        if original_eval_find is not None:
+            subst._eval_dict["find"] = original_eval_find
+        xacro.handle_macro_call = original_handle
+        xacro.init_stacks(None)
+        xacro.all_includes = []
+        xacro.substitution_args_context.clear()
+
+
+def expand_xacro(
+    path: str | os.PathLike[str],
+    *,
+    args: Mapping[str, str] | None = None,
+    finder: PackageFinder,
+    strict: bool = False,
+) -> str:
+    """Expand a xacro file to URDF text.
+
+    Args:
+        path: the ``.xacro`` / ``.urdf.xacro`` file.
+        args: xacro arguments (``name:=value`` on a command line), as strings.
+        finder: resolves ``$(find pkg)``.
+        strict: refuse legacy un-prefixed macro calls instead of expanding them.
+
+    Returns:
+        The expanded URDF document as text.
+
+    Raises:
+        DescriptionError: any xacro, XML or package error, naming the file.
+    """
+    mappings = {str(k): str(v) for k, v in (args or {}).items()}
+    legacy: list[tuple[str, str]] = []
+    chatter = io.StringIO()
+    with _LOCK, _patched_xacro(finder, strict=strict, legacy=legacy) as xacro:
+        filename = os.fspath(path)
+        try:
+            with contextlib.redirect_stderr(chatter):
+                xacro.init_stacks(filename)
+                doc = xacro.parse(None, filename)
+                xacro.process_doc(doc, mappings=mappings)
+        except RecursionError:
+            raise DescriptionError(
+                f"{display_path(filename)}: xacro recursion too deep: a file includes itself or a macro "
+                "calls itself without end"
+            ) from None
+        except _LegacyCall as err:
+            raise DescriptionError(str(err)) from None
+        except DescriptionError as err:  # from $(find): name the file that asked
+            raise DescriptionError(f"{_where(xacro, filename)}: {err}") from None
+        except xml.parsers.expat.ExpatError as err:
+            raise DescriptionError(
+                f"{_where(xacro, filename)}:{err.lineno}:{err.offset}: malformed XML: "
+                f"{xml.parsers.expat.ErrorString(err.code)}"
+            ) from None
+        except xacro.XacroException as err:
+            if isinstance(err.exc, DescriptionError):  # $(find) failed inside an expression
+                raise DescriptionError(f"{_where(xacro, filename)}: {err.exc}") from None
+            raise DescriptionError(f"{_where(xacro, filename)}: {_xacro_message(err)}") from None
+        except (NameError, TypeError, ValueError, ZeroDivisionError, SyntaxError, KeyError, IndexError) as err:
+            # xacro lets some evaluation errors through unwrapped
+            raise DescriptionError(f"{_where(xacro, filename)}: xacro: {err}") from None
+        except OSError as err:
+            raise DescriptionError(f"{_where(xacro, filename)}: {err.strerror or err}: {err.filename}") from None
+        text: str = doc.toprettyxml(indent="  ")
+    for line in chatter.getvalue().splitlines():
+        if line.strip():
+            warnings.warn(f"{display_path(filename)}: xacro: {line.strip()}", stacklevel=2)
+    if legacy:
+        names = sorted({name for name, _ in legacy})
+        files = sorted({where for _, where in legacy})
+        warnings.warn(
+            f"{', '.join(files)}: expanded legacy macro calls without the 'xacro:' prefix: "
+            f"{', '.join('<' + n + '>' for n in names)} (xacro >= 1.14 leaves them unexpanded; "
+            "--strict-xacro refuses them)",
+            stacklevel=2,
+        )
+    return text
+
+
+_FOREIGN_BLOCKS = frozenset({"gazebo", "ros2_control", "transmission"})
+"""Elements whose content is for other tools (SDF, controllers): never legacy macro calls."""
+
+
+def _inside_foreign_block(node: Any) -> bool:
+    parent = node.parentNode
+    while parent is not None and getattr(parent, "tagName", None) is not None:
+        if parent.tagName in _FOREIGN_BLOCKS:
+            return True
+        parent = parent.parentNode
+    return False
+
+
+def _fits(node: Any, macro: Any) -> bool:
+    """Whether an un-prefixed element can be a call of ``macro``, as xacro <= 1.13 would expand it.
+
+    Its attributes must be parameters of the macro, every parameter without a default must be
+    given, and its child elements must match the block parameters (``*name``, ``**name``) one to
+    one. An element that does not fit (a Gazebo ``<camera>`` with children beside a ``camera``
+    macro) is an ordinary element, left alone as xacro >= 1.14 does.
+    """
+    params = list(macro.params)
+    plain = {p for p in params if not p.startswith("*")}
+    blocks = [p for p in params if p.startswith("*")]
+    attributes = set(node.attributes.keys())
+    if not attributes <= plain:
+        return False
+    if any(p not in attributes and p not in macro.defaultmap for p in plain):
+        return False
+    children = [c for c in node.childNodes if c.nodeType == c.ELEMENT_NODE]
+    return len(children) == len(blocks)
+
+
+def _call_site(xacro: Any) -> str | None:
+    """The file holding the element being expanded: the current macro's, else the current file."""
+    if xacro.macrostack:
+        history = xacro.macrostack[-1].history
+        if history and history[-1] and history[-1][-1]:
+            return str(history[-1][-1])
+    return xacro.filestack[-1] if xacro.filestack else None
+
+
+def _where(xacro: Any, filename: str) -> str:
+    stack = [f for f in (xacro.filestack or []) if f]
+    return display_path(stack[-1] if stack else filename)
+
+
+def _xacro_message(err: Exception) -> str:
+    cause = getattr(err, "exc", None)
+    if isinstance(cause, OSError) and cause.filename:  # xacro appends the OSError to its own text of it
+        message = f"{cause.strerror or cause}: {cause.filename}"
+    else:
+        message = one_line(str(err))
+    macros = getattr(err, "macros", None)
+    if macros:
+        names = [m.body.getAttribute("name") for m in macros if getattr(m, "body", None) is not None]
+        if names:
+            message += f" (in macro {' < '.join(names)})"
+    return message

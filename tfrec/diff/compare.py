@@ -1,0 +1,413 @@
+"""``tfrec diff``: compare two recordings by meaning, not by bytes.
+
+:func:`compare` reads two recordings of any format (:func:`tfrec.readers.read_recording`) and
+compares the robot description as URDF (:mod:`tfrec.urdf_diff`), the topics (presence, message
+counts, time span), the joint positions per joint and the transforms per (parent, child) pair,
+static and dynamic. The result is a :class:`DiffReport`; :func:`assert_recordings_match` turns
+one into a failing test with the readable report.
+
+A /tf_static whose messages hold no transforms (tfrec records one for a robot without fixed
+joints; its ``.rrd`` has none) is the same as no /tf_static: the report's notes say so.
+
+Time: samples are aligned by time since each recording's start, so two recordings made at
+different wall-clock times compare; ``absolute=True`` aligns on the stamps. A recording's start
+(:func:`tfrec.resample.data_start_ns`) is the first stamp of its time series, /joint_states or /tf, whichever
+comes first — not its first message: a latched /robot_description or /tf_static published
+seconds before the data does not shift it. ``tfrec replay --start`` counts from the same start.
+Where A's times fall between B's samples, B is interpolated at A's times — linearly for joint
+positions and translations, by slerp for rotations — and the report says so (not when B merely
+has more samples or a longer span, its samples at A's times where both have data). A's samples
+outside B's time span have no counterpart and are reported as such.
+
+Errors: a translation error is the distance between the two translations (m); a rotation error
+is the angle of the relative rotation ``q_a⁻¹ q_b``, ``2·atan2(|v|, |w|)``
+(:func:`tfrec.rotations.rotation_error`, rad); a joint error is the absolute difference of the
+positions (rad or m).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import warnings
+from collections.abc import Collection, Iterable
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tfrec.conventions import DIFF_JOINT_TOL as DEFAULT_JOINT_TOL
+from tfrec.conventions import DIFF_POS_TOL as DEFAULT_POS_TOL
+from tfrec.conventions import DIFF_ROT_TOL as DEFAULT_ROT_TOL
+from tfrec.conventions import FLOAT32_TOL, JOINT_STATES, NS_PER_S, ROBOT_DESCRIPTION, TF, TF_STATIC
+from tfrec.diff.report import Difference, DiffReport, Largest, at_time, format_time
+from tfrec.errors import RecordingError
+from tfrec.formats._collect import decodes_type
+from tfrec.formats.reader import read_recording
+from tfrec.kinematics.rotations import rotation_error
+from tfrec.recording import FrameSeries, Recording
+from tfrec.resample import Alignment, align, data_start_ns
+
+__all__ = [
+    "DEFAULT_JOINT_TOL",
+    "DEFAULT_POS_TOL",
+    "DEFAULT_ROT_TOL",
+    "FLOAT32_TOL",
+    "DiffReport",
+    "Difference",
+    "assert_recordings_match",
+    "compare",
+    "data_start_ns",
+    "rotation_error",
+]
+
+Array = NDArray[np.float64]
+
+
+def _num(x: float) -> str:
+    return f"{x:.3g}"
+
+
+def _rate(time_ns: NDArray[np.int64]) -> str:
+    if len(time_ns) < 2 or time_ns[-1] == time_ns[0]:
+        return f"{len(time_ns)} samples"
+    return f"{(len(time_ns) - 1) / ((time_ns[-1] - time_ns[0]) / NS_PER_S):.4g} Hz"
+
+
+class _Comparison:
+    def __init__(self, a: Recording, b: Recording, report: DiffReport, topics: Collection[str] | None,
+                 absolute: bool) -> None:
+        self.a, self.b, self.report = a, b, report
+        self.topics = topics
+        self.absolute = absolute
+        self.pos_tol = report.tolerances["pos_tol"]
+        self.rot_tol = report.tolerances["rot_tol"]
+        self.joint_tol = report.tolerances["joint_tol"]
+        self.interpolated: dict[str, list[str]] = {}  # "(A 50 Hz, B 100 Hz)" → what
+        self.origin_a = 0 if absolute else data_start_ns(a) or 0
+        self.origin_b = 0 if absolute else data_start_ns(b) or 0
+
+    def wants(self, topic: str) -> bool:
+        return self.topics is None or topic in self.topics
+
+    def diff(self, kind: str, what: str, detail: str, time_ns: int | None = None, value: float | None = None) -> None:
+        self.report.differences.append(Difference(kind, what, detail, time_ns, value))
+
+    def origin(self, rec: Recording) -> int:
+        return self.origin_a if rec is self.a else self.origin_b
+
+    def largest(self, quantity: str, value: float, what: str, time_ns: int | None) -> None:
+        current = self.report.largest.get(quantity)
+        if current is None or value > current.value:
+            self.report.largest[quantity] = Largest(value, what, time_ns)
+
+    # -- the robot description ----------------------------------------------------------------
+
+    def description(self) -> None:
+        if not self.wants(ROBOT_DESCRIPTION):
+            return
+        da, db = self.a.robot_description, self.b.robot_description
+        for rec, other in ((self.a, self.b), (self.b, self.a)):
+            if rec.robot_description is None and other.robot_description is not None and rec.format == "rrd":
+                self.report.notes.append(
+                    f"the robot description is not in {rec.path} (an .rrd without /robot_description)"
+                )
+        if da is None or db is None:
+            return  # a missing /robot_description topic is reported with the topics
+        from tfrec.diff.urdf import diff_urdf_texts
+
+        changes = diff_urdf_texts(da, db, pos_tol=self.pos_tol, rot_tol=self.rot_tol, value_tol=self.joint_tol)
+        for change in changes:
+            self.diff("description", change.what, change.detail)
+        if not changes and da != db:
+            self.report.notes.append(
+                "the robot descriptions differ as text but not in anything tfrec compares "
+                "(names, links, joints, visuals)"
+            )
+
+    # -- topics -------------------------------------------------------------------------------
+
+    def topic_table(self) -> None:
+        a, b = self.a, self.b
+        names = sorted(set(a.topics) | set(b.topics))
+        ros_types = "rrd" not in (a.format, b.format)
+        for name in names:
+            if not self.wants(name):
+                continue
+            ia, ib = a.topics.get(name), b.topics.get(name)
+            if ia is None or ib is None:
+                side, info, rec = ("A", ia, a) if ib is None else ("B", ib, b)
+                assert info is not None
+                if name == TF_STATIC and not rec.tf_static and decodes_type(name, info.type):
+                    self.report.notes.append(
+                        f"{name} only in {side}, whose {info.count} message{'s' if info.count != 1 else ''} "
+                        f"hold{'s' if info.count == 1 else ''} no transforms: the same as no {name}"
+                    )
+                    continue
+                self.diff("topic", name, f"{name} only in {side} ({info.count} messages of {info.type})")
+                continue
+            if ros_types and ia.type.replace("/msg/", "/") != ib.type.replace("/msg/", "/"):
+                self.diff("topic", name, f"{name}: type {ia.type} in A, {ib.type} in B")
+            if ia.count != ib.count:
+                self.diff("topic", name, f"{name}: {ia.count} messages in A, {ib.count} in B")
+            if None not in (ia.first_ns, ia.last_ns, ib.first_ns, ib.last_ns):
+                span_a = (ia.first_ns - self.origin(a), ia.last_ns - self.origin(a))  # type: ignore[operator]
+                span_b = (ib.first_ns - self.origin(b), ib.last_ns - self.origin(b))  # type: ignore[operator]
+                if span_a != span_b:
+                    self.diff(
+                        "topic", name,
+                        f"{name}: messages from t={format_time(span_a[0])} to {format_time(span_a[1])} s in A, "
+                        f"from t={format_time(span_b[0])} to {format_time(span_b[1])} s in B",
+                    )
+
+    # -- samples ------------------------------------------------------------------------------
+
+    def coverage(self, kind: str, what: str, ta: NDArray[np.int64], alignment: Alignment) -> None:
+        missing = ~alignment.inside
+        if missing.any():
+            times = ta[missing]
+            self.diff(
+                kind, what,
+                f"{what}: {int(missing.sum())} sample(s) of A from t={format_time(int(times[0]))} "
+                f"to {format_time(int(times[-1]))} s have no data in B",
+                int(times[0]),
+            )
+        if alignment.outside:
+            self.diff(kind, what,
+                      f"{what}: {alignment.outside} sample(s) of B lie outside A's time span (no data in A)")
+
+    def errors(self, kind: str, what: str, quantity: str, unit: str, tol: float, error: Array,
+               times: NDArray[np.int64]) -> None:
+        """Report the largest error and when it first exceeds ``tol``."""
+        if len(error) == 0:
+            return
+        worst = int(np.argmax(error))
+        value = float(error[worst])
+        self.largest(quantity, value, what, int(times[worst]))
+        over = error > tol
+        if not over.any():
+            return
+        first = int(np.argmax(over))
+        unit = f" {unit}" if unit else ""
+        if math.isinf(value):
+            missing = np.isinf(error)
+            detail = (
+                f"{what}: {quantity} in one recording only (NaN in the other) in {int(missing.sum())} of "
+                f"{len(error)} samples, first{at_time(int(times[int(np.argmax(missing))]))}"
+            )
+            finite = error[~missing]
+            if finite.size and finite.max() > tol:
+                detail += f"; elsewhere it differs by up to {_num(float(finite.max()))}{unit}"
+        else:
+            detail = (
+                f"{what}: {quantity} differs by up to {_num(value)}{unit}{at_time(int(times[worst]))}; "
+                f"first above {tol:g}{unit}{at_time(int(times[first]))}"
+                f" ({int(over.sum())} of {len(error)} samples)"
+            )
+        self.diff(kind, what, detail, int(times[first]), value)
+
+    def note_interpolation(self, what: str, ta: NDArray[np.int64], tb: NDArray[np.int64]) -> None:
+        self.interpolated.setdefault(f"A {_rate(ta)}, B {_rate(tb)}", []).append(what)
+
+    def joint_states(self) -> None:
+        ja, jb = self.a.joint_states, self.b.joint_states
+        if not self.wants(JOINT_STATES) or ja is None or jb is None:
+            return
+        for name in ja.names:
+            if name not in jb.names:
+                self.diff("joint_states", f"joint '{name}'", f"joint '{name}' only in A's /joint_states")
+        for name in jb.names:
+            if name not in ja.names:
+                self.diff("joint_states", f"joint '{name}'", f"joint '{name}' only in B's /joint_states")
+        common = [name for name in ja.names if name in jb.names]
+        ta = ja.time_ns - self.origin(self.a)
+        tb = jb.time_ns - self.origin(self.b)
+        alignment = align(ta, tb)
+        if alignment.interpolates:
+            self.note_interpolation("/joint_states", ta, tb)
+        self.coverage("joint_states", "/joint_states", ta, alignment)
+        if not common or not alignment.inside.any():
+            return
+        cols_a = [ja.names.index(name) for name in common]
+        cols_b = [jb.names.index(name) for name in common]
+        pa = ja.positions[:, cols_a][alignment.inside]
+        pb = alignment.linear(jb.positions[:, cols_b])
+        nan_a, nan_b = np.isnan(pa), np.isnan(pb)
+        error = np.where(nan_a & nan_b, 0.0, np.where(nan_a | nan_b, np.inf, np.abs(pa - pb)))
+        times = ta[alignment.inside]
+        for j, name in enumerate(common):
+            self.errors("joint_states", f"joint '{name}'", "joint position", "", self.joint_tol, error[:, j], times)
+
+    def transforms(self) -> None:
+        a, b = self.a, self.b
+        want_tf, want_static = self.wants(TF), self.wants(TF_STATIC)
+        pairs_a = {pair: "tf" for pair in a.tf if want_tf} | {pair: "tf_static" for pair in a.tf_static if want_static}
+        pairs_b = {pair: "tf" for pair in b.tf if want_tf} | {pair: "tf_static" for pair in b.tf_static if want_static}
+        parents_b = {child: parent for parent, child in pairs_b}
+        parents_a = {child: parent for parent, child in pairs_a}
+        for pair, where in pairs_a.items():
+            label = _pair(pair)
+            other = pairs_b.get(pair)
+            if other is None:
+                parent, child = pair
+                if child in parents_b:
+                    self.diff("frame", f"frame '{child}'",
+                              f"frame '{child}': parent '{parent}' in A, '{parents_b[child]}' in B")
+                else:
+                    self.diff("frame", label, f"{label} only in A (/{where})")
+            elif other != where:
+                self.diff("frame", label, f"{label}: on /{where} in A, on /{other} in B")
+            elif where == "tf":
+                self.frame_series(label, a.tf[pair], b.tf[pair])
+            else:
+                self.static_pair(label, a.tf_static[pair], b.tf_static[pair])
+        for pair, where in pairs_b.items():
+            if pair not in pairs_a and pair[1] not in parents_a:
+                label = _pair(pair)
+                self.diff("frame", label, f"{label} only in B (/{where})")
+
+    def frame_series(self, label: str, sa: FrameSeries, sb: FrameSeries) -> None:
+        ta = sa.time_ns - self.origin(self.a)
+        tb = sb.time_ns - self.origin(self.b)
+        alignment = align(ta, tb)
+        if alignment.interpolates:
+            self.note_interpolation(f"/tf {label}", ta, tb)
+        self.coverage("tf", label, ta, alignment)
+        if not alignment.inside.any():
+            return
+        times = ta[alignment.inside]
+        translation_a = sa.translation[alignment.inside]
+        rotation_a = sa.rotation[alignment.inside]
+        trans = np.linalg.norm(translation_a - alignment.linear(sb.translation), axis=1)
+        rot = rotation_error(rotation_a, alignment.rotations(sb.rotation))
+        self.errors("tf", label, "translation", "m", self.pos_tol, _nan_is_inf(trans), times)
+        self.errors("tf", label, "rotation", "rad", self.rot_tol, _nan_is_inf(rot), times)
+
+    def static_pair(self, label: str, va: tuple[Array, Array], vb: tuple[Array, Array]) -> None:
+        trans = float(np.linalg.norm(va[0] - vb[0]))
+        rot = float(rotation_error(va[1], vb[1]))
+        for quantity, unit, tol, value in (("translation", "m", self.pos_tol, trans),
+                                           ("rotation", "rad", self.rot_tol, rot)):
+            self.largest(quantity, value, label, None)
+            if not value <= tol:
+                self.diff("tf_static", label, f"{label}: {quantity} differs by {_num(value)} {unit}", None, value)
+
+
+def _nan_is_inf(error: Array) -> Array:
+    return np.where(np.isnan(error), np.inf, error)
+
+
+def _pair(pair: tuple[str, str]) -> str:
+    return f"{pair[0]} → {pair[1]}"
+
+
+def _check_tolerance(name: str, value: float) -> float:
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    return float(value)
+
+
+def compare(
+    a: Recording | str | os.PathLike[str],
+    b: Recording | str | os.PathLike[str],
+    *,
+    pos_tol: float = DEFAULT_POS_TOL,
+    rot_tol: float = DEFAULT_ROT_TOL,
+    joint_tol: float = DEFAULT_JOINT_TOL,
+    topics: Iterable[str] | None = None,
+    absolute: bool = False,
+) -> DiffReport:
+    """Compare two recordings by meaning.
+
+    Args:
+        a, b: recordings, or paths to read (:func:`tfrec.readers.read_recording`).
+        pos_tol: metres: the largest translation error that counts as equal.
+        rot_tol: radians: the largest rotation angle that counts as equal.
+        joint_tol: the largest joint position difference (rad or m) that counts as equal;
+            also used for other numbers of the robot description (limits, mimic factors).
+        topics: compare only these topics (default: all); each must be in A or B.
+        absolute: align samples on their stamps instead of the time since each start
+            (:func:`tfrec.resample.data_start_ns`).
+
+    Returns:
+        The report; ``report.equal`` is False when anything differs beyond tolerance.
+
+    Raises:
+        RecordingError: a path that cannot be read as a recording, or a topic of ``topics``
+            that is in neither recording.
+        ValueError: a negative or non-finite tolerance.
+    """
+    tolerances = {
+        "pos_tol": _check_tolerance("pos_tol", pos_tol),
+        "rot_tol": _check_tolerance("rot_tol", rot_tol),
+        "joint_tol": _check_tolerance("joint_tol", joint_tol),
+    }
+    wanted = None if topics is None else frozenset(topics)
+    # the time series are read whatever the topics, for each recording's start (data_start_ns)
+    decoded = wanted if wanted is None or absolute else wanted | {JOINT_STATES, TF}
+    rec_a = a if isinstance(a, Recording) else read_recording(a, topics=decoded)
+    rec_b = b if isinstance(b, Recording) else read_recording(b, topics=decoded)
+    if wanted is not None:
+        absent = sorted(topic for topic in wanted if topic not in rec_a.topics and topic not in rec_b.topics)
+        if absent:
+            raise RecordingError(
+                f"--topics {' '.join(absent)}: in neither {rec_a.path} nor {rec_b.path} "
+                f"(their topics: {', '.join(sorted(set(rec_a.topics) | set(rec_b.topics))) or 'none'})"
+            )
+    report = DiffReport(rec_a, rec_b, tolerances=tolerances, absolute=absolute)
+    for rec in (rec_a, rec_b):
+        if rec.read_error is not None:
+            warnings.warn(rec.read_error, stacklevel=2)
+            report.notes.append(f"damaged file, compared as far as readable: {rec.read_error}")
+    cmp = _Comparison(rec_a, rec_b, report, wanted, absolute)
+    if not absolute:
+        report.origins = (cmp.origin_a, cmp.origin_b)
+    cmp.description()
+    cmp.topic_table()
+    cmp.joint_states()
+    cmp.transforms()
+    if cmp.interpolated:
+        groups = []
+        for rates, whats in cmp.interpolated.items():
+            pairs = [w for w in whats if w.startswith("/tf ")]
+            named = [w for w in whats if not w.startswith("/tf ")]
+            if len(pairs) > 2:
+                named.append(f"{len(pairs)} /tf frame pairs")
+            else:
+                named.extend(pairs)
+            groups.append(f"{' and '.join(named)} ({rates})")
+        report.notes.append(
+            "some of A's times fall between B's samples, so B was interpolated at A's times (linear for joint "
+            f"positions and translations, slerp for rotations): {'; '.join(groups)}"
+        )
+    float32 = [rec.path for rec in (rec_a, rec_b) if rec.float32]
+    if float32 and min(tolerances["pos_tol"], tolerances["rot_tol"]) < 1e-6:
+        report.notes.append(
+            f"{' and '.join(float32)} store{'s' if len(float32) == 1 else ''} transforms as float32: "
+            f"rounding alone differs by up to ~1e-7; compare with --pos-tol {FLOAT32_TOL:g} --rot-tol {FLOAT32_TOL:g}"
+        )
+    return report
+
+
+def assert_recordings_match(
+    a: Recording | str | os.PathLike[str],
+    b: Recording | str | os.PathLike[str],
+    **options: Any,
+) -> DiffReport:
+    """Fail a test, with the readable report, unless the recordings match.
+
+    Args:
+        a, b: recordings or paths.
+        **options: :func:`compare`'s keyword arguments (tolerances, topics, absolute).
+
+    Returns:
+        The report, when the recordings match.
+
+    Raises:
+        AssertionError: the recordings differ; the message is :meth:`DiffReport.to_text`.
+    """
+    __tracebackhide__ = True  # pytest: show the report, not this frame
+    report = compare(a, b, **options)
+    if not report.equal:
+        raise AssertionError("recordings differ: " + report.to_text())
+    return report

@@ -1,0 +1,6 @@
+"""ROS messages as bytes: vectorized CDR encoding (:mod:`.cdr`), bulk decoding (:mod:`.decode`) and
+rosbags' type stores and deserializers (:mod:`.types`)."""
+
+from __future__ import annotations
+
+__all__ = ["cdr", "decode", "types"]

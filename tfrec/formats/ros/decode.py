@@ -1,0 +1,408 @@
+"""Decoding the messages tfrec reads back — JointState, TFMessage — in bulk, with numpy.
+
+A publisher like joint_state_publisher or robot_state_publisher sends the same joint or frame
+names in every message, so every message has the same byte layout: only the stamps and the
+float64 values change. :func:`message_layout` walks one message (CDR as ROS 2 writes it, or
+ROS 1 serialization) and records where those variable fields sit; a batch of messages of that
+length whose other bytes all equal the template is then decoded as one (N, size) uint8 array,
+one numpy slice per field. Any other message (different names, a different layout) goes
+through a per-message deserializer supplied by the caller (rosbags'), so nothing is lost.
+
+Pure numpy, with the CDR rules of :mod:`tfrec.cdr`: the readers supply the bytes and the fallback
+deserializer.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tfrec.formats.ros.cdr import CDR_HEADER, align, ns_from_stamps
+
+__all__ = [
+    "JointStateAccumulator",
+    "MessageLayout",
+    "TFAccumulator",
+    "message_layout",
+    "stamp_ns",
+    "transforms_of",
+]
+
+Array = NDArray[np.float64]
+Deserialize = Callable[[bytes], Any]
+
+
+@dataclass(frozen=True, slots=True)
+class MessageLayout:
+    """Where the variable fields of one fixed-layout message sit.
+
+    Attributes:
+        size: bytes per message.
+        fixed: byte ranges [start, stop) that every message of this layout repeats exactly.
+        stamps: offset of each header stamp (sec, then nanosec, 4 bytes each).
+        floats: offset of each block of float64 values (7 per transform; J positions).
+        names: frame pairs (parent, child) of a TFMessage, or joint names of a JointState.
+        ros1: ROS 1 serialization (unsigned seconds) rather than CDR (signed).
+        template: the message the layout was learnt from.
+    """
+
+    size: int
+    fixed: tuple[tuple[int, int], ...]
+    stamps: tuple[int, ...]
+    floats: tuple[int, ...]
+    names: tuple[Any, ...]
+    ros1: bool
+    template: NDArray[np.uint8]
+
+
+class _Walker:
+    """Reads one message, noting the byte ranges whose contents vary between messages."""
+
+    def __init__(self, data: bytes, *, ros1: bool) -> None:
+        self.data = data
+        self.ros1 = ros1
+        if not ros1 and data[: len(CDR_HEADER)] != CDR_HEADER:
+            raise ValueError("not little-endian CDR")
+        self.base = 0 if ros1 else len(CDR_HEADER)
+        self.pos = self.base
+        self.variable: list[tuple[int, int]] = []
+
+    def _take(self, size: int) -> int:
+        start = self.pos
+        if start + size > len(self.data):
+            raise ValueError("message too short")
+        self.pos += size
+        return start
+
+    def align(self, size: int) -> None:
+        if not self.ros1:
+            self.pos = self.base + align(self.pos - self.base, size)
+
+    def uint32(self) -> int:
+        self.align(4)
+        start = self._take(4)
+        return int.from_bytes(self.data[start : start + 4], "little")
+
+    def string(self) -> str:
+        length = self.uint32()
+        start = self._take(length)
+        raw = self.data[start : start + length]
+        if not self.ros1:
+            if not raw.endswith(b"\0"):
+                raise ValueError("CDR string without NUL")
+            raw = raw[:-1]
+        return raw.decode("utf-8")
+
+    def header(self) -> tuple[int, str]:
+        """A std_msgs/Header; returns the offset of its stamp and its frame_id."""
+        if self.ros1:  # uint32 seq, varies per message
+            self.variable.append((self._take(4), self.pos))
+        self.align(4)
+        stamp = self._take(8)
+        self.variable.append((stamp, self.pos))
+        return stamp, self.string()
+
+    def float64s(self, count: int) -> int:
+        if count:
+            self.align(8)
+        start = self._take(8 * count)
+        self.variable.append((start, self.pos))
+        return start
+
+    def layout(self, stamps: list[int], floats: list[int], names: list[Any]) -> MessageLayout:
+        fixed: list[tuple[int, int]] = []
+        cursor = 0
+        for start, stop in self.variable:
+            if start > cursor:
+                fixed.append((cursor, start))
+            cursor = stop
+        if cursor < len(self.data):
+            fixed.append((cursor, len(self.data)))
+        return MessageLayout(len(self.data), tuple(fixed), tuple(stamps), tuple(floats), tuple(names), self.ros1,
+                             np.frombuffer(self.data, dtype=np.uint8))
+
+
+def message_layout(kind: str, data: bytes | memoryview, *, ros1: bool) -> MessageLayout:
+    """The layout of one ``TFMessage`` (kind ``"tf"``) or ``JointState`` (kind ``"joint_states"``).
+
+    Raises:
+        ValueError: the bytes are not such a message (or not little-endian CDR).
+    """
+    walker = _Walker(bytes(data), ros1=ros1)
+    stamps: list[int] = []
+    floats: list[int] = []
+    names: list[Any] = []
+    if kind == "tf":
+        for _ in range(walker.uint32()):
+            stamp, parent = walker.header()
+            stamps.append(stamp)
+            child = walker.string()
+            names.append((parent, child))
+            floats.append(walker.float64s(7))
+    elif kind == "joint_states":
+        stamps.append(walker.header()[0])
+        names.extend(walker.string() for _ in range(walker.uint32()))
+        for _ in range(3):  # position, velocity, effort
+            count = walker.uint32()
+            floats.append(walker.float64s(count) if count == len(names) else -1)
+            if count != len(names):
+                walker.float64s(count)
+    else:
+        raise ValueError(f"unknown message kind {kind!r}")
+    if len(walker.data) - walker.pos >= 4:  # CDR may pad to 4 bytes; more is not this message
+        raise ValueError("trailing bytes")
+    return walker.layout(stamps, floats, names)
+
+
+def stamp_ns(stamp: Any) -> int:
+    """Nanoseconds of a deserialized builtin_interfaces/Time (or ROS 1 time)."""
+    return ns_from_stamps(int(stamp.sec), int(stamp.nanosec))
+
+
+def _rows(datas: Sequence[bytes | memoryview], size: int) -> NDArray[np.uint8]:
+    return np.frombuffer(b"".join(datas), dtype=np.uint8).reshape(len(datas), size)
+
+
+def _split(
+    layout: MessageLayout | None, datas: Sequence[bytes | memoryview]
+) -> tuple[NDArray[np.uint8] | None, NDArray[np.intp], list[int]]:
+    """Rows of the messages that match ``layout``, their indices, and the indices of the rest."""
+    if layout is None or not datas:
+        return None, np.zeros(0, dtype=np.intp), list(range(len(datas)))
+    lengths = np.fromiter(map(len, datas), dtype=np.int64, count=len(datas))
+    same = np.flatnonzero(lengths == layout.size)
+    if len(same) == len(datas):
+        rows = _rows(datas, layout.size)
+    else:
+        rows = _rows([datas[i] for i in same.tolist()], layout.size)
+    ok = np.ones(len(rows), dtype=bool)
+    for start, stop in layout.fixed:
+        ok &= (rows[:, start:stop] == layout.template[start:stop]).all(axis=1)
+    good = same[ok]
+    if len(good) == len(datas):
+        return rows, good, []
+    others = np.ones(len(datas), dtype=bool)
+    others[good] = False
+    return rows[ok], good, np.flatnonzero(others).tolist()
+
+
+def _stamps(rows: NDArray[np.uint8], offset: int, ros1: bool) -> NDArray[np.int64]:
+    raw = np.ascontiguousarray(rows[:, offset : offset + 8]).view("<u4")
+    sec = raw[:, 0].astype(np.int64) if ros1 else raw[:, 0].view("<i4").astype(np.int64)
+    return ns_from_stamps(sec, raw[:, 1].astype(np.int64))
+
+
+def _float_block(rows: NDArray[np.uint8], offset: int, count: int) -> Array:
+    return np.ascontiguousarray(rows[:, offset : offset + 8 * count]).view("<f8").astype(np.float64, copy=False)
+
+
+class _Accumulator:
+    """Shared: learning the layout from the first message and validating it."""
+
+    kind = ""
+
+    def __init__(self, deserialize: Deserialize, *, ros1: bool) -> None:
+        self.deserialize = deserialize
+        self.ros1 = ros1
+        self.layout: MessageLayout | None = None
+        self._tried = False
+        self.messages = 0
+
+    def _learn(self, data: bytes | memoryview) -> None:
+        """Take the layout of ``data`` when it decodes as rosbags decodes it; else keep the old one."""
+        self._tried = True
+        try:
+            layout = message_layout(self.kind, data, ros1=self.ros1)
+        except (ValueError, UnicodeDecodeError):
+            return
+        if self._check(layout, data):
+            self.layout = layout
+
+    def _check(self, layout: MessageLayout, data: bytes | memoryview) -> bool:
+        raise NotImplementedError
+
+    def add(self, datas: Sequence[bytes | memoryview]) -> None:
+        """Decode a batch of raw messages (in order)."""
+        if not datas:
+            return
+        self.messages += len(datas)
+        if not self._tried:
+            self._learn(datas[0])
+        rows, _, rest = _split(self.layout, datas)
+        if rows is not None and len(rows):
+            self._add_rows(rows)
+        if len(rest) * 2 > len(datas):  # most messages have another layout (or the first was odd): learn it
+            previous = self.layout
+            self._learn(datas[rest[len(rest) // 2]])
+            if self.layout is not previous:
+                rows, _, still = _split(self.layout, [datas[i] for i in rest])
+                if rows is not None and len(rows):
+                    self._add_rows(rows)
+                rest = [rest[i] for i in still]
+        for i in rest:
+            self._add_message(self.deserialize(bytes(datas[i])))
+
+    def _add_rows(self, rows: NDArray[np.uint8]) -> None:
+        raise NotImplementedError
+
+    def _add_message(self, msg: Any) -> None:
+        raise NotImplementedError
+
+
+class JointStateAccumulator(_Accumulator):
+    """Collects sensor_msgs/JointState messages into (time, names, positions) segments."""
+
+    kind = "joint_states"
+
+    def __init__(self, deserialize: Deserialize, *, ros1: bool) -> None:
+        super().__init__(deserialize, ros1=ros1)
+        self._segments: list[tuple[tuple[str, ...], NDArray[np.int64], Array]] = []
+        self._pending_names: tuple[str, ...] | None = None
+        self._pending: list[tuple[int, Array]] = []
+
+    def _check(self, layout: MessageLayout, data: bytes | memoryview) -> bool:
+        msg = self.deserialize(bytes(data))
+        rows = np.frombuffer(bytes(data), dtype=np.uint8).reshape(1, -1)
+        time, names, positions = self._decode(layout, rows)
+        return (
+            tuple(msg.name) == names
+            and stamp_ns(msg.header.stamp) == int(time[0])
+            and np.array_equal(np.asarray(msg.position, dtype=np.float64).reshape(1, -1), positions, equal_nan=True)
+        )
+
+    @staticmethod
+    def _decode(layout: MessageLayout, rows: NDArray[np.uint8]) -> tuple[NDArray[np.int64], tuple[str, ...], Array]:
+        names = tuple(layout.names)
+        time = _stamps(rows, layout.stamps[0], layout.ros1)
+        if layout.floats[0] < 0:
+            positions = np.full((len(rows), len(names)), np.nan)
+        else:
+            positions = _float_block(rows, layout.floats[0], len(names))
+        return time, names, positions
+
+    def _flush_pending(self) -> None:
+        if self._pending and self._pending_names is not None:
+            time = np.array([t for t, _ in self._pending], dtype=np.int64)
+            positions = np.stack([p for _, p in self._pending]) if self._pending_names else np.zeros((len(time), 0))
+            self._segments.append((self._pending_names, time, positions))
+        self._pending = []
+        self._pending_names = None
+
+    def _add_rows(self, rows: NDArray[np.uint8]) -> None:
+        assert self.layout is not None
+        self._flush_pending()
+        time, names, positions = self._decode(self.layout, rows)
+        self._segments.append((names, time, positions))
+
+    def _add_message(self, msg: Any) -> None:
+        names = tuple(msg.name)
+        position = np.full(len(names), np.nan)
+        given = np.asarray(msg.position, dtype=np.float64)[: len(names)]
+        position[: len(given)] = given
+        if names != self._pending_names:
+            self._flush_pending()
+            self._pending_names = names
+        self._pending.append((stamp_ns(msg.header.stamp), position))
+
+    def result(self) -> tuple[NDArray[np.int64], tuple[str, ...], Array]:
+        """(time_ns (N,), names, positions (N, J)): the union of all names, NaN where a message lacks one."""
+        self._flush_pending()
+        names: dict[str, int] = {}
+        for seg_names, _, _ in self._segments:
+            for name in seg_names:
+                names.setdefault(name, len(names))
+        if len(self._segments) == 1 and tuple(names) == self._segments[0][0]:
+            _, time, positions = self._segments[0]
+        else:
+            total = sum(len(t) for _, t, _ in self._segments)
+            time = np.empty(total, dtype=np.int64)
+            positions = np.full((total, len(names)), np.nan)
+            row = 0
+            for seg_names, seg_time, seg_pos in self._segments:
+                cols = [names[n] for n in seg_names]
+                time[row : row + len(seg_time)] = seg_time
+                if cols:
+                    positions[row : row + len(seg_time), cols] = seg_pos
+                row += len(seg_time)
+        order = _time_order(time)
+        if order is not None:
+            time, positions = time[order], positions[order]
+        return time, tuple(names), positions
+
+
+class TFAccumulator(_Accumulator):
+    """Collects tf2_msgs/TFMessage messages into per (parent, child) time series."""
+
+    kind = "tf"
+
+    def __init__(self, deserialize: Deserialize, *, ros1: bool) -> None:
+        super().__init__(deserialize, ros1=ros1)
+        self._blocks: dict[tuple[str, str], list[tuple[NDArray[np.int64], Array]]] = {}
+        self._singles: dict[tuple[str, str], list[tuple[int, tuple[float, ...]]]] = {}
+
+    def _check(self, layout: MessageLayout, data: bytes | memoryview) -> bool:
+        msg = self.deserialize(bytes(data))
+        rows = np.frombuffer(bytes(data), dtype=np.uint8).reshape(1, -1)
+        decoded = list(self._decode(layout, rows))
+        expected = transforms_of(msg)
+        if len(decoded) != len(expected):
+            return False
+        for (pair, time, values), (pair2, time2, values2) in zip(decoded, expected):
+            if pair != pair2 or int(time[0]) != time2 or not np.array_equal(values[0], np.array(values2)):
+                return False
+        return True
+
+    @staticmethod
+    def _decode(
+        layout: MessageLayout, rows: NDArray[np.uint8]
+    ) -> Iterator[tuple[tuple[str, str], NDArray[np.int64], Array]]:
+        for pair, stamp, floats in zip(layout.names, layout.stamps, layout.floats):
+            yield pair, _stamps(rows, stamp, layout.ros1), _float_block(rows, floats, 7)
+
+    def _add_rows(self, rows: NDArray[np.uint8]) -> None:
+        assert self.layout is not None
+        for pair, time, values in self._decode(self.layout, rows):
+            self._blocks.setdefault(pair, []).append((time, values))
+
+    def _add_message(self, msg: Any) -> None:
+        for pair, time, values in transforms_of(msg):
+            self._singles.setdefault(pair, []).append((time, values))
+
+    def result(self) -> dict[tuple[str, str], tuple[NDArray[np.int64], Array]]:
+        """(parent, child) → (time_ns (M,), values (M, 7): translation xyz, rotation xyzw), in time order."""
+        out: dict[tuple[str, str], tuple[NDArray[np.int64], Array]] = {}
+        for pair in list(self._blocks) + [p for p in self._singles if p not in self._blocks]:
+            times = [t for t, _ in self._blocks.get(pair, [])]
+            values = [v for _, v in self._blocks.get(pair, [])]
+            singles = self._singles.get(pair, [])
+            if singles:
+                times.append(np.array([t for t, _ in singles], dtype=np.int64))
+                values.append(np.array([v for _, v in singles], dtype=np.float64).reshape(-1, 7))
+            time = np.concatenate(times) if len(times) > 1 else times[0]
+            value = np.concatenate(values) if len(values) > 1 else values[0]
+            order = _time_order(time)
+            if order is not None:
+                time, value = time[order], value[order]
+            out[pair] = (time, value)
+        return out
+
+
+def transforms_of(msg: Any) -> list[tuple[tuple[str, str], int, tuple[float, ...]]]:
+    """((parent, child), stamp_ns, (tx, ty, tz, qx, qy, qz, qw)) of each transform of a deserialized TFMessage."""
+    out: list[tuple[tuple[str, str], int, tuple[float, ...]]] = []
+    for tf in msg.transforms:
+        t, r = tf.transform.translation, tf.transform.rotation
+        out.append(((tf.header.frame_id, tf.child_frame_id), stamp_ns(tf.header.stamp),
+                    (float(t.x), float(t.y), float(t.z), float(r.x), float(r.y), float(r.z), float(r.w))))
+    return out
+
+
+def _time_order(time: NDArray[np.int64]) -> NDArray[np.intp] | None:
+    """A stable sorting order when ``time`` is not already non-decreasing."""
+    if len(time) < 2 or bool(np.all(time[1:] >= time[:-1])):
+        return None
+    return np.argsort(time, kind="stable")

@@ -1,0 +1,104 @@
+"""rosbags' type stores and message deserializers: the one place tfrec's readers get them.
+
+A type store generates the code of a type's (de)serializer the first time the type is used and
+keeps it, so there is one store per ROS distro for the whole process: ROS 2 Humble (CDR) and
+ROS 1 Noetic. rosbags is imported when a store is first needed.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Callable
+from functools import cache, lru_cache
+from typing import Any
+
+from tfrec.errors import RecordingError
+
+__all__ = ["UndecodableMessage", "deserializer", "ros1_typestore", "topic_deserializer", "typestore"]
+
+Deserialize = Callable[[bytes | memoryview], Any]
+
+
+class UndecodableMessage(ValueError):
+    """rosbags cannot decode a message as its type.
+
+    Attributes:
+        reason: rosbags' error message.
+    """
+
+    def __init__(self, err: Exception) -> None:
+        super().__init__(f"{type(err).__name__}: {err}")
+        self.reason = str(err)
+
+
+@cache
+def typestore(*, ros1: bool = False) -> Any:
+    """rosbags' type store of ROS 2 Humble, or of ROS 1 Noetic."""
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+
+
+@lru_cache(maxsize=8)
+def ros1_typestore(definitions: tuple[tuple[str, str], ...]) -> Any:
+    """Noetic's type store with a ROS 1 bag's own message definitions added, in order.
+
+    Args:
+        definitions: (type, message definition) pairs from the bag's connection records. A
+            definition that clashes with one already in the store is left out: the store's is used.
+    """
+    if not definitions:
+        return typestore(ros1=True)
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+    from rosbags.typesys.base import TypesysError
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    for msgtype, msgdef in definitions:
+        try:
+            store.register(get_types_from_msg(msgdef, msgtype))
+        except TypesysError:
+            pass
+    return store
+
+
+def deserializer(msgtype: str, *, ros1: bool = False, store: Any = None) -> Deserialize:
+    """rosbags' deserializer of one message type.
+
+    Args:
+        msgtype: ``tf2_msgs/msg/TFMessage`` or ``tf2_msgs/TFMessage``.
+        ros1: ROS 1 serialization rather than CDR.
+        store: the type store; None for the distro's (:func:`typestore`).
+
+    Returns:
+        A function of the serialized message that returns rosbags' message object and raises
+        :class:`UndecodableMessage` for bytes that are no such message.
+    """
+    from rosbags.serde import SerdeError
+
+    if store is None:
+        store = typestore(ros1=ros1)
+    full = msgtype if "/msg/" in msgtype else msgtype.replace("/", "/msg/", 1)
+    decode = store.deserialize_ros1 if ros1 else store.deserialize_cdr
+    errors = (SerdeError, struct.error, IndexError, KeyError, ValueError, UnicodeDecodeError)
+
+    def deserialize(raw: bytes | memoryview) -> Any:
+        try:
+            return decode(raw, full)
+        except errors as err:
+            raise UndecodableMessage(err) from None
+
+    return deserialize
+
+
+def topic_deserializer(msgtype: str, *, where: str, topic: str, ros1: bool = False, store: Any = None) -> Deserialize:
+    """Like :func:`deserializer`, for the messages of one topic of a recording: a message that
+    cannot be decoded is a :class:`RecordingError` naming the recording, the topic and the type."""
+    deserialize = deserializer(msgtype, ros1=ros1, store=store)
+
+    def checked(raw: bytes | memoryview) -> Any:
+        try:
+            return deserialize(raw)
+        except UndecodableMessage as err:
+            raise RecordingError(f"{where}: a {topic} message cannot be decoded as {msgtype}: {err.reason}") from None
+
+    return checked

@@ -1,0 +1,223 @@
+"""rosbag2 folders: ``metadata.yaml`` (version 9, MCAP storage) beside the ``.mcap``.
+
+A rosbag2 bag is a folder ``<name>/`` holding ``metadata.yaml`` and ``<name>_0.mcap``. The
+metadata is rosbag2's BagMetadata as yaml-cpp encodes it (Jazzy and later: metadata version 9,
+offered QoS profiles as a YAML list with string enums); the same text is embedded in the MCAP
+as its ``rosbag2`` metadata record (:class:`tfrec.mcap_io.McapSink`, which builds it with
+:func:`bag_info` and keeps it for :func:`write_bag_metadata`). The offered QoS profiles are defined
+once here, as data: :data:`QOS_LATCHED`, :data:`QOS_VOLATILE`.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from tfrec.errors import RecordingError
+
+__all__ = [
+    "BAG_VERSION",
+    "QOS_LATCHED",
+    "QOS_VOLATILE",
+    "ROS_DISTRO",
+    "BagMetadata",
+    "bag_info",
+    "one_line",
+    "qos_durability",
+    "qos_yaml",
+    "read_bag_metadata",
+    "write_bag_metadata",
+    "yaml_dump",
+]
+
+BAG_VERSION = 9
+ROS_DISTRO = "jazzy"
+"""metadata.yaml's ``ros_distro``: the layout (metadata version 9, string QoS enums) is Jazzy's."""
+
+
+_INFINITE = {"sec": 9223372036, "nsec": 854775807}
+"""An unset QoS duration as rosbag2 writes it: RMW_DURATION_INFINITE."""
+
+
+def _offered_qos(durability: str) -> dict[str, Any]:
+    # What rosbag2 (metadata version 9, Jazzy and later) serializes of a publisher it discovered:
+    # the history depth is not discoverable (unknown, 0) and unset durations read as infinite.
+    return {
+        "history": "unknown",
+        "depth": 0,
+        "reliability": "reliable",
+        "durability": durability,
+        "deadline": _INFINITE,
+        "lifespan": _INFINITE,
+        "liveliness": "automatic",
+        "liveliness_lease_duration": _INFINITE,
+        "avoid_ros_namespace_conventions": False,
+    }
+
+
+QOS_LATCHED = _offered_qos("transient_local")
+"""The QoS robot_state_publisher offers on /robot_description and /tf_static: reliable, latched. Read only."""
+QOS_VOLATILE = _offered_qos("volatile")
+"""The QoS joint_state_publisher and robot_state_publisher offer on /joint_states and /tf. Read only."""
+
+
+def qos_yaml(profiles: Sequence[Mapping[str, Any]]) -> str:
+    """Offered QoS profiles as the ``offered_qos_profiles`` text of MCAP channel metadata: a YAML
+    list, no trailing newline (yaml-cpp's ``Dump``)."""
+    return yaml_dump(list(profiles)).rstrip("\n")
+
+
+def write_bag_metadata(bag_dir: str | Path, info: Mapping[str, Any]) -> Path:
+    """Write a bag folder's ``metadata.yaml``.
+
+    Args:
+        bag_dir: the bag folder (it exists).
+        info: the bag's BagMetadata, from :func:`bag_info` (:attr:`tfrec.mcap_io.McapSink.bag_info`
+            of its MCAP).
+
+    Returns:
+        The path of the metadata file.
+    """
+    path = Path(bag_dir) / "metadata.yaml"
+    path.write_text(yaml_dump({"rosbag2_bagfile_information": dict(info)}), encoding="utf-8")
+    return path
+
+
+def bag_info(
+    topics: Sequence[tuple[str, str, str, Sequence[Mapping[str, Any]], str, int]],
+    *,
+    message_count: int,
+    start_ns: int,
+    end_ns: int,
+    file_name: str,
+) -> dict[str, Any]:
+    """rosbag2's BagMetadata (version 9) as yaml-cpp would encode it, keys in rosbag2's order.
+
+    Args:
+        topics: (name, type, serialization format, offered QoS profiles, type hash, message count).
+    """
+    duration = max(0, end_ns - start_ns) if message_count else 0
+    start = start_ns if message_count else 0
+    return {
+        "version": BAG_VERSION,
+        "storage_identifier": "mcap",
+        "duration": {"nanoseconds": duration},
+        "starting_time": {"nanoseconds_since_epoch": start},
+        "message_count": message_count,
+        "topics_with_message_count": [
+            {
+                "topic_metadata": {
+                    "name": name,
+                    "type": msgtype,
+                    "serialization_format": serialization,
+                    "offered_qos_profiles": copy.deepcopy(list(qos)),  # the caller's own: QOS_* stay intact
+                    "type_description_hash": type_hash,
+                },
+                "message_count": count,
+            }
+            for name, msgtype, serialization, qos, type_hash, count in topics
+        ],
+        "compression_format": "",
+        "compression_mode": "",
+        "relative_file_paths": [file_name] if file_name else [],
+        "files": [{
+            "path": file_name,
+            "starting_time": {"nanoseconds_since_epoch": start},
+            "duration": {"nanoseconds": duration},
+            "message_count": message_count,
+        }] if file_name else [],
+        "custom_data": None,
+        "ros_distro": ROS_DISTRO,
+    }
+
+
+def yaml_dump(data: Any) -> str:
+    """Block-style YAML with indented sequences, ``~`` and ``""``, as yaml-cpp (rosbag2) writes it."""
+    import yaml
+
+    def indent_sequences(self: Any, flow: bool = False, indentless: bool = False) -> None:
+        yaml.SafeDumper.increase_indent(self, flow, False)
+
+    dumper: Any = type("_RosbagDumper", (yaml.SafeDumper,), {
+        "increase_indent": indent_sequences,
+        "ignore_aliases": lambda self, data: True,  # a mapping used twice is written twice, not as &id001
+    })
+    dumper.add_representer(type(None), lambda d, _: d.represent_scalar("tag:yaml.org,2002:null", "~"))
+    dumper.add_representer(str, lambda d, v: d.represent_scalar("tag:yaml.org,2002:str", v, style='"' if v == "" else None))
+    return str(yaml.dump(data, Dumper=dumper, sort_keys=False, default_flow_style=False, width=1 << 16))
+
+
+@dataclass(frozen=True, slots=True)
+class BagMetadata:
+    """What tfrec needs of a rosbag2 folder's ``metadata.yaml``.
+
+    Attributes:
+        storage: the storage plugin, ``mcap`` or ``sqlite3``.
+        files: the bag's files, in order.
+        compression: ``compression_format`` (``zstd`` for a compressed bag), or ``""``.
+    """
+
+    storage: str
+    files: tuple[Path, ...]
+    compression: str
+
+
+def read_bag_metadata(folder: Path) -> BagMetadata:
+    """Read a rosbag2 folder's ``metadata.yaml``.
+
+    Raises:
+        RecordingError: no or malformed metadata.yaml (one line naming the file, and the line
+            of a YAML syntax error), or a listed file that is missing.
+    """
+    import yaml
+
+    meta = folder / "metadata.yaml"
+    if not meta.is_file():
+        raise RecordingError(f"{folder}: a folder without metadata.yaml is not a rosbag2 bag")
+    try:
+        document = yaml.safe_load(meta.read_text(encoding="utf-8"))
+    except OSError as err:
+        raise RecordingError(f"{meta}: cannot read: {err.strerror or err}") from None
+    except UnicodeDecodeError as err:
+        raise RecordingError(f"{meta}: not UTF-8 text (byte {err.start:,})") from None
+    except yaml.MarkedYAMLError as err:
+        line = f":{err.problem_mark.line + 1}" if err.problem_mark is not None else ""
+        raise RecordingError(f"{meta}{line}: not valid YAML: {one_line(err.problem or str(err))}") from None
+    except yaml.YAMLError as err:
+        raise RecordingError(f"{meta}: not valid YAML: {one_line(str(err))}") from None
+    info = document.get("rosbag2_bagfile_information") if isinstance(document, dict) else None
+    if not isinstance(info, dict):
+        raise RecordingError(f"{meta}: not a rosbag2 metadata file (no rosbag2_bagfile_information mapping)")
+    names = info.get("relative_file_paths")
+    if not isinstance(names, list) or not names:
+        raise RecordingError(f"{meta}: rosbag2_bagfile_information lists no relative_file_paths")
+    files = tuple(folder / Path(str(name)).name for name in names)
+    for file in files:
+        if not file.is_file():
+            raise RecordingError(f"{folder}: metadata.yaml lists {file.name}, which is missing")
+    return BagMetadata(str(info.get("storage_identifier") or ""), files, str(info.get("compression_format") or ""))
+
+
+def one_line(text: str) -> str:
+    """A library's error message on one line: runs of whitespace (newlines too) become one space."""
+    return " ".join(text.split())
+
+
+_DURABILITY = {0: "system_default", 1: "transient_local", 2: "volatile", 3: "unknown", 4: "best_available"}
+
+
+def qos_durability(offered_qos_profiles: str) -> str | None:
+    """The durability of the first offered QoS profile, from rosbag2's YAML text (the
+    ``offered_qos_profiles`` of MCAP channel metadata, of sqlite3's topics table); None when
+    there is none (or the text is not YAML). Numbers (Humble and older) are named as the strings
+    Jazzy writes."""
+    import yaml
+
+    try:
+        value = yaml.safe_load(offered_qos_profiles)[0]["durability"]
+    except (yaml.YAMLError, TypeError, KeyError, IndexError):
+        return None
+    return _DURABILITY.get(value, "unknown") if isinstance(value, int) else str(value)

@@ -1,0 +1,289 @@
+"""A robot's visual geometry as Rerun component columns, as RViz's RobotModel display draws it.
+
+Boxes, cylinders and spheres become ``Boxes3D``, ``Cylinders3D`` and ``Ellipsoids3D``; mesh files
+become ``Asset3D`` with the file's bytes embedded, so a recording shows the robot without the
+packages at hand. STL, OBJ, PLY and GLB files go in as they are; COLLADA (``.dae``, which Rerun
+does not read) and other formats trimesh reads are converted to GLB in memory, scaled by the
+file's ``<unit meter>`` and ignoring its up axis, as RViz does. Meshes that bring their own
+materials keep them; others get the URDF material colour (RViz's rule, too).
+
+Every column built here is static and has one row; :mod:`tfrec.rerun_io` sends them.
+:func:`fit_eye` places the 3D view's camera around the robot.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import struct
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import rerun as rr
+import rerun.blueprint as rrb
+from numpy.typing import NDArray
+
+from tfrec.description.packages import PackageFinder
+from tfrec.errors import DescriptionError
+from tfrec.kinematics.fk import Transforms
+from tfrec.kinematics.rotations import quaternion_from_rpy, quaternion_rotate
+from tfrec.model import Box, Cylinder, Material, Mesh, Robot, Sphere, Visual
+
+__all__ = ["MeshAsset", "MeshLoader", "default_axis_length", "fit_eye", "rgba8", "visual_columns", "visual_radius"]
+
+_NATIVE_MEDIA_TYPES = {
+    ".stl": "model/stl",
+    ".obj": "model/obj",
+    ".ply": "application/x-ply",
+    ".glb": "model/gltf-binary",
+}
+"""Formats Rerun's viewer reads from an embedded blob; everything else goes through trimesh."""
+
+_GLB = "model/gltf-binary"
+
+
+@dataclass(frozen=True, slots=True)
+class MeshAsset:
+    """A mesh file ready to embed: its bytes (converted when needed) and media type.
+
+    Attributes:
+        contents: the bytes to embed.
+        media_type: ``model/stl``, ``model/obj``, ``application/x-ply`` or ``model/gltf-binary``.
+        own_colours: the file brings its own materials, so the URDF colour is not applied.
+        radius_m: the largest distance of the mesh from its origin, before the URDF scale
+            (0 when unknown); it fits the default camera to the robot.
+    """
+
+    contents: bytes
+    media_type: str
+    own_colours: bool
+    radius_m: float = 0.0
+
+
+class MeshLoader:
+    """Finds and reads the mesh files of a robot description, each file once.
+
+    Args:
+        package_paths: folders searched first for ``package://`` packages.
+        source: the description file; relative mesh paths and its own package resolve from it.
+    """
+
+    def __init__(self, package_paths: Sequence[str | os.PathLike[str]] = (), *, source: str | None = None) -> None:
+        self._finder = PackageFinder(package_paths, near=source)
+        self._source = source
+        self._cache: dict[Path, MeshAsset | str] = {}
+
+    def load(self, uri: str) -> MeshAsset | str:
+        """Read the mesh a URDF names.
+
+        Returns:
+            The asset, or what went wrong as a phrase for a warning: ``not found (<path>)``
+            or ``not readable (<reason>)``.
+        """
+        try:
+            path = self._finder.resolve_uri(uri, relative_to=self._source)
+        except DescriptionError as err:
+            return f"not found ({err})"
+        if path not in self._cache:
+            self._cache[path] = _read_mesh(path)
+        return self._cache[path]
+
+
+def _read_mesh(path: Path) -> MeshAsset | str:
+    """The asset for a mesh file, or why it cannot be used (see :meth:`MeshLoader.load`)."""
+    if not path.is_file():
+        return f"not found ({path})"
+    try:
+        data = path.read_bytes()
+    except OSError as err:
+        return f"not readable ({path}: {err.strerror or err})"
+    suffix = path.suffix.lower()
+    media_type = _NATIVE_MEDIA_TYPES.get(suffix)
+    try:
+        scene = _load_scene(path)
+    except _mesh_errors() as err:
+        if media_type is None:
+            return f"not readable ({path}: {type(err).__name__}: {err})"
+        scene = None  # Rerun may still read what trimesh does not; embed it as it is
+    radius = _radius(scene) if scene is not None else 0.0
+    if media_type is not None:
+        own = suffix == ".glb" or (suffix == ".ply" and _ply_has_colours(data))
+        return MeshAsset(data, media_type, own, radius)
+    assert scene is not None
+    with _quiet_trimesh():
+        glb = scene.export(file_type="glb")
+    own = suffix == ".dae" and b"<library_materials" in data and b"<material " in data
+    return MeshAsset(glb, _GLB, own, radius)
+
+
+def _ply_has_colours(data: bytes) -> bool:
+    header = data[: data.find(b"end_header")] if b"end_header" in data else b""
+    return b"property uchar red" in header or b"property uchar diffuse_red" in header
+
+
+@contextmanager
+def _quiet_trimesh() -> Iterator[None]:
+    """trimesh logs (and prints tracebacks for) missing textures; library code stays silent."""
+    logger = logging.getLogger("trimesh")  # trimesh's modules log through children of this one
+    level = logger.level
+    logger.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
+def _mesh_errors() -> tuple[type[BaseException], ...]:
+    """What trimesh and its loaders raise on a file they cannot read."""
+    errors: list[type[BaseException]] = [
+        ImportError, ValueError, KeyError, IndexError, TypeError, AttributeError, NotImplementedError, OSError,
+        struct.error,
+    ]
+    try:
+        from collada.common import DaeError  # pycollada, which trimesh uses for .dae
+
+        errors.append(DaeError)
+    except ImportError:
+        pass
+    return tuple(errors)
+
+
+def _load_scene(path: Path) -> Any:
+    """The file as a trimesh Scene in metres (COLLADA's ``<unit meter>`` applied; needs pycollada).
+
+    Raises:
+        ImportError: no loader for the format (pycollada for ``.dae``); errors of :func:`_mesh_errors`.
+    """
+    import trimesh  # deferred: importing trimesh costs ~0.3 s
+
+    with _quiet_trimesh():
+        scene: Any = trimesh.load(os.fspath(path), force="scene")
+        units = getattr(scene, "units", None)
+        if units and units != "meters":
+            scene = scene.scaled(trimesh.units.unit_conversion(units, "meters"))
+    if scene.is_empty:
+        raise ValueError("no geometry in the file")
+    return scene
+
+
+def _radius(scene: Any) -> float:
+    corners = np.asarray(scene.bounds, dtype=np.float64)
+    return float(np.max(np.linalg.norm(corners, axis=1)))
+
+
+def rgba8(material: Material | None) -> int | None:
+    """A material's colour as Rerun's packed 0xRRGGBBAA, or None when it has none."""
+    if material is None or material.rgba is None:
+        return None
+    r, g, b, a = (round(min(max(c, 0.0), 1.0) * 255.0) for c in material.rgba)
+    return (r << 24) | (g << 16) | (b << 8) | a
+
+
+def visual_columns(visual: Visual, asset: MeshAsset | None) -> list[Any]:
+    """The static columns of one visual: its origin as ``InstancePoses3D`` and its shape.
+
+    Args:
+        visual: the URDF visual.
+        asset: the mesh to embed when the geometry is a mesh (None: the origin alone).
+
+    Returns:
+        Component columns of one row each, for ``rr.send_columns`` with no index.
+    """
+    geometry = visual.geometry
+    scale = geometry.scale if isinstance(geometry, Mesh) else (1.0, 1.0, 1.0)
+    columns: list[Any] = list(
+        rr.InstancePoses3D.columns(
+            translations=[visual.origin.xyz],
+            quaternions=[quaternion_from_rpy(visual.origin.rpy)],
+            scales=[scale],
+        )
+    )
+    colour = rgba8(visual.material)
+    colours = None if colour is None else [colour]
+    solid = [rr.components.FillMode.Solid]
+    if isinstance(geometry, Box):
+        columns += rr.Boxes3D.columns(half_sizes=[np.asarray(geometry.size) / 2.0], colors=colours, fill_mode=solid)
+    elif isinstance(geometry, Cylinder):
+        columns += rr.Cylinders3D.columns(
+            lengths=[geometry.length], radii=[geometry.radius], colors=colours, fill_mode=solid
+        )
+    elif isinstance(geometry, Sphere):
+        columns += rr.Ellipsoids3D.columns(half_sizes=[[geometry.radius] * 3], colors=colours, fill_mode=solid)
+    elif asset is not None:
+        albedo = None if asset.own_colours or colour is None else [colour]
+        columns += rr.Asset3D.columns(blob=[asset.contents], media_type=[asset.media_type], albedo_factor=albedo)
+    return columns
+
+
+def visual_radius(visual: Visual, asset: MeshAsset | None = None) -> float:
+    """The radius of a ball about a visual's origin that holds its shape, in metres.
+
+    A mesh's comes from its asset (0 without one).
+    """
+    geometry = visual.geometry
+    if isinstance(geometry, Mesh):
+        return asset.radius_m * max(abs(s) for s in geometry.scale) if asset is not None else 0.0
+    if isinstance(geometry, Box):
+        return float(np.linalg.norm(geometry.size)) / 2.0
+    if isinstance(geometry, Cylinder):
+        return float(np.hypot(geometry.radius, geometry.length / 2.0))
+    return geometry.radius
+
+
+def default_axis_length(robot: Robot) -> float:
+    """The length of the links' TF axes: a tenth of the longest chain of joint offsets from the root,
+    within [2 cm, 25 cm]."""
+    reach: dict[str, float] = {robot.root: 0.0}
+    for joint in robot.tree_order:
+        reach[joint.child] = reach.get(joint.parent, 0.0) + float(np.linalg.norm(joint.origin.xyz))
+    return min(max(0.1 * max(reach.values()), 0.02), 0.25)
+
+
+def fit_eye(
+    robot: Robot, world: Transforms, *, frame_prefix: str = "", radii: Mapping[tuple[str, int], float]
+) -> rrb.EyeControls3D | None:
+    """A camera that sees the robot at the poses ``world``, from front-left and above.
+
+    RViz's orbit view starts at 45° yaw and pitch; this looks from 45° yaw, 30° pitch at the
+    middle of the space the links and visuals take up in ``world``, from a distance that fits it.
+
+    Args:
+        robot: the robot.
+        world: root_from_frame at N instants, as from :func:`tfrec.kinematics.world_from_link`.
+        frame_prefix: in front of the link names in ``world``'s frame ids.
+        radii: (link, visual index) → the visual's :func:`visual_radius` (0 when missing).
+
+    Returns:
+        The camera, or None when no link is placed.
+    """
+    by_frame = {child: k for k, child in enumerate(world.children)}
+    points: list[NDArray[np.float64]] = []
+    sizes: list[float] = []
+    for link in robot.links:
+        k = by_frame.get(frame_prefix + link.name)
+        if k is None:
+            continue
+        origin = world.translation[:, k]
+        points.append(origin)
+        sizes.append(0.0)
+        for index, visual in enumerate(link.visuals):
+            points.append(origin + quaternion_rotate(world.rotation[:, k], np.asarray(visual.origin.xyz)))
+            sizes.append(radii.get((link.name, index), 0.0))
+    if not points:
+        return None
+    cloud = np.concatenate(points)
+    pad = np.repeat(sizes, len(world))[:, np.newaxis]
+    low, high = (cloud - pad).min(axis=0), (cloud + pad).max(axis=0)
+    centre = (low + high) / 2.0
+    radius = max(float(np.max(np.linalg.norm(cloud - centre, axis=1) + pad[:, 0])), 0.1)
+    distance = 2.0 * radius
+    yaw, pitch = math.radians(45.0), math.radians(30.0)
+    direction = np.array([math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch)])
+    return rrb.EyeControls3D(
+        position=(centre + distance * direction).tolist(), look_target=centre.tolist(), eye_up=[0.0, 0.0, 1.0]
+    )

@@ -1,0 +1,231 @@
+"""Replaying into Rerun: a spawned viewer, a running one (``--connect``), or an ``.rrd`` file.
+
+A replay is logged through :class:`tfrec.rerun_io.RerunSink`, the sink ``tfrec record`` writes
+with, so a replayed recording looks like a recorded one: the robot's geometry under
+``/robot/<link>``, a transform pair whose child frame is a link of the robot at ``/tf/<joint>``
+(``/tf_static/<joint>`` when latched), joint positions at ``/joints/<joint>``, the same
+blueprint with the camera fitted to the robot at its first pose. What the robot model does not
+name keeps its own entities, so nothing recorded is dropped:
+
+================================  =========================================================
+``/tf/<parent>/<child>``          ``Transform3D`` of a pair on /tf whose child is no link
+``/tf_static/<parent>/<child>``   the same for /tf_static
+``/robot/<frame>``                ``CoordinateFrame`` + ``TransformAxes3D`` of such a frame
+================================  =========================================================
+
+:class:`RerunReplaySink` adapts the sink to :class:`tfrec.playback.ReplaySink`;
+:func:`open_rerun_sink` points it at its target.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import socket
+import sys
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+import rerun as rr
+from numpy.typing import NDArray
+
+from tfrec.errors import RecordingError
+from tfrec.formats.rrd.paths import APPLICATION_ID
+from tfrec.formats.rrd.sink import RerunSink
+from tfrec.kinematics.fk import Transforms
+from tfrec.model import Robot
+
+__all__ = ["RerunReplaySink", "check_can_connect", "check_can_spawn", "open_rerun_sink"]
+
+_SCHEMES = ("rerun", "rerun+http", "rerun+https")
+"""The URL schemes of a Rerun viewer's gRPC endpoint."""
+CONNECT_TIMEOUT_S = 3.0
+"""How long :func:`check_can_connect` waits for the viewer to accept a connection."""
+
+Array = NDArray[np.float64]
+Pair = tuple[str, str]
+
+
+class RerunReplaySink:
+    """Logs a recording being replayed to one Rerun target, through a :class:`RerunSink`.
+
+    Make one with :func:`open_rerun_sink`; call :meth:`begin` once,
+    :meth:`write_transforms` and :meth:`write_joint_positions` for each batch, then
+    :meth:`finish` (or :meth:`abort` after an error).
+
+    Args:
+        sink: the Rerun sink, to a file or to a viewer.
+        live: True for a viewer: the static data is flushed at once, to fail early.
+    """
+
+    def __init__(self, sink: RerunSink, *, live: bool) -> None:
+        self._sink = sink
+        self._live = live
+
+    def begin(
+        self,
+        *,
+        start_time_ns: int,
+        name: str,
+        robot_description: str | None,
+        static: Mapping[Pair, tuple[Array, Array]],
+        frames: Sequence[str] = (),
+        root: str | None = None,
+        first_pose: Mapping[Pair, tuple[Array, Array]] | None = None,
+    ) -> None:
+        """Log what does not change: geometry, frames, latched transforms, the URDF and the blueprint.
+
+        Args:
+            start_time_ns: the stamp the replay starts at.
+            name: the recording's name in the viewer.
+            robot_description: the URDF text for ``/robot_description``, or None.
+            static: /tf_static, (parent, child) → (translation (3,), rotation (4,)).
+            frames: every frame id of the replay; those that are not links get TF axes.
+            root: the frame the 3D view is drawn in when there is no robot model.
+            first_pose: the first /tf transform of each pair, like ``static``; the 3D view's
+                camera is fitted to the robot there.
+
+        Raises:
+            RecordingError: a live viewer cannot be reached.
+        """
+        sink = self._sink
+        sink.begin(static=Transforms.from_poses(static), start_time_ns=start_time_ns,
+                   robot_description=robot_description, name=name, root=root)
+        sink.log_frames([*frames, *(frame for pair in static for frame in pair)])
+        latched = {child for _, child in static}
+        sink.fit_camera(Transforms.from_poses({pair: pose for pair, pose in (first_pose or {}).items()
+                                               if pair[1] not in latched}))
+        sink.send_blueprint()
+        if self._live:
+            sink.flush()
+
+    def write_transforms(self, parent: str, child: str, time_ns: NDArray[np.int64], translation: Array,
+                         rotation: Array) -> None:
+        """Log one frame pair's transforms: int64 stamps (n,), translations (n, 3), quaternions (n, 4)."""
+        self._sink.write_transforms(parent, child, time_ns, translation, rotation)
+
+    def write_joint_positions(self, time_ns: NDArray[np.int64], names: Sequence[str], positions: Array) -> None:
+        """Log joint positions (n, J) at stamps (n,); NaN (no position in that message) is skipped."""
+        self._sink.write_joint_positions(time_ns, names, positions)
+
+    def finish(self) -> None:
+        """Flush everything and close the target.
+
+        Raises:
+            RecordingError: the data could not be written out or sent.
+        """
+        self._sink.finish()
+
+    def abort(self) -> None:
+        """Stop logging; a file target is deleted."""
+        self._sink.abort()
+
+
+def open_rerun_sink(
+    *,
+    save: str | os.PathLike[str] | None = None,
+    connect: str | None = None,
+    recording_id: str | None = None,
+    robot: Robot | None,
+    frame_prefix: str = "",
+    package_paths: Sequence[str | os.PathLike[str]] = (),
+    port: int = 9876,
+) -> RerunReplaySink:
+    """A sink to the ``.rrd`` file ``save``, to the viewer at ``connect``, or else to a spawned viewer.
+
+    The viewer is not probed here: check first, before reading the recording, with
+    :func:`check_can_connect` or :func:`check_can_spawn` (:func:`tfrec.playback.check_play_options`
+    does), so that a missing viewer fails at once rather than after Rerun's background retries.
+
+    Args:
+        save: write this file (``recording_id`` names the recording in it).
+        connect: stream to the viewer (or server) at this URL, ``rerun+http://host:port/proxy``.
+        recording_id: the recording id (default: a new one).
+        robot, frame_prefix, package_paths: as for :class:`tfrec.rerun_io.RerunSink`.
+        port: where a spawned viewer listens; a viewer already listening there is reused.
+
+    Raises:
+        RecordingError: the file cannot be created, the URL is malformed, or the viewer cannot
+            be spawned.
+    """
+    if save is not None:
+        return RerunReplaySink(RerunSink(save, robot=robot, recording_id=recording_id, frame_prefix=frame_prefix,
+                                         package_paths=package_paths), live=False)
+    stream = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id)
+    if connect is not None:
+        try:
+            stream.connect_grpc(connect)
+        except RuntimeError as err:
+            raise RecordingError(f"{connect}: not a Rerun viewer address ({err})") from None
+        target = connect
+    else:
+        executable = shutil.which("rerun") or _bundled_viewer()
+        try:
+            rr.sinks.spawn(port=port, recording=stream, executable_path=executable)
+        except RuntimeError as err:
+            raise RecordingError(
+                f"cannot spawn the Rerun viewer ({err}); use --save OUT.rrd or --connect URL"
+            ) from None
+        target = f"the Rerun viewer on port {port}"
+    sink = RerunSink.from_stream(stream, target=target, robot=robot, frame_prefix=frame_prefix,
+                                 package_paths=package_paths)
+    return RerunReplaySink(sink, live=True)
+
+
+def check_can_connect(url: str) -> None:
+    """Check that something accepts connections at a viewer's URL, before anything is sent.
+
+    Rerun connects in the background and, when nothing listens, logs its own retries to stderr
+    for several seconds before giving up; a plain TCP connection fails at once. A URL without a
+    port is left to Rerun.
+
+    Raises:
+        RecordingError: a URL that is not ``rerun+http://host:port/proxy`` (or ``rerun://``,
+            ``rerun+https://``), or nothing accepting connections at its host and port.
+    """
+    from urllib.parse import urlsplit
+
+    try:
+        parts = urlsplit(url)
+        host, port = parts.hostname, parts.port
+    except ValueError as err:
+        raise RecordingError(f"{url}: not a Rerun viewer address ({err})") from None
+    if parts.scheme not in _SCHEMES or not host:
+        raise RecordingError(f"{url}: not a Rerun viewer address "
+                             "(expected rerun+http://host:port/proxy, rerun+https:// or rerun://)")
+    if port is None:
+        return
+    try:
+        with socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S):
+            pass
+    except OSError as err:
+        reason = "timed out" if isinstance(err, TimeoutError) else err.strerror or str(err)
+        raise RecordingError(f"cannot connect to the Rerun viewer at {url}: {reason} "
+                             "(is the viewer running? start it with `rerun`, or use --save OUT.rrd)") from None
+
+
+def check_can_spawn() -> None:
+    """Check, before anything is read, that a Rerun viewer can be spawned on this machine.
+
+    Raises:
+        RecordingError: no display (a headless machine), or no ``rerun`` executable.
+    """
+    if not _has_display():
+        raise RecordingError("cannot spawn the Rerun viewer (headless machine?); use --save OUT.rrd or --connect URL")
+    if shutil.which("rerun") is None and _bundled_viewer() is None:
+        raise RecordingError("cannot spawn the Rerun viewer (no 'rerun' executable on PATH); "
+                             "use --save OUT.rrd or --connect URL")
+
+
+def _has_display() -> bool:
+    """False on a Linux (or BSD) machine with neither X11 nor Wayland: the viewer would panic."""
+    if sys.platform == "darwin" or sys.platform.startswith("win"):
+        return True
+    return any(os.environ.get(name) for name in ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"))
+
+
+def _bundled_viewer() -> str | None:
+    """The ``rerun`` script beside this Python (a virtual environment not on PATH)."""
+    candidate = Path(sys.executable).with_name("rerun")
+    return os.fspath(candidate) if candidate.is_file() else None

@@ -1,0 +1,218 @@
+"""``tfrec record``: robot + trajectory → FK in chunks → MCAP / rosbag2 directory / Rerun sinks.
+
+Every output of one recording is written to a temporary file (or folder) beside its target and
+renamed only when all of them are complete; after an error or Ctrl-C no partial output remains
+and older files of those names are untouched.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import time
+import uuid
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tfrec._atomic import AtomicOutputs, check_target
+from tfrec.conventions import DEFAULT_START_TIME_NS
+from tfrec.errors import RecordingError
+from tfrec.formats.mcap.writer import McapSink, check_time_range
+from tfrec.formats.rosbag2.metadata import write_bag_metadata
+from tfrec.kinematics.fk import DEFAULT_CHUNK_SIZE, iter_dynamic_chunks, static_transforms
+from tfrec.model import Robot
+from tfrec.trajectory.types import JointTrajectory, TrajectoryKind
+
+__all__ = [
+    "DEFAULT_START_TIME_NS",  # re-exported from tfrec.conventions
+    "RecordResult",
+    "RecordingPlan",
+    "default_stem",
+    "plan_outputs",
+    "record",
+    "recording_id",
+]
+
+
+def default_stem(robot: Robot, traj: str, *, now: float | None = None) -> str:
+    """``<robot>-<traj>-<YYYYmmdd-HHMMSS>`` (local time), like ros2 bag's default names."""
+    label = traj if traj in {kind.value for kind in TrajectoryKind} else Path(traj).stem
+    stamp = time.strftime("%Y%m%d-%H%M%S", time.localtime(time.time() if now is None else now))
+    return f"{robot.name}-{label}-{stamp}"
+
+
+@dataclass(frozen=True, slots=True)
+class RecordingPlan:
+    """Where a recording goes. ``bag_dir`` set means a rosbag2 folder holding the MCAP."""
+
+    mcap: Path | None
+    rrd: Path | None
+    bag_dir: Path | None = None
+    force: bool = False
+    """Existing outputs may be replaced (``--force``)."""
+
+
+def plan_outputs(
+    *,
+    stem: str,
+    out: str | os.PathLike[str] | None = None,
+    rrd: str | os.PathLike[str] | None = None,
+    bag: str | os.PathLike[str] | None = None,
+    no_mcap: bool = False,
+    no_rrd: bool = False,
+    folder: str | os.PathLike[str] = "recordings",
+    force: bool = False,
+) -> RecordingPlan:
+    """Decide the output paths and check them before anything is written.
+
+    Raises:
+        RecordingError: nothing to write, conflicting options, or a target that
+            :func:`tfrec.atomic.check_target` refuses (wrong extension, exists without ``force``).
+    """
+    if no_mcap and no_rrd:
+        raise RecordingError("--no-mcap and --no-rrd together leave nothing to write")
+    if bag is not None and (out is not None or no_mcap):
+        raise RecordingError("--bag DIR writes the MCAP inside DIR; it goes with neither -o nor --no-mcap")
+    if no_rrd and rrd is not None:
+        raise RecordingError("--rrd and --no-rrd contradict each other")
+    bag_dir = Path(bag) if bag is not None else None
+    mcap: Path | None = None
+    if bag_dir is not None:
+        mcap = bag_dir / f"{bag_dir.name}_0.mcap"
+    elif not no_mcap:
+        mcap = Path(out) if out is not None else Path(folder) / f"{stem}.mcap"
+    rrd_path: Path | None = None
+    if not no_rrd:
+        if rrd is not None:
+            rrd_path = Path(rrd)
+        elif bag_dir is not None:
+            rrd_path = bag_dir.with_name(bag_dir.name + ".rrd")
+        elif mcap is not None:
+            rrd_path = mcap.with_suffix(".rrd")
+        else:
+            rrd_path = Path(folder) / f"{stem}.rrd"
+    if bag_dir is not None:
+        check_target(bag_dir, suffix=None, what="rosbag2", force=force, folder=True)
+    elif mcap is not None:
+        check_target(mcap, suffix=".mcap", what="MCAP", force=force)
+    if rrd_path is not None:
+        check_target(rrd_path, suffix=".rrd", what="Rerun", force=force)
+    return RecordingPlan(mcap=mcap, rrd=rrd_path, bag_dir=bag_dir, force=force)
+
+
+def recording_id(robot: Robot, trajectory: JointTrajectory, *, start_time_ns: int, frame_prefix: str) -> str:
+    """A recording id derived from the inputs: the same command gives the same id."""
+    digest = hashlib.sha256()
+    digest.update(robot.urdf.encode())
+    for name in trajectory.joint_names:
+        digest.update(name.encode() + b"\0")
+    digest.update(np.ascontiguousarray(trajectory.time_ns).data.cast("B"))  # hashed in place, not copied
+    for piece in trajectory.chunks(DEFAULT_CHUNK_SIZE):  # the positions' bytes in order, never all at once
+        digest.update(np.ascontiguousarray(piece.positions).data.cast("B"))
+    digest.update(f"{start_time_ns}|{frame_prefix}".encode())
+    return str(uuid.UUID(bytes=digest.digest()[:16], version=5))
+
+
+@dataclass(frozen=True, slots=True)
+class RecordResult:
+    """What a recording wrote: the outputs, and the samples with the stamps of the first and last."""
+
+    plan: RecordingPlan
+    samples: int
+    start_time_ns: int
+    end_time_ns: int
+
+
+def _abort_sinks(sinks: Sequence[Any]) -> None:
+    """Close sinks that hold files open (Rerun's writer) before their temporary files are removed."""
+    for sink in sinks:
+        abort = getattr(sink, "abort", None)
+        if abort is not None:
+            abort()
+
+
+def record(
+    robot: Robot,
+    trajectory: JointTrajectory,
+    plan: RecordingPlan,
+    *,
+    compression: str = "zstd",
+    start_time_ns: int = DEFAULT_START_TIME_NS,
+    frame_prefix: str = "",
+    package_paths: Sequence[str | os.PathLike[str]] = (),
+    chunk_size: int = DEFAULT_CHUNK_SIZE,
+    progress: Callable[[int, int], None] | None = None,
+) -> RecordResult:
+    """Write the recording ``plan`` describes, streaming the trajectory in chunks.
+
+    Args:
+        robot: the robot (its ``urdf`` goes to /robot_description).
+        trajectory: the joint trajectory, times from 0.
+        plan: the outputs, from :func:`plan_outputs`.
+        compression: MCAP chunk compression, one of :data:`~tfrec.conventions.COMPRESSIONS`.
+        start_time_ns: the stamp of the first sample.
+        frame_prefix: put in front of every TF frame id.
+        package_paths: where meshes' packages are looked up (Rerun geometry).
+        chunk_size: samples per chunk; memory is bounded by it.
+        progress: called with (samples done, samples in all) after every chunk.
+
+    Raises:
+        RecordingError: the outputs could not be written (or an unknown compression); no partial
+            output remains.
+    """
+    total = len(trajectory)
+    first = int(trajectory.time_ns[0]) + start_time_ns if total else start_time_ns
+    last = int(trajectory.time_ns[-1]) + start_time_ns if total else start_time_ns
+    check_time_range(first, last)
+    static = static_transforms(robot, frame_prefix=frame_prefix)
+    streams = []
+    sinks: list[Any] = []
+    with AtomicOutputs(replace=plan.force) as outputs:
+        try:
+            mcap_sink: McapSink | None = None
+            bag_temp: Path | None = None
+            if plan.mcap is not None:
+                if plan.bag_dir is not None:
+                    bag_temp = outputs.path(plan.bag_dir, directory=True)
+                    mcap_temp = bag_temp / plan.mcap.name
+                else:
+                    mcap_temp = outputs.path(plan.mcap)
+                stream = open(mcap_temp, "wb")  # noqa: SIM115 - closed below
+                streams.append(stream)
+                mcap_sink = McapSink(stream, compression=compression, file_name=plan.mcap.name)
+                sinks.append(mcap_sink)
+            if plan.rrd is not None:
+                from tfrec.formats.rrd.sink import RerunSink
+
+                sinks.append(RerunSink(
+                    outputs.path(plan.rrd), robot=robot, package_paths=package_paths, frame_prefix=frame_prefix,
+                    recording_id=recording_id(robot, trajectory, start_time_ns=start_time_ns,
+                                              frame_prefix=frame_prefix),
+                ))
+            for sink in sinks:
+                sink.begin(robot_description=robot.urdf, static=static, start_time_ns=start_time_ns)
+            done = 0
+            for chunk in iter_dynamic_chunks(robot, trajectory, chunk_size=chunk_size, frame_prefix=frame_prefix):
+                stamps = chunk.time_ns + start_time_ns
+                for sink in sinks:
+                    sink.write_chunk(time_ns=stamps, joint_names=chunk.names, positions=chunk.positions,
+                                     velocities=chunk.velocities, transforms=chunk.transforms)
+                done += len(chunk.time_ns)
+                if progress is not None:
+                    progress(done, total)
+            for sink in sinks:
+                sink.finish()
+            if bag_temp is not None and mcap_sink is not None:
+                write_bag_metadata(bag_temp, mcap_sink.bag_info)
+        except BaseException:
+            _abort_sinks(sinks)  # before their temporary files are removed
+            raise
+        finally:
+            for stream in streams:
+                stream.close()
+        outputs.commit()
+    return RecordResult(plan=plan, samples=total, start_time_ns=first, end_time_ns=last)

@@ -1,0 +1,283 @@
+"""``tfrec replay --check``: replay as re-simulation.
+
+The recorded /joint_states go through the robot description (the recording's own, or
+``--robot``) with robot_state_publisher's semantics (:func:`tfrec.replay.joint_positions`), and the
+result is compared with the recorded /tf and /tf_static, frame by frame. A description that does
+not match the data — a wrong offset, axis, joint type, parent or a missing link — shows as the
+frames it moves.
+
+Where a recorded transform is stamped between two joint states, the joint positions are
+interpolated linearly at its stamp (exact when the stamps coincide, as they do for
+robot_state_publisher, which stamps TF with the joint state's stamp), as ``tfrec diff``
+interpolates (:func:`tfrec.resample.align`). Errors are the distance between translations (m)
+and the angle of the relative rotation (:func:`tfrec.rotations.rotation_error`, rad).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tfrec.conventions import CHECK_POS_TOL, CHECK_ROT_TOL
+from tfrec.errors import RecordingError
+from tfrec.kinematics.fk import dynamic_transforms, static_transforms
+from tfrec.kinematics.rotations import rotation_error
+from tfrec.model import Joint, JointType
+from tfrec.recording import FrameSeries
+from tfrec.replay.load import Replay, joint_positions
+from tfrec.resample import align
+
+__all__ = ["CheckReport", "FrameCheck", "check_replay", "format_check"]
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class FrameCheck:
+    """The comparison of one recorded frame with its re-simulation.
+
+    Attributes:
+        frame: the child frame id, as recorded.
+        parent: its parent frame id, as recorded (or as the description has it, when missing).
+        joint: the joint of the description whose child the frame is.
+        topic: ``/tf`` or ``/tf_static``.
+        samples: recorded transforms compared.
+        translation_m, rotation_rad: the largest errors (0 when nothing was compared).
+        translation_time_s, rotation_time_s: when they occur (seconds from the recording's
+            first stamp; None for latched transforms or nothing compared).
+        problem: why the frame could not be compared, or None.
+    """
+
+    frame: str
+    parent: str
+    joint: str
+    topic: str
+    samples: int = 0
+    translation_m: float = 0.0
+    translation_time_s: float | None = None
+    rotation_rad: float = 0.0
+    rotation_time_s: float | None = None
+    problem: str | None = None
+
+    def passed(self, pos_tol: float, rot_tol: float) -> bool:
+        return self.problem is None and self.translation_m <= pos_tol and self.rotation_rad <= rot_tol
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+@dataclass
+class CheckReport:
+    """The result of :func:`check_replay`.
+
+    Attributes:
+        path: the recording.
+        frames: one entry per recorded frame of the robot and per frame of the robot missing
+            from the recording, in the description's order.
+        pos_tol, rot_tol: the tolerances.
+        notes: remarks that are not failures (frames the description does not have).
+    """
+
+    path: str
+    frames: list[FrameCheck]
+    pos_tol: float
+    rot_tol: float
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def failures(self) -> list[FrameCheck]:
+        return [frame for frame in self.frames if not frame.passed(self.pos_tol, self.rot_tol)]
+
+    @property
+    def passed(self) -> bool:
+        return not self.failures
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "path": self.path,
+            "passed": self.passed,
+            "pos_tol": self.pos_tol,
+            "rot_tol": self.rot_tol,
+            "frames": [frame.to_dict() for frame in self.frames],
+            "failures": [frame.frame for frame in self.failures],
+            "notes": self.notes,
+        }
+
+
+def _tolerance(name: str, value: float) -> float:
+    if not (math.isfinite(value) and value >= 0):
+        raise RecordingError(f"{name} {value} is not a tolerance >= 0")
+    return float(value)
+
+
+def _largest(errors: Array, times: NDArray[np.int64] | None, replay: Replay) -> tuple[float, float | None]:
+    if not len(errors):
+        return 0.0, None
+    k = int(np.argmax(np.where(np.isnan(errors), np.inf, errors)))
+    value = float(errors[k]) if np.isfinite(errors[k]) else math.inf
+    return value, None if times is None else replay.seconds(int(times[k]))
+
+
+class _Checker:
+    def __init__(self, replay: Replay) -> None:
+        assert replay.robot is not None and replay.joint_states is not None
+        self.replay = replay
+        self.robot = replay.robot
+        self.prefix = replay.frame_prefix
+        self.joint_states = replay.joint_states
+        self.names, self.positions = joint_positions(self.robot, self.joint_states)
+        self.column = {name: k for k, name in enumerate(self.names)}
+        fixed = static_transforms(self.robot, frame_prefix=self.prefix).poses()
+        self.fixed = {child: pose for (_, child), pose in fixed.items()}
+
+    def expected(self, joint: Joint, times: NDArray[np.int64]) -> tuple[Array, Array, NDArray[np.bool_]]:
+        """The description's transforms at ``times``: (translations, rotations, which times have one)."""
+        child = self.prefix + joint.child
+        if not joint.type.moves:
+            translation, rotation = self.fixed[child]
+            return (np.broadcast_to(translation, (len(times), 3)), np.broadcast_to(rotation, (len(times), 4)),
+                    np.ones(len(times), dtype=bool))
+        column = self.positions[:, self.column[joint.name]]
+        known = np.isfinite(column)
+        if not known.any():
+            return np.zeros((0, 3)), np.zeros((0, 4)), np.zeros(len(times), dtype=bool)
+        alignment = align(times, self.joint_states.time_ns[known])
+        q = alignment.linear(column[known])
+        tfs = dynamic_transforms(self.robot, [joint.name], q[:, np.newaxis], frame_prefix=self.prefix)
+        return tfs.translation[:, 0], tfs.rotation[:, 0], alignment.inside
+
+    def frame(self, joint: Joint, parent: str, child: str, topic: str, series: FrameSeries | None,
+              static: tuple[Array, Array] | None) -> FrameCheck:
+        check = FrameCheck(child, parent, joint.name, topic)
+        expected_parent = self.prefix + joint.parent
+        if parent != expected_parent:
+            return replace(check, problem=f"parent is '{parent}' in the recording, '{expected_parent}' in the "
+                                           "description")
+        if series is not None:
+            times = series.time_ns
+            translation, rotation = series.translation, series.rotation
+        else:
+            assert static is not None
+            if joint.type.moves:
+                return replace(check, problem=f"on {topic}, but joint '{joint.name}' moves ({joint.type.value})")
+            times = np.zeros(1, dtype=np.int64)
+            translation, rotation = static[0][np.newaxis], static[1][np.newaxis]
+        want_t, want_q, inside = self.expected(joint, times)
+        if not inside.any():
+            return replace(check, problem=f"no /joint_states position for joint '{joint.name}' at its stamps")
+        translation_err = np.linalg.norm(translation[inside] - want_t, axis=1)
+        rotation_err = rotation_error(rotation[inside], want_q)
+        stamps = times[inside] if series is not None else None
+        t_max, t_at = _largest(translation_err, stamps, self.replay)
+        r_max, r_at = _largest(rotation_err, stamps, self.replay)
+        return replace(check, samples=int(inside.sum()), translation_m=t_max, translation_time_s=t_at,
+                        rotation_rad=r_max, rotation_time_s=r_at)
+
+
+def check_replay(replay: Replay, *, pos_tol: float = CHECK_POS_TOL, rot_tol: float = CHECK_ROT_TOL) -> CheckReport:
+    """Recompute TF from the recorded joint states and compare it with the recorded TF.
+
+    Args:
+        replay: from :func:`tfrec.replay.load_replay` (its time window applies).
+        pos_tol: metres; a frame whose largest translation error exceeds it fails.
+        rot_tol: radians; the same for the rotation angle.
+
+    Returns:
+        One :class:`FrameCheck` per frame of the description that the recording has or should
+        have; frames of the description missing from the recording fail, frames the
+        description does not have are noted.
+
+    Raises:
+        RecordingError: a bad tolerance, no robot model, no /joint_states or no /tf to compare.
+    """
+    pos_tol = _tolerance("--pos-tol", pos_tol)
+    rot_tol = _tolerance("--rot-tol", rot_tol)
+    replay.report_damage()
+    robot = replay.robot
+    if robot is None:
+        raise RecordingError(f"{replay.path}: no robot description to re-simulate with (no /robot_description in "
+                             "the recording); give --robot FILE")
+    if replay.joint_states is None or not len(replay.joint_states):
+        raise RecordingError(f"{replay.path}: no /joint_states to re-simulate")
+    recorded_tf = {pair: s for pair, s in replay.tf.items() if pair not in replay.derived_dynamic and len(s)}
+    recorded_static = {pair: v for pair, v in replay.static.items() if pair not in replay.derived_static}
+    if not recorded_tf:
+        raise RecordingError(f"{replay.path}: no /tf to compare the re-simulation with")
+    checker = _Checker(replay)
+    by_child: dict[str, list[FrameCheck]] = {}
+    other: list[tuple[str, str]] = []
+    floating: list[str] = []
+    joint_of_child = {replay.frame_prefix + joint.child: joint for joint in robot.joints}
+    for topic, pairs in (("/tf_static", recorded_static), ("/tf", recorded_tf)):
+        for (parent, child), value in pairs.items():
+            joint = joint_of_child.get(child)
+            if joint is None:
+                other.append((parent, child))
+            elif joint.type is JointType.FLOATING:
+                floating.append(child)
+            else:
+                series = value if isinstance(value, FrameSeries) else None
+                static = None if isinstance(value, FrameSeries) else value
+                by_child.setdefault(child, []).append(checker.frame(joint, parent, child, topic, series, static))
+    frames: list[FrameCheck] = []
+    for joint in robot.joints:
+        child = replay.frame_prefix + joint.child
+        if child in by_child:
+            frames.extend(by_child[child])
+        elif joint.type is not JointType.FLOATING:
+            topic = "/tf" if joint.type.moves else "/tf_static"
+            frames.append(FrameCheck(child, replay.frame_prefix + joint.parent, joint.name, topic,
+                                     problem=f"not in the recording (joint '{joint.name}' of the description)"))
+    report = CheckReport(replay.path, frames, pos_tol, rot_tol)
+    if other:
+        shown = ", ".join(f"{p} → {c}" for p, c in other[:3]) + (" …" if len(other) > 3 else "")
+        report.notes.append(f"{len(other)} recorded frame pair{'s' if len(other) > 1 else ''} not in the "
+                            f"description, not checked: {shown}")
+    if floating:
+        report.notes.append(f"frames below floating joints are not re-simulated: {', '.join(floating)}")
+    return report
+
+
+def _number(value: float) -> str:
+    return "0" if value == 0 else f"{value:.3g}"
+
+
+def _time(value: float | None) -> str:
+    return "-" if value is None else f"{value:.3f}"
+
+
+def format_check(report: CheckReport) -> str:
+    """The report as a table, one row per frame, then the verdict naming the failing frames."""
+    header = ("frame", "parent", "topic", "samples", "max transl. (m)", "at t (s)", "max rot. (rad)", "at t (s)", "")
+    rows = []
+    for f in report.frames:
+        ok = f.passed(report.pos_tol, report.rot_tol)
+        rows.append((f.frame, f.parent, f.topic, str(f.samples),
+                     _number(f.translation_m), _time(f.translation_time_s if f.translation_m else None),
+                     _number(f.rotation_rad), _time(f.rotation_time_s if f.rotation_rad else None),
+                     "ok" if ok else f"FAIL {f.problem or ''}".strip()))
+    widths = [max(len(row[i]) for row in [header, *rows]) for i in range(len(header) - 1)]
+    lines = [f"re-simulated TF of {report.path} (tolerances {report.pos_tol:g} m, {report.rot_tol:g} rad)"]
+    for row in [header, *rows]:
+        lines.append(("  ".join(cell.ljust(width) for cell, width in zip(row, widths)) + "  " + row[-1]).rstrip())
+    lines.extend(f"note: {note}" for note in report.notes)
+    failures = report.failures
+    if not failures:
+        lines.append(f"PASS: all {len(report.frames)} frames match the description")
+    else:
+        named = []
+        for f in failures[:5]:
+            if f.problem is not None:
+                named.append(f"{f.frame} ({f.problem})")
+            elif f.translation_m > report.pos_tol:
+                named.append(f"{f.frame} (translation off by {_number(f.translation_m)} m at t={_time(f.translation_time_s)} s)")
+            else:
+                named.append(f"{f.frame} (rotation off by {_number(f.rotation_rad)} rad at t={_time(f.rotation_time_s)} s)")
+        more = f" and {len(failures) - 5} more" if len(failures) > 5 else ""
+        lines.append(f"FAIL: {len(failures)} of {len(report.frames)} frames differ from the description: "
+                     + "; ".join(named) + more)
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,245 @@
+"""Playing a prepared replay (:func:`tfrec.replay.load_replay`) into a sink, paced for live viewers.
+
+:func:`play` sends latched data first, then the samples in time-ordered batches (a
+:class:`tfrec.pacing.Pacer` sleeps until each is due); :func:`replay_to_rerun` does it into a
+spawned Rerun viewer, a running one, or an ``.rrd`` file (no pacing, written atomically).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import uuid
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tfrec._atomic import AtomicOutputs, check_target
+from tfrec.errors import RecordingError
+from tfrec.recording import FrameSeries, JointStates
+from tfrec.replay.load import Replay
+from tfrec.replay.pacing import BATCH_WALL_S, Clock, MonotonicClock, Pacer, batches
+
+__all__ = ["PlayResult", "ReplaySink", "check_play_options", "play", "replay_to_rerun"]
+
+Array = NDArray[np.float64]
+Pair = tuple[str, str]
+
+# -- playing ------------------------------------------------------------------------------------
+
+
+class ReplaySink(Protocol):
+    """Where a replay goes (:class:`tfrec.rerun_replay.RerunReplaySink`, or a test double)."""
+
+    def begin(self, *, start_time_ns: int, name: str, robot_description: str | None,
+              static: dict[Pair, tuple[Array, Array]], frames: Sequence[str], root: str | None,
+              first_pose: dict[Pair, tuple[Array, Array]]) -> None: ...
+
+    def write_transforms(self, parent: str, child: str, time_ns: NDArray[np.int64], translation: Array,
+                         rotation: Array) -> None: ...
+
+    def write_joint_positions(self, time_ns: NDArray[np.int64], names: Sequence[str], positions: Array) -> None: ...
+
+    def finish(self) -> None: ...
+
+    def abort(self) -> None: ...
+
+
+@dataclass(frozen=True, slots=True)
+class PlayResult:
+    """What :func:`play` did: passes over the recording, batches sent, and seconds slept."""
+
+    passes: int
+    batches: int
+    slept_s: float
+
+
+def _pass_length_ns(replay: Replay, span_ns: int) -> int:
+    """The time between the starts of two passes of a loop: the replayed span plus one sample period."""
+    assert replay.start_ns is not None and replay.end_ns is not None
+    stamps = [s.time_ns for s in replay.tf.values()]
+    if replay.joint_states is not None:
+        stamps.append(replay.joint_states.time_ns)
+    steps = np.concatenate([np.diff(s) for s in stamps if len(s) > 1] or [np.zeros(0, dtype=np.int64)])
+    steps = steps[steps > 0]
+    period = int(np.median(steps)) if len(steps) else span_ns
+    return replay.end_ns - replay.start_ns + period
+
+
+def play(
+    replay: Replay,
+    sink: ReplaySink,
+    *,
+    pacer: Pacer | None = None,
+    loop: bool = False,
+    max_loops: int | None = None,
+    span_ns: int | None = None,
+) -> PlayResult:
+    """Send a replay to a sink: latched data first, then the samples in time-ordered batches.
+
+    Args:
+        replay: from :func:`load_replay`.
+        sink: where to send it; finished on success, aborted on any error or interrupt.
+        pacer: sleep until each batch is due (live viewers); None sends everything at once.
+        loop: start again after the end, forever (or ``max_loops`` passes); each pass is logged
+            after the previous one on the timeline, so a viewer following the newest time plays
+            it again.
+        max_loops: the number of passes of a loop (for tests); None for no limit.
+        span_ns: recording time per batch; default :data:`tfrec.pacing.BATCH_WALL_S` at the
+            pacer's rate, or everything in one batch without a pacer.
+
+    Returns:
+        Passes made, batches sent and seconds slept.
+    """
+    _check_loop(loop, live=pacer is not None)
+    if span_ns is None:
+        span_ns = round(BATCH_WALL_S * pacer.rate * 1e9) if pacer is not None else 1 << 62
+    span_ns = max(span_ns, 1)
+    name = replay.robot.name if replay.robot is not None else Path(replay.path).name
+    passes = sent = 0
+    slept = 0.0
+    try:
+        sink.begin(start_time_ns=replay.start_ns if replay.start_ns is not None else replay.origin_ns, name=name,
+                   robot_description=replay.robot_description, static=replay.static, frames=replay.frames(),
+                   root=replay.root_frame(),
+                   first_pose={pair: (s.translation[0], s.rotation[0]) for pair, s in replay.tf.items() if len(s)})
+        series = [(pair, s) for pair, s in replay.tf.items() if len(s)]
+        joints = replay.joint_states if replay.joint_states is not None and len(replay.joint_states) else None
+        if replay.start_ns is None:
+            sink.finish()
+            replay.report_damage()
+            return PlayResult(1, 0, 0.0)
+        stamps = [s.time_ns for _, s in series] + ([joints.time_ns] if joints is not None else [])
+        windows = batches(stamps, start_ns=replay.start_ns, span_ns=span_ns)
+        edges = np.array([w.start_ns for w in windows] + [windows[-1].stop_ns], dtype=np.int64)
+        tf_index = [np.searchsorted(s.time_ns, edges) for _, s in series]
+        joint_index = np.searchsorted(joints.time_ns, edges) if joints is not None else None
+        pass_ns = _pass_length_ns(replay, span_ns) if loop else 0
+        while True:
+            shift = passes * pass_ns
+            for k, window in enumerate(windows):
+                if pacer is not None:
+                    slept += pacer.wait(shift + window.first_ns - replay.start_ns)
+                _send_batch(sink, series, tf_index, joints, joint_index, k, shift)
+                sent += 1
+            passes += 1
+            replay.report_damage()
+            if not loop or (max_loops is not None and passes >= max_loops):
+                break
+        sink.finish()
+    except BaseException:
+        sink.abort()
+        raise
+    return PlayResult(passes, sent, slept)
+
+
+def _check_loop(loop: bool, *, live: bool) -> None:
+    """A loop plays forever, so only into a live viewer (paced), never into a file."""
+    if loop and not live:
+        raise RecordingError("--loop replays forever; it needs a live viewer, not --save")
+
+
+def _send_batch(sink: ReplaySink, series: list[tuple[Pair, FrameSeries]], tf_index: list[NDArray[np.intp]],
+                joints: JointStates | None, joint_index: NDArray[np.intp] | None, k: int, shift: int) -> None:
+    for ((parent, child), s), index in zip(series, tf_index):
+        a, b = index[k], index[k + 1]
+        if b > a:
+            sink.write_transforms(parent, child, s.time_ns[a:b] + shift, s.translation[a:b], s.rotation[a:b])
+    if joints is not None and joint_index is not None:
+        a, b = joint_index[k], joint_index[k + 1]
+        if b > a:
+            sink.write_joint_positions(joints.time_ns[a:b] + shift, joints.names, joints.positions[a:b])
+
+
+# -- into Rerun ---------------------------------------------------------------------------------
+
+
+def _recording_id(replay: Replay) -> str:
+    """The same replay of the same file gives the same id (and the same .rrd)."""
+    digest = hashlib.sha256()
+    digest.update(os.path.abspath(replay.path).encode())
+    digest.update(f"|{replay.start_ns}|{replay.end_ns}|{sorted(replay.tf)}|{replay.robot_description is None}".encode())
+    if replay.robot is not None:
+        digest.update(replay.robot.urdf.encode())
+    return str(uuid.UUID(bytes=digest.digest()[:16], version=5))
+
+
+def check_play_options(
+    *, save: str | os.PathLike[str] | None, connect: str | None, rate: float, loop: bool, force: bool
+) -> None:
+    """Check the options of :func:`replay_to_rerun` before anything is read or written.
+
+    Raises:
+        RecordingError: a rate that is not > 0, --save with --connect or --loop, a --save name
+            that is not ``.rrd``, a --save file that exists (without ``force``; a folder in any
+            case), no viewer at the --connect URL, or no viewer to spawn (no display or no
+            ``rerun`` executable).
+    """
+    if not (math.isfinite(rate) and rate > 0):
+        raise RecordingError(f"--rate {rate:g} is not a speed > 0")
+    if save is not None and connect is not None:
+        raise RecordingError("--save and --connect exclude each other")
+    _check_loop(loop, live=save is None)
+    if save is None:
+        from tfrec.formats.rrd.viewer import check_can_connect, check_can_spawn
+
+        if connect is None:
+            check_can_spawn()
+        else:
+            check_can_connect(connect)
+        return
+    check_target(Path(save), suffix=".rrd", what="Rerun", force=force)
+
+
+def replay_to_rerun(
+    replay: Replay,
+    *,
+    save: str | os.PathLike[str] | None = None,
+    connect: str | None = None,
+    rate: float = 1.0,
+    loop: bool = False,
+    package_paths: Sequence[str | os.PathLike[str]] = (),
+    clock: Clock | None = None,
+    max_loops: int | None = None,
+    force: bool = False,
+    checked: bool = False,
+) -> PlayResult:
+    """Play a replay into Rerun: a spawned viewer (default), a running one, or an ``.rrd`` file.
+
+    Args:
+        replay: from :func:`load_replay`.
+        save: write this ``.rrd`` file instead, as fast as possible (written to a temporary file
+            beside it and renamed when complete).
+        connect: stream to the viewer (or server) at this URL, ``rerun+http://host:port/proxy``.
+        rate: playback speed of a live replay (2 = twice as fast).
+        loop: start again after the end (live only), until interrupted or ``max_loops``.
+        package_paths: folders searched first for ``package://`` meshes.
+        clock: the clock a live replay is paced by (default: the wall clock).
+        max_loops: passes of a loop (for tests).
+        force: overwrite an existing ``save`` file.
+        checked: the options were checked with :func:`check_play_options` already (before the
+            recording was read, as the CLI does), so the viewer is not probed a second time.
+
+    Raises:
+        RecordingError: bad options, an output that exists, no viewer to spawn or reach, or a
+            file that cannot be written.
+    """
+    from tfrec.formats.rrd.viewer import open_rerun_sink
+
+    if not checked:
+        check_play_options(save=save, connect=connect, rate=rate, loop=loop, force=force)
+    if save is None:
+        sink = open_rerun_sink(connect=connect, robot=replay.robot, frame_prefix=replay.frame_prefix,
+                               package_paths=package_paths)
+        return play(replay, sink, pacer=Pacer(clock or MonotonicClock(), rate=rate), loop=loop, max_loops=max_loops)
+    with AtomicOutputs(replace=force) as outputs:
+        sink = open_rerun_sink(save=outputs.path(Path(save)), recording_id=_recording_id(replay), robot=replay.robot,
+                               frame_prefix=replay.frame_prefix, package_paths=package_paths)
+        result = play(replay, sink)  # aborts the sink (closing its file) on any error
+        outputs.commit()
+    return result

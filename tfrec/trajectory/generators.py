@@ -1,0 +1,341 @@
+"""Joint trajectories: joint positions on a clock, as joint_state_publisher(_gui) makes them.
+
+A :class:`JointTrajectory` holds the actuated joints of a robot (revolute, continuous and
+prismatic joints that mimic nothing, in URDF document order) sampled at integer-nanosecond
+times. :func:`make_trajectory` builds one from a kind name (``center``, ``random``, ``sine``,
+``sweep``) or a CSV file (:mod:`tfrec.trajectory_csv`); :func:`all_joint_states` adds the
+mimic joints (:func:`apply_mimic`, which replay uses too), giving every moving joint as
+joint_state_publisher publishes it.
+
+Sampling rule of the generated kinds: sample ``i`` is at ``time_ns[i] = round(i * 1e9 / rate_hz)``
+for every ``i`` with ``time_ns[i] <= round(duration_s * 1e9)``, so both ends are included when
+the duration is a whole number of periods (10 s at 50 Hz gives 501 samples). Positions and
+velocities are evaluated at exactly those times. The generated kinds are
+:class:`GeneratedTrajectory` objects: only the times are held, and each chunk is evaluated from
+its own times when it is streamed, so memory stays flat whatever the duration.
+
+In ``center``, ``random`` and ``sine`` a joint's motion depends only on its own index, bounds
+and the options, never on the joints after it: appending a joint (a gripper to an arm) leaves the
+others as they were. (``sweep`` shares the duration among the joints, so it cannot.)
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tfrec.conventions import STAMP_LIMIT_NS, STAMP_RANGE
+from tfrec.errors import TrajectoryError
+from tfrec.model import Robot
+from tfrec.trajectory.joints import _bounds_arrays, _pinned, center_positions, position_range
+from tfrec.trajectory.types import GeneratedTrajectory, JointTrajectory, Sampler, TrajectoryKind
+
+__all__ = [
+    "MAX_SAMPLES",
+    "center_trajectory",
+    "make_trajectory",
+    "random_trajectory",
+    "sample_times_ns",
+    "sine_trajectory",
+    "sweep_trajectory",
+]
+
+MAX_SAMPLES = 10_000_000
+"""Most samples a generated trajectory may have (1 h at 1 kHz is 3.6 million)."""
+
+
+_OUT_OF_RANGE = f"out of range: {STAMP_RANGE}"
+
+
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+"""frac(φ) of the golden ratio φ: ``frac(j·φ)`` spreads joints evenly, whatever their number."""
+
+
+Array = NDArray[np.float64]
+
+
+Floats = NDArray[np.floating[Any]]
+
+
+def make_trajectory(
+    robot: Robot,
+    kind: str | os.PathLike[str],
+    *,
+    duration_s: float = 10.0,
+    rate_hz: float = 50.0,
+    seed: int = 0,
+    period_s: float = 2.0,
+    amplitude: float = 0.8,
+    overrides: Mapping[str, float] = {},
+) -> JointTrajectory:
+    """Make the trajectory ``--traj KIND`` asks for.
+
+    Args:
+        robot: the robot whose actuated joints move.
+        kind: a :class:`TrajectoryKind` name, or else the path of a CSV file (a file
+            named like a kind is reached as ``./sine``).
+        duration_s, rate_hz: length and sample rate of the generated kinds.
+        seed: seed of ``random`` (same seed, same trajectory).
+        period_s: time between the waypoints of ``random``; sets the periods of ``sine``.
+            At least the sample interval ``1 / rate_hz`` for those two kinds.
+        amplitude: fraction of each joint's half-range that ``sine`` uses, in [0, 1].
+        overrides: joint name → position, held constant (``--set``). In ``center`` this is
+            joint_state_publisher's ``zeros`` parameter; in a CSV file it gives joints
+            without a column.
+
+    Raises:
+        TrajectoryError: an option is out of range (the duration reaches past what ROS 2
+            stamps hold, the samples would be more than :data:`MAX_SAMPLES`, the period is
+            shorter than the sample interval), an override is unknown or beyond its joint's
+            limits, or the CSV file is missing or malformed.
+    """
+    if not (isinstance(duration_s, numbers.Real) and math.isfinite(duration_s) and duration_s > 0):
+        raise TrajectoryError(f"duration {duration_s!r} s is not a positive number")
+    if not (isinstance(rate_hz, numbers.Real) and math.isfinite(rate_hz) and rate_hz > 0):
+        raise TrajectoryError(f"rate {rate_hz!r} Hz is not a positive number")
+    if not (isinstance(period_s, numbers.Real) and math.isfinite(period_s) and period_s > 0):
+        raise TrajectoryError(f"period {period_s!r} s is not a positive number")
+    if not (isinstance(amplitude, numbers.Real) and 0.0 <= amplitude <= 1.0):
+        raise TrajectoryError(f"amplitude {amplitude!r} is not a fraction between 0 and 1")
+    if not (isinstance(seed, numbers.Integral) and not isinstance(seed, bool) and seed >= 0):
+        raise TrajectoryError(f"seed {seed!r} is not a non-negative integer")
+    if isinstance(kind, str) and kind in TrajectoryKind._value2member_map_:
+        which = TrajectoryKind(kind)
+        if which in (TrajectoryKind.RANDOM, TrajectoryKind.SINE) and period_s * rate_hz < 1.0 - 1e-12:
+            raise TrajectoryError(
+                f"period {period_s!r} s is shorter than the sample interval {1.0 / rate_hz:g} s of {rate_hz:g} Hz"
+            )
+        if which is TrajectoryKind.CENTER:
+            return center_trajectory(robot, duration_s=duration_s, rate_hz=rate_hz, overrides=overrides)
+        if which is TrajectoryKind.RANDOM:
+            return random_trajectory(
+                robot, duration_s=duration_s, rate_hz=rate_hz, seed=seed, period_s=period_s, overrides=overrides
+            )
+        if which is TrajectoryKind.SINE:
+            return sine_trajectory(
+                robot,
+                duration_s=duration_s,
+                rate_hz=rate_hz,
+                period_s=period_s,
+                amplitude=amplitude,
+                overrides=overrides,
+            )
+        return sweep_trajectory(robot, duration_s=duration_s, rate_hz=rate_hz, overrides=overrides)
+    path = Path(kind)
+    if not path.exists():
+        text = os.fspath(kind)
+        if isinstance(kind, str) and os.sep not in text and "." not in text:
+            names = ", ".join(k.value for k in TrajectoryKind)
+            raise TrajectoryError(f"{text}: neither a trajectory kind ({names}) nor a CSV file")
+        raise TrajectoryError(f"{text}: no such CSV file")
+    from tfrec.trajectory.csv_file import read_csv_trajectory  # imports this module
+
+    return read_csv_trajectory(path, robot, overrides=overrides)
+
+
+def sample_times_ns(duration_s: float, rate_hz: float) -> NDArray[np.int64]:
+    """``round(i * 1e9 / rate_hz)`` for every i whose time is at most the duration.
+
+    Raises:
+        TrajectoryError: the duration is not below ROS 2's int32 seconds, the rate is above one
+            sample per nanosecond, or the samples would be more than :data:`MAX_SAMPLES`.
+    """
+    if not duration_s * 1e9 < STAMP_LIMIT_NS:
+        raise TrajectoryError(f"duration {duration_s!r} s is {_OUT_OF_RANGE}")
+    if rate_hz > 1e9:
+        raise TrajectoryError(f"rate {rate_hz:g} Hz is more than one sample per nanosecond (1e+09 Hz)")
+    duration_ns = round(duration_s * 1e9)
+    if not duration_ns * rate_hz / 1e9 < MAX_SAMPLES:  # also inf
+        raise TrajectoryError(
+            f"duration {duration_s:g} s at {rate_hz:g} Hz gives more than {MAX_SAMPLES:,} samples"
+        )
+    count = int(duration_ns * rate_hz / 1e9) + 2  # one past the end, dropped below
+    with np.errstate(over="ignore"):  # that one may overflow at a tiny rate
+        candidates = np.rint(np.arange(count, dtype=np.float64) * 1e9 / rate_hz)
+    time_ns = candidates[candidates < STAMP_LIMIT_NS].astype(np.int64)
+    return time_ns[time_ns <= duration_ns]
+
+
+def center_trajectory(
+    robot: Robot,
+    *,
+    duration_s: float = 10.0,
+    rate_hz: float = 50.0,
+    overrides: Mapping[str, float] = {},
+) -> JointTrajectory:
+    """Every actuated joint held at its center (:func:`center_positions`)."""
+    center = center_positions(robot, overrides=overrides)
+    time_ns = sample_times_ns(duration_s, rate_hz)
+
+    def sample(times: NDArray[np.int64]) -> tuple[Array, Array]:
+        positions = np.broadcast_to(center, (len(times), len(center))).copy()
+        return positions, np.zeros_like(positions)
+
+    return _trajectory(robot, time_ns, sample)
+
+
+def random_trajectory(
+    robot: Robot,
+    *,
+    duration_s: float = 10.0,
+    rate_hz: float = 50.0,
+    seed: int = 0,
+    period_s: float = 2.0,
+    overrides: Mapping[str, float] = {},
+) -> JointTrajectory:
+    """The Randomize button pressed every ``period_s`` seconds, with smooth motion between.
+
+    Waypoint 0 (t = 0) is the center; waypoint k (t = k·period) is uniform within each
+    joint's bounds (:func:`joint_bounds`). Joint j draws its waypoints in order from its own
+    stream, ``numpy.random.default_rng([seed, j])``, so a longer duration extends the same
+    trajectory and adding a joint leaves the others' waypoints as they were. Between waypoints
+    each joint follows a minimum-jerk (quintic) segment: continuous velocity, at rest on every
+    waypoint, never beyond either end.
+    """
+    pinned = _pinned(robot, overrides)
+    center = center_positions(robot, overrides=overrides)
+    lower, upper = _bounds_arrays(robot)
+    time_ns = sample_times_ns(duration_s, rate_hz)
+    count = math.ceil(duration_s / period_s) + 1
+    waypoints = np.empty((count, len(center)))
+    waypoints[0] = center
+    for j in range(len(center)):
+        if j in pinned:
+            waypoints[:, j] = pinned[j]
+        else:
+            waypoints[1:, j] = np.random.default_rng([seed, j]).uniform(lower[j], upper[j], size=count - 1)
+    knot_s = np.arange(count) * period_s
+
+    def sample(times: NDArray[np.int64]) -> tuple[Array, Array]:
+        return _min_jerk(times * 1e-9, knot_s, waypoints)
+
+    return _trajectory(robot, time_ns, sample)
+
+
+def sine_trajectory(
+    robot: Robot,
+    *,
+    duration_s: float = 10.0,
+    rate_hz: float = 50.0,
+    period_s: float = 2.0,
+    amplitude: float = 0.8,
+    overrides: Mapping[str, float] = {},
+) -> JointTrajectory:
+    """Every joint oscillates about the middle of its bounds.
+
+    Joint j (actuated order, from 0) follows ``mid + a·sin(2π t / T_j + 2π f_j)`` with
+    ``a = amplitude · half-range`` (continuous joints: ``amplitude · π``),
+    ``T_j = 2·period_s·(1 + f_j)`` and ``f_j = frac(j·φ)``, φ the golden ratio: no two joints
+    share a period and phase, and a joint's motion does not depend on how many joints follow it.
+    """
+    pinned = _pinned(robot, overrides)
+    lower, upper = _bounds_arrays(robot)
+    time_ns = sample_times_ns(duration_s, rate_hz)
+    fraction = np.mod(np.arange(len(lower)) * _GOLDEN, 1.0)
+    omega = 2.0 * np.pi / (2.0 * period_s * (1.0 + fraction))
+    phase = 2.0 * np.pi * fraction
+    middle = (lower + upper) / 2.0
+    reach = amplitude * (upper - lower) / 2.0
+
+    def sample(times: NDArray[np.int64]) -> tuple[Array, Array]:
+        angle = np.outer(times * 1e-9, omega) + phase
+        positions = middle + reach * np.sin(angle)
+        velocities = reach * omega * np.cos(angle)
+        for i, value in pinned.items():
+            positions[:, i] = value
+            velocities[:, i] = 0.0
+        return positions, velocities
+
+    return _trajectory(robot, time_ns, sample)
+
+
+def sweep_trajectory(
+    robot: Robot,
+    *,
+    duration_s: float = 10.0,
+    rate_hz: float = 50.0,
+    overrides: Mapping[str, float] = {},
+) -> JointTrajectory:
+    """One joint at a time goes center → lower → upper → center; the others stay at center.
+
+    Each joint that is not overridden gets an equal slot of the duration, in actuated order;
+    within its slot the three moves take time in proportion to their lengths, each a
+    minimum-jerk segment (at rest at center and at both limits). The turning points are moved
+    to the nearest sample, so the limits themselves are among the positions.
+    """
+    pinned = _pinned(robot, overrides)
+    center = center_positions(robot, overrides=overrides)
+    lower, upper = _bounds_arrays(robot)
+    time_ns = sample_times_ns(duration_s, rate_hz)
+    swept = [i for i in range(len(center)) if i not in pinned]
+    slot = duration_s / max(len(swept), 1)
+    segments: list[tuple[int, Floats, Floats]] = []  # (column, knot times, knot positions (K, 1))
+    for k, i in enumerate(swept):
+        values = np.array([center[i], lower[i], upper[i], center[i]])
+        lengths = np.abs(np.diff(values))
+        if lengths.sum() == 0.0:
+            continue
+        start = k * slot
+        knot_s = np.concatenate([[0.0], start + slot * np.cumsum(np.r_[0.0, lengths]) / lengths.sum(), [duration_s]])
+        on_sample = np.clip(np.rint(knot_s * rate_hz).astype(np.int64), 0, len(time_ns) - 1)
+        knot_s = time_ns[on_sample] * 1e-9  # on samples: limits are hit
+        knot_q = np.concatenate([[center[i]], values, [center[i]]])
+        keep = np.diff(knot_s, prepend=-np.inf) > 0.0  # drop empty segments (zero length or less than a sample)
+        segments.append((i, knot_s[keep], knot_q[keep, np.newaxis]))
+
+    def sample(times: NDArray[np.int64]) -> tuple[Array, Array]:
+        t = times * 1e-9
+        positions = np.broadcast_to(center, (len(t), len(center))).copy()
+        velocities = np.zeros_like(positions)
+        for i, knots, knot_q in segments:
+            pos, vel = _min_jerk(t, knots, knot_q)
+            positions[:, i] = pos[:, 0]
+            velocities[:, i] = vel[:, 0]
+        return positions, velocities
+
+    return _trajectory(robot, time_ns, sample)
+
+
+def _min_jerk(t: Floats, knot_s: Floats, knot_q: Floats) -> tuple[Array, Array]:
+    """Positions and velocities at times ``t`` of a path through waypoints.
+
+    Args:
+        t: (N,) seconds.
+        knot_s: (K,) strictly increasing waypoint times, K >= 2; times outside hold the ends.
+        knot_q: (K, J) waypoints.
+
+    Each segment is the minimum-jerk blend ``s(τ) = 10τ³ − 15τ⁴ + 6τ⁵``: it starts and ends
+    at rest and stays between its two waypoints. Every waypoint is reached exactly.
+    """
+    if len(knot_s) < 2:
+        return np.broadcast_to(knot_q[0], (len(t), knot_q.shape[1])).copy(), np.zeros((len(t), knot_q.shape[1]))
+    k = np.clip(np.searchsorted(knot_s, t, side="right") - 1, 0, len(knot_s) - 2)
+    span = knot_s[k + 1] - knot_s[k]
+    tau = np.clip((t - knot_s[k]) / span, 0.0, 1.0)
+    blend = tau**3 * (10.0 + tau * (-15.0 + 6.0 * tau))
+    rate = 30.0 * tau**2 * (1.0 - tau) ** 2 / span
+    start = knot_q[k]
+    delta = knot_q[k + 1] - start
+    positions = start + delta * blend[:, np.newaxis]
+    positions[t >= knot_s[-1]] = knot_q[-1]  # exactly, as the next segment would start: a longer path extends this one
+    return positions, delta * rate[:, np.newaxis]
+
+
+def _trajectory(robot: Robot, time_ns: NDArray[np.int64], sample: Sampler) -> GeneratedTrajectory:
+    """A lazy trajectory of ``sample``, whose positions are clipped of rounding overshoot (a few ulps) at the limits."""
+    lower, upper = np.array([position_range(joint) for joint in robot.actuated_joints]).reshape(-1, 2).T
+
+    def clipped(times: NDArray[np.int64]) -> tuple[Array, Array]:
+        positions, velocities = sample(times)
+        if positions.shape[1]:
+            np.clip(positions, lower, upper, out=positions)
+        return positions, velocities
+
+    return GeneratedTrajectory(tuple(joint.name for joint in robot.actuated_joints), time_ns, clipped)

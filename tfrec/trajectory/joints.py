@@ -1,0 +1,109 @@
+"""joint_state_publisher's rules for one joint: its range, its center, and which column it is.
+
+A trajectory holds the actuated joints of a robot (revolute, continuous and prismatic joints
+that mimic nothing, in URDF document order). These rules are shared by the generators and by
+CSV trajectories.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tfrec.errors import TrajectoryError
+from tfrec.model import Joint, JointType, Robot
+
+__all__ = [
+    "actuated_column",
+    "center_positions",
+    "joint_bounds",
+    "position_range",
+]
+
+Array = NDArray[np.float64]
+
+
+def joint_bounds(joint: Joint) -> tuple[float, float]:
+    """The position range of a moving joint: its limits, or [-π, π] for a continuous joint."""
+    if joint.type is JointType.CONTINUOUS:
+        return -math.pi, math.pi
+    if joint.limit is None:
+        raise TrajectoryError(f"joint '{joint.name}' is {joint.type.value} but has no <limit>")
+    return joint.limit.lower, joint.limit.upper
+
+
+def center_positions(robot: Robot, *, overrides: Mapping[str, float] = {}) -> Array:
+    """joint_state_publisher_gui's Center: 0, or the middle of the limits when 0 is outside them.
+
+    Returns:
+        float64 (J,), one value per actuated joint; ``overrides`` replace the computed ones.
+    """
+    pinned = _pinned(robot, overrides)
+    center = np.empty(len(robot.actuated_joints))
+    for i, joint in enumerate(robot.actuated_joints):
+        lower, upper = joint_bounds(joint)
+        center[i] = 0.0 if lower <= 0.0 <= upper else (lower + upper) / 2.0
+    for i, value in pinned.items():
+        center[i] = value
+    return center
+
+
+def actuated_column(robot: Robot, name: str, where: str, *, verb: str = "set") -> tuple[int, Joint]:
+    """The column of the actuated joint ``name`` in a trajectory (the order of ``robot.actuated_joints``).
+
+    Args:
+        robot: the robot.
+        name: the joint a user named (an override, a CSV column).
+        where: how messages name it, e.g. ``elbow=0.5: 'elbow'`` or ``arm.csv:1: column 'elbow'``.
+        verb: what the user does with a joint, for the message about a mimic joint: ``set`` or ``give``.
+
+    Returns:
+        (the column, the joint).
+
+    Raises:
+        TrajectoryError: ``name`` is not a joint of the robot, is a mimic joint, or has no position
+            (a fixed, floating or planar joint).
+    """
+    joint = robot.joint_by_name.get(name)
+    if joint is None:
+        raise TrajectoryError(f"{where} is not a joint of robot '{robot.name}'")
+    if joint.mimic is not None and joint.type.moves:
+        raise TrajectoryError(f"{where} is a mimic joint; {verb} '{joint.mimic.joint}' instead")
+    if not joint.actuated:
+        raise TrajectoryError(f"{where} is a {joint.type.value} joint, which has no position")
+    return robot.actuated_joints.index(joint), joint
+
+
+def position_range(joint: Joint) -> tuple[float, float]:
+    """The positions a moving joint may take: its limits; unbounded for a continuous joint.
+
+    Raises:
+        TrajectoryError: a revolute or prismatic joint without ``<limit>``.
+    """
+    if joint.type is JointType.CONTINUOUS:
+        return -math.inf, math.inf
+    return joint_bounds(joint)
+
+
+def _pinned(robot: Robot, overrides: Mapping[str, float]) -> dict[int, float]:
+    """Check ``overrides`` and map them to actuated-joint columns."""
+    pinned: dict[int, float] = {}
+    for name, value in overrides.items():
+        where = f"{name}={value!r}"
+        column, joint = actuated_column(robot, name, f"{where}: '{name}'")
+        if not (isinstance(value, numbers.Real) and math.isfinite(value)):
+            raise TrajectoryError(f"{where}: not a finite number")
+        lower, upper = position_range(joint)
+        if not lower <= value <= upper:
+            raise TrajectoryError(f"{where}: beyond the limits [{lower!r}, {upper!r}] of joint '{name}'")
+        pinned[column] = float(value)
+    return pinned
+
+
+def _bounds_arrays(robot: Robot) -> tuple[Array, Array]:
+    bounds = [joint_bounds(joint) for joint in robot.actuated_joints]
+    return np.array([b[0] for b in bounds], dtype=np.float64), np.array([b[1] for b in bounds], dtype=np.float64)
