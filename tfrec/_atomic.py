@@ -17,7 +17,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import final
 
-from tfrec.errors import RecordingError
+from tfrec.errors import RecordingError, WriteError
 
 __all__ = ["AtomicOutputs", "check_target"]
 
@@ -37,13 +37,13 @@ def check_target(target: Path, *, suffix: str | None, what: str, force: bool, fo
             folder is written (or the other way round).
     """
     if suffix is not None and target.suffix != suffix:
-        raise RecordingError(f"{target}: the {what} output's name must end in {suffix}")
+        raise WriteError(f"{target}: the {what} output's name must end in {suffix}")
     if not target.exists():
         return
     if target.is_dir() != folder:
-        raise RecordingError(f"{target}: exists and is a {'folder' if target.is_dir() else 'file'}")
+        raise WriteError(f"{target}: exists and is a {'folder' if target.is_dir() else 'file'}")
     if not force:
-        raise RecordingError(f"{target}: already exists (use --force to overwrite)")
+        raise WriteError(f"{target}: already exists (use `force` to overwrite)")
 
 
 @final
@@ -80,7 +80,7 @@ class AtomicOutputs:
             message = self.with_targets(str(error))
         self.abort()
         if message is not None:
-            raise RecordingError(message) from None
+            raise WriteError(message) from error
 
     def path(self, target: Path, *, directory: bool = False) -> Path:
         """A temporary name for ``target`` in its folder (created, with its parents); with
@@ -128,8 +128,8 @@ class AtomicOutputs:
                     path.unlink(missing_ok=True)
             clash = self._pairs[len(done)][1]
             self.abort()
-            raise RecordingError(f"{clash}: already exists (written meanwhile by another process?); "
-                                 "use --force to overwrite") from None
+            raise WriteError(f"{clash}: already exists (written meanwhile by another process?); "
+                                 "use `force` to overwrite")
         self._pairs.clear()
 
     def _rename(self, temp: Path, target: Path) -> None:
@@ -150,7 +150,7 @@ class AtomicOutputs:
                 if err.errno not in (errno.EPERM, errno.EOPNOTSUPP, errno.EXDEV, errno.EMLINK):
                     raise
                 if target.exists():
-                    raise FileExistsError(errno.EEXIST, "exists", str(target)) from None
+                    raise FileExistsError(errno.EEXIST, "exists", str(target)) from err
                 os.replace(temp, target)
                 return
             temp.unlink()

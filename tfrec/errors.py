@@ -1,7 +1,10 @@
 """Errors raised by tfrec, one class per stage of the data flow.
 
 Library code raises these and never prints; the CLI turns them into one line
-``tfrec: error: <message>`` and exit code 2.
+``tfrec: error: <message>`` and exit code 2. Messages start with the input they are about
+(file, line, element) and name the library's parameters in backquotes (```start_s```); the CLI
+shows each as its flag (``--start``). Foreign errors are chained (``raise ... from err``) so that
+a traceback (``--debug``, tests) keeps the cause.
 """
 
 from __future__ import annotations
@@ -10,11 +13,17 @@ import os
 from pathlib import Path
 
 __all__ = [
+    "ConvertError",
     "DescriptionError",
+    "DiffError",
+    "FleetError",
     "KinematicsError",
+    "ReadError",
     "RecordingError",
+    "ReplayError",
     "TfrecError",
     "TrajectoryError",
+    "WriteError",
 ]
 
 
@@ -35,7 +44,31 @@ class KinematicsError(TfrecError):
 
 
 class RecordingError(TfrecError):
-    """A recording could not be written or read."""
+    """A recording could not be written or read: the base of :class:`ReadError` and :class:`WriteError`."""
+
+
+class ReadError(RecordingError):
+    """A recording could not be read: a missing file, not a recording, nothing readable, bad metadata."""
+
+
+class WriteError(RecordingError):
+    """An output could not be written: bad options, an existing target, a failed write."""
+
+
+class ReplayError(TfrecError):
+    """A recording could not be replayed or re-simulated (bad window, topics, no robot, no viewer)."""
+
+
+class DiffError(TfrecError):
+    """Two recordings or descriptions could not be compared (bad tolerances, topics in neither)."""
+
+
+class ConvertError(TfrecError):
+    """A recording could not be converted (bad options, a message that cannot be carried over)."""
+
+
+class FleetError(TfrecError):
+    """A fleet run (``tfrec check``, a directory ``diff``) could not start: no recordings, no engine."""
 
 
 def display_path(path: str | os.PathLike[str] | None) -> str:

@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from tfrec.conventions import JOINT_STATES, NS_PER_S, ROBOT_DESCRIPTION, TF, TF_STATIC
-from tfrec.errors import RecordingError
+from tfrec.errors import ReadError
 from tfrec.formats.mcap.records import MCAP_MAGIC
 from tfrec.formats.mcap.summary import McapSummary, channel_spans, iter_messages, read_header, read_summary
 from tfrec.formats.reader import identify_recording, read_recording
@@ -77,7 +77,7 @@ def summarize(path: str | os.PathLike[str]) -> dict[str, Any]:
         damaged file lost).
 
     Raises:
-        RecordingError: a missing file, one that is not a recording, one with nothing readable,
+        ReadError: a missing file, one that is not a recording, one with nothing readable,
             or a message that cannot be decoded.
     """
     source = identify_recording(path)
@@ -148,9 +148,9 @@ def _scan_file(path: Path, scan: _Scan) -> bool:
                 return False
             return _scan_stream(stream, os.fstat(stream.fileno()).st_size, scan)
     except OSError as err:
-        raise RecordingError(f"{path}: cannot read: {err.strerror or err}") from None
+        raise ReadError(f"{path}: cannot read: {err.strerror or err}") from err
     except _DecodeError as err:
-        raise RecordingError(f"{path}: {err}") from None
+        raise ReadError(f"{path}: {err}") from err
     except (struct.error, ValueError, KeyError, IndexError, EOFError):
         return False  # damaged: read_recording reads what it can and says what was lost
 
@@ -190,7 +190,7 @@ def _decode_some(stream: IO[bytes], size: int, summary: McapSummary, scan: _Scan
             try:
                 yield deserialize(data)
             except UndecodableMessage as err:
-                raise _DecodeError(f"cannot decode a {topic} message as {msgtype} ({err})") from None
+                raise _DecodeError(f"cannot decode a {topic} message as {msgtype} ({err})") from err
 
     if scan.robot_name is None and has(ROBOT_DESCRIPTION, "std_msgs/msg/String"):
         for msg in first(ROBOT_DESCRIPTION, "std_msgs/msg/String", 1):

@@ -20,7 +20,7 @@ import numpy as np
 
 from tfrec._atomic import AtomicOutputs, check_target
 from tfrec.conventions import DEFAULT_START_TIME_NS
-from tfrec.errors import RecordingError
+from tfrec.errors import WriteError
 from tfrec.formats.mcap.writer import McapSink, check_time_range
 from tfrec.formats.rosbag2.metadata import write_bag_metadata
 from tfrec.kinematics.fk import DEFAULT_CHUNK_SIZE, iter_dynamic_chunks, static_transforms
@@ -70,15 +70,15 @@ def plan_outputs(
     """Decide the output paths and check them before anything is written.
 
     Raises:
-        RecordingError: nothing to write, conflicting options, or a target that
+        WriteError: nothing to write, conflicting options, or a target that
             :func:`tfrec.atomic.check_target` refuses (wrong extension, exists without ``force``).
     """
     if no_mcap and no_rrd:
-        raise RecordingError("--no-mcap and --no-rrd together leave nothing to write")
+        raise WriteError("`no_mcap` and `no_rrd` together leave nothing to write")
     if bag is not None and (out is not None or no_mcap):
-        raise RecordingError("--bag DIR writes the MCAP inside DIR; it goes with neither -o nor --no-mcap")
+        raise WriteError("`bag` writes the MCAP inside its folder; it goes with neither `out` nor `no_mcap`")
     if no_rrd and rrd is not None:
-        raise RecordingError("--rrd and --no-rrd contradict each other")
+        raise WriteError("`rrd` and `no_rrd` contradict each other")
     bag_dir = Path(bag) if bag is not None else None
     mcap: Path | None = None
     if bag_dir is not None:
@@ -161,7 +161,7 @@ def record(
         progress: called with (samples done, samples in all) after every chunk.
 
     Raises:
-        RecordingError: the outputs could not be written (or an unknown compression); no partial
+        WriteError: the outputs could not be written (or an unknown compression); no partial
             output remains.
     """
     total = len(trajectory)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 from collections.abc import Callable
 from typing import TYPE_CHECKING, NoReturn, TextIO
 
@@ -13,7 +14,18 @@ from tfrec.conventions import (
 if TYPE_CHECKING:
     from tfrec.model import Robot
 
-__all__ = ["PROG", "Parser", "Progress", "add_robot_arguments", "fmt", "load_robot", "number", "start_time", "tolerance"]
+__all__ = [
+    "PROG",
+    "Parser",
+    "Progress",
+    "add_robot_arguments",
+    "as_flags",
+    "fmt",
+    "load_robot",
+    "number",
+    "start_time",
+    "tolerance",
+]
 
 PROG = "tfrec"
 
@@ -98,7 +110,7 @@ def start_time(text: str) -> int:
     try:
         seconds = decimal.Decimal(text.strip())
     except decimal.InvalidOperation:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a number of seconds") from None
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number of seconds")
     if not seconds.is_finite() or seconds < 0:
         raise argparse.ArgumentTypeError(f"{text} is not a time since the epoch in seconds")
     return int((seconds * NS_PER_S).to_integral_value(rounding=decimal.ROUND_HALF_EVEN))
@@ -111,7 +123,28 @@ def tolerance(text: str) -> float:
     try:
         value = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number")
     if not (math.isfinite(value) and value >= 0):
         raise argparse.ArgumentTypeError(f"{text} is not a tolerance (a number >= 0)")
     return value
+
+
+_FLAGS = {
+    "start_s": "--start",
+    "end_s": "--end",
+    "out": "-o",
+    "package_paths": "--package-path",
+    "allow_paths": "--allow-path",
+    "robot": "--robot",
+    "bag": "--bag DIR",
+    "frame_prefix": "--frame-prefix",
+}
+"""Library parameters whose flag is not ``--`` + the name with dashes."""
+
+_PARAMETER = re.compile(r"`([A-Za-z_][A-Za-z0-9_]*)`")
+
+
+def as_flags(message: str) -> str:
+    """A library message as the command line says it: each parameter named in backquotes
+    (```no_mcap```) becomes its flag (``--no-mcap``)."""
+    return _PARAMETER.sub(lambda m: _FLAGS.get(m[1], "--" + m[1].replace("_", "-")), message)

@@ -7,6 +7,7 @@ import sys
 from typing import Any
 
 from tfrec.cli._common import (
+    as_flags,
     number,
     tolerance,
 )
@@ -48,5 +49,5 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
 
     report = compare(ns.a, ns.b, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol, joint_tol=ns.joint_tol,
                      topics=ns.topics, absolute=ns.absolute)
-    sys.stdout.write(report.to_json() + "\n" if ns.json else report.to_text())
+    sys.stdout.write(report.to_json() + "\n" if ns.json else as_flags(report.to_text()))
     return 0 if report.equal else 1

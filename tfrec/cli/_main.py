@@ -19,6 +19,7 @@ from tfrec import __version__
 from tfrec.cli._common import (
     PROG,
     Parser,
+    as_flags,
 )
 from tfrec.errors import TfrecError
 
@@ -41,7 +42,7 @@ def _build_parser() -> argparse.ArgumentParser:
 
 def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
                   file: TextIO | None = None, line: str | None = None) -> None:
-    print(f"{PROG}: warning: {message}", file=sys.stderr)
+    print(f"{PROG}: warning: {as_flags(str(message))}", file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -57,7 +58,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             return int(ns.handler(ns))
         except TfrecError as err:
-            print(f"{PROG}: error: {err}", file=sys.stderr)
+            print(f"{PROG}: error: {as_flags(str(err))}", file=sys.stderr)
             return 2
         except _Terminated:
             print(f"{PROG}: terminated", file=sys.stderr)

@@ -61,7 +61,7 @@ def read_description_text(
     try:
         raw = file.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as err:
-        raise DescriptionError(f"{display_path(file)}: cannot read: {err}") from None
+        raise DescriptionError(f"{display_path(file)}: cannot read: {err}") from err
     if _is_plain_urdf(file, raw):
         if args:
             raise DescriptionError(f"{display_path(file)}: xacro arguments given for a plain URDF file")

@@ -120,7 +120,7 @@ class PackageFinder:
 
     def searched(self) -> list[str]:
         """The places searched, in order, for error messages."""
-        places = [f"--package-path {p}" for p in self._explicit]
+        places = [f"`package_paths` {p}" for p in self._explicit]
         places += [f"ROS_PACKAGE_PATH {p}" for p in self._ros_package_path]
         places += [f"AMENT_PREFIX_PATH {p}/share" for p in self._ament_prefixes]
         places += [f"{p}" for p in self._local]
@@ -137,7 +137,7 @@ class PackageFinder:
         found = self._lookup(name)
         if found is None:
             places = self.searched()
-            where = "; ".join(places) if places else "no places (give --package-path DIR)"
+            where = "; ".join(places) if places else "no places (give `package_paths`)"
             raise DescriptionError(f"package '{name}' not found; searched: {where}")
         self._cache[name] = found
         return found

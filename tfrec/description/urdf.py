@@ -55,7 +55,7 @@ def _parse_xml(text: str, where: str) -> tuple[ET.Element, dict[int, int]]:
     except xml.parsers.expat.ExpatError as err:
         raise DescriptionError(
             f"{where}:{err.lineno}:{err.offset}: malformed XML: {xml.parsers.expat.ErrorString(err.code)}"
-        ) from None
+        ) from err
     return builder.close(), lines
 
 
@@ -82,7 +82,7 @@ class _Parser:
         try:
             values = tuple(float(v) for v in raw.split())
         except ValueError:
-            raise self.fail(elem, f"{what}: malformed {attr}=\"{raw}\" (expected {count} numbers)") from None
+            raise self.fail(elem, f"{what}: malformed {attr}=\"{raw}\" (expected {count} numbers)")
         if len(values) != count or not all(math.isfinite(v) for v in values):
             raise self.fail(elem, f"{what}: malformed {attr}=\"{raw}\" (expected {count} finite numbers)")
         return values
@@ -171,7 +171,7 @@ class _Parser:
             jtype = JointType(raw_type)
         except ValueError:
             raise self.fail(elem, f"{what} has type '{raw_type}', not one of URDF's "
-                            + ", ".join(t.value for t in JointType)) from None
+                            + ", ".join(t.value for t in JointType))
         links = {}
         for role in ("parent", "child"):
             node = elem.find(role)

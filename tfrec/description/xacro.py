@@ -37,8 +37,9 @@ class _LegacyCall(Exception):
 
 @contextlib.contextmanager
 def _patched_xacro(finder: PackageFinder, *, strict: bool, legacy: list[tuple[str, str]]) -> Iterator[Any]:
-    import xacro
     import xacro.substitution_args as subst
+
+    import xacro
 
     original_find = subst._eval_find
     original_eval_find = subst._eval_dict.get("find")
@@ -59,7 +60,7 @@ def _patched_xacro(finder: PackageFinder, *, strict: bool, legacy: list[tuple[st
                 if strict:
                     raise _LegacyCall(
                         f"{display_path(where)}: macro call <{tag}> without the 'xacro:' prefix "
-                        f"(legacy xacro dialect refused by --strict-xacro; write <xacro:{tag} .../>)"
+                        f"(legacy xacro dialect refused by `strict_xacro`; write <xacro:{tag} .../>)"
                     )
                 legacy.append((tag, display_path(where)))
                 node.tagName = node.nodeName = "xacro:" + tag
@@ -115,25 +116,25 @@ def expand_xacro(
             raise DescriptionError(
                 f"{display_path(filename)}: xacro recursion too deep: a file includes itself or a macro "
                 "calls itself without end"
-            ) from None
+            )
         except _LegacyCall as err:
-            raise DescriptionError(str(err)) from None
+            raise DescriptionError(str(err)) from err
         except DescriptionError as err:  # from $(find): name the file that asked
-            raise DescriptionError(f"{_where(xacro, filename)}: {err}") from None
+            raise DescriptionError(f"{_where(xacro, filename)}: {err}") from err
         except xml.parsers.expat.ExpatError as err:
             raise DescriptionError(
                 f"{_where(xacro, filename)}:{err.lineno}:{err.offset}: malformed XML: "
                 f"{xml.parsers.expat.ErrorString(err.code)}"
-            ) from None
+            ) from err
         except xacro.XacroException as err:
             if isinstance(err.exc, DescriptionError):  # $(find) failed inside an expression
-                raise DescriptionError(f"{_where(xacro, filename)}: {err.exc}") from None
-            raise DescriptionError(f"{_where(xacro, filename)}: {_xacro_message(err)}") from None
+                raise DescriptionError(f"{_where(xacro, filename)}: {err.exc}") from err
+            raise DescriptionError(f"{_where(xacro, filename)}: {_xacro_message(err)}") from err
         except (NameError, TypeError, ValueError, ZeroDivisionError, SyntaxError, KeyError, IndexError) as err:
             # xacro lets some evaluation errors through unwrapped
-            raise DescriptionError(f"{_where(xacro, filename)}: xacro: {err}") from None
+            raise DescriptionError(f"{_where(xacro, filename)}: xacro: {err}") from err
         except OSError as err:
-            raise DescriptionError(f"{_where(xacro, filename)}: {err.strerror or err}: {err.filename}") from None
+            raise DescriptionError(f"{_where(xacro, filename)}: {err.strerror or err}: {err.filename}") from err
         text: str = doc.toprettyxml(indent="  ")
     for line in chatter.getvalue().splitlines():
         if line.strip():
@@ -144,7 +145,7 @@ def expand_xacro(
         warnings.warn(
             f"{', '.join(files)}: expanded legacy macro calls without the 'xacro:' prefix: "
             f"{', '.join('<' + n + '>' for n in names)} (xacro >= 1.14 leaves them unexpanded; "
-            "--strict-xacro refuses them)",
+            "`strict_xacro` refuses them)",
             stacklevel=2,
         )
     return text

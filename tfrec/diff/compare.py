@@ -41,7 +41,7 @@ from tfrec.conventions import DIFF_POS_TOL as DEFAULT_POS_TOL
 from tfrec.conventions import DIFF_ROT_TOL as DEFAULT_ROT_TOL
 from tfrec.conventions import FLOAT32_TOL, JOINT_STATES, NS_PER_S, ROBOT_DESCRIPTION, TF, TF_STATIC
 from tfrec.diff.report import Difference, DiffReport, Largest, at_time, format_time
-from tfrec.errors import RecordingError
+from tfrec.errors import DiffError
 from tfrec.formats._collect import decodes_type
 from tfrec.formats.reader import read_recording
 from tfrec.kinematics.rotations import rotation_error
@@ -333,7 +333,7 @@ def compare(
         The report; ``report.equal`` is False when anything differs beyond tolerance.
 
     Raises:
-        RecordingError: a path that cannot be read as a recording, or a topic of ``topics``
+        DiffError: a path that cannot be read as a recording, or a topic of ``topics``
             that is in neither recording.
         ValueError: a negative or non-finite tolerance.
     """
@@ -350,8 +350,8 @@ def compare(
     if wanted is not None:
         absent = sorted(topic for topic in wanted if topic not in rec_a.topics and topic not in rec_b.topics)
         if absent:
-            raise RecordingError(
-                f"--topics {' '.join(absent)}: in neither {rec_a.path} nor {rec_b.path} "
+            raise DiffError(
+                f"`topics` {' '.join(absent)}: in neither {rec_a.path} nor {rec_b.path} "
                 f"(their topics: {', '.join(sorted(set(rec_a.topics) | set(rec_b.topics))) or 'none'})"
             )
     report = DiffReport(rec_a, rec_b, tolerances=tolerances, absolute=absolute)
@@ -384,7 +384,7 @@ def compare(
     if float32 and min(tolerances["pos_tol"], tolerances["rot_tol"]) < 1e-6:
         report.notes.append(
             f"{' and '.join(float32)} store{'s' if len(float32) == 1 else ''} transforms as float32: "
-            f"rounding alone differs by up to ~1e-7; compare with --pos-tol {FLOAT32_TOL:g} --rot-tol {FLOAT32_TOL:g}"
+            f"rounding alone differs by up to ~1e-7; compare with `pos_tol` {FLOAT32_TOL:g} `rot_tol` {FLOAT32_TOL:g}"
         )
     return report
 

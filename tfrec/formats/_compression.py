@@ -43,21 +43,21 @@ def decompress(compression: str, data: bytes | memoryview, size: int, *, support
         try:
             out = zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
         except zstandard.ZstdError as err:
-            raise ValueError(f"zstd: {err}") from None
+            raise ValueError(f"zstd: {err}") from err
     elif compression == "lz4":
         import lz4.frame
 
         try:
             out = lz4.frame.decompress(data)
         except RuntimeError as err:  # lz4 reports corrupt frames as RuntimeError
-            raise ValueError(f"lz4: {err}") from None
+            raise ValueError(f"lz4: {err}") from err
     elif compression == "bz2":
         import bz2
 
         try:
             out = bz2.decompress(data)
         except (OSError, EOFError, ValueError) as err:
-            raise ValueError(f"bz2: {err}") from None
+            raise ValueError(f"bz2: {err}") from err
     else:
         raise ValueError(f"unsupported chunk compression '{compression}'")
     if len(out) != size:

@@ -15,7 +15,7 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-from tfrec.errors import RecordingError, one_line
+from tfrec.errors import ReadError, one_line
 from tfrec.formats._collect import DECODE_BATCH, Collector, read_error_line
 from tfrec.formats.ros.types import topic_deserializer, typestore
 from tfrec.formats.rosbag1.reader import read_rosbag1_records, ros1_compression
@@ -41,7 +41,7 @@ def read_rosbags(path: Path, fmt: str, wanted: frozenset[str], meta: BagMetadata
             return read_rosbag1_records(path, wanted, refused=refused)
         if meta is not None and meta.storage == "sqlite3":
             return _read_sqlite3_rows(path, meta.files, wanted, refused=refused)
-        raise RecordingError(f"{where}: cannot read rosbag2 bag: {refused}") from None
+        raise ReadError(f"{where}: cannot read rosbag2 bag: {refused}") from err
     if fmt == "rosbag1":
         recording.details["compression"] = ros1_compression(path)
     elif meta is not None:
@@ -64,7 +64,7 @@ def _read_anyreader(path: Path, fmt: str, wanted: frozenset[str]) -> Recording:
 
     Raises:
         _Refused: rosbags cannot read it, or stopped at damaged data (its message is one line).
-        RecordingError: the file cannot be read (an OSError with an errno), or its message
+        ReadError: the file cannot be read (an OSError with an errno), or its message
             types cannot be decoded.
     """
     from rosbags.highlevel import AnyReader
@@ -78,7 +78,7 @@ def _read_anyreader(path: Path, fmt: str, wanted: frozenset[str]) -> Recording:
         reader = AnyReader([path], default_typestore=typestore(ros1=ros1))
         reader.open()
     except _rosbags_errors() as err:
-        raise _refusal(where, err) from None
+        raise _refusal(where, err) from err
     try:
         decoded = []
         durability: dict[str, str | None] = {}
@@ -86,7 +86,7 @@ def _read_anyreader(path: Path, fmt: str, wanted: frozenset[str]) -> Recording:
             durability.setdefault(connection.topic, _durability(connection.ext))
             if collector.decodes(connection.topic, connection.msgtype):
                 if not ros1 and getattr(connection.ext, "serialization_format", "cdr") != "cdr":
-                    raise RecordingError(f"{where}: topic {connection.topic} is not cdr-serialized")
+                    raise ReadError(f"{where}: topic {connection.topic} is not cdr-serialized")
                 decoded.append(connection)
                 collector.set_deserializer(connection.topic, topic_deserializer(
                     connection.msgtype, where=where, topic=connection.topic, ros1=ros1, store=reader.typestore))
@@ -103,7 +103,7 @@ def _read_anyreader(path: Path, fmt: str, wanted: frozenset[str]) -> Recording:
         for topic, batch in pending.items():
             collector.add(topic, batch)
     except SerdeError as err:
-        raise RecordingError(f"{where}: cannot decode a message: {one_line(str(err))}") from None
+        raise ReadError(f"{where}: cannot decode a message: {one_line(str(err))}") from err
     finally:
         reader.close()
     return collector.finish()
@@ -118,7 +118,7 @@ def _messages(reader: Any, where: str) -> Iterator[tuple[Any, int, bytes]]:
         except StopIteration:
             return
         except _rosbags_errors() as err:
-            raise _refusal(where, err) from None
+            raise _refusal(where, err) from err
         yield message
 
 
@@ -134,10 +134,10 @@ def _rosbags_errors() -> tuple[type[Exception], ...]:
 
 def _refusal(where: str, err: Exception) -> Exception:
     """What an error of :func:`_rosbags_errors` means: :class:`_Refused` (the bag is damaged, or
-    rosbags refuses it), or a :class:`RecordingError` when the file cannot be read at all."""
+    rosbags refuses it), or a :class:`ReadError` when the file cannot be read at all."""
     text = one_line(str(err))
     if isinstance(err, OSError) and (err.errno is not None or isinstance(err, FileNotFoundError)):
-        return RecordingError(f"{where}: cannot read: {err.strerror or text}")
+        return ReadError(f"{where}: cannot read: {err.strerror or text}")
     if isinstance(err, OSError):  # bz2 says "Invalid data stream" as an OSError without an errno
         return _Refused(f"a damaged chunk ({text})")
     if isinstance(err, (EOFError, RuntimeError)):  # a chunk that does not decompress (bz2, lz4)
@@ -189,7 +189,7 @@ def _read_sqlite3_rows(folder: Path, files: Sequence[Path], wanted: frozenset[st
         refused: why rosbags refused the bag, for the error when nothing is readable either.
 
     Raises:
-        RecordingError: a file whose topics table cannot be read.
+        ReadError: a file whose topics table cannot be read.
     """
     where = os.fspath(folder)
     recording = Recording(path=where, format="rosbag2", details={"storage": "sqlite3"})
@@ -201,7 +201,7 @@ def _read_sqlite3_rows(folder: Path, files: Sequence[Path], wanted: frozenset[st
             try:
                 db, note = _open_cut_database(file, Path(scratch) / file.name)
             except OSError as err:
-                raise RecordingError(f"{where}: cannot read {file.name}: {err.strerror or err}") from None
+                raise ReadError(f"{where}: cannot read {file.name}: {err.strerror or err}") from err
             try:
                 problem = _read_rows(db, collector, pending, where=where, refused=refused)
             finally:
@@ -223,19 +223,19 @@ def _read_rows(db: sqlite3.Connection, collector: Collector, pending: dict[str, 
     stopped early, else None.
 
     Raises:
-        RecordingError: the topics table cannot be read.
+        ReadError: the topics table cannot be read.
     """
     try:
         cursor = db.execute("SELECT * FROM topics")
         columns = [column[0] for column in cursor.description]
         topics = {row[columns.index("id")]: dict(zip(columns, row)) for row in cursor}
     except (sqlite3.DatabaseError, ValueError):
-        raise RecordingError(f"{where}: cannot read rosbag2 bag: {one_line(refused)}") from None
+        raise ReadError(f"{where}: cannot read rosbag2 bag: {one_line(refused)}")
     for topic in topics.values():
         name, msgtype = str(topic["name"]), str(topic["type"])
         if collector.decodes(name, msgtype) and name not in collector.deserializers:
             if topic.get("serialization_format", "cdr") != "cdr":
-                raise RecordingError(f"{where}: topic {name} is not cdr-serialized")
+                raise ReadError(f"{where}: topic {name} is not cdr-serialized")
             collector.set_deserializer(name, topic_deserializer(msgtype, where=where, topic=name))
     read = 0
     try:

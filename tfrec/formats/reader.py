@@ -31,7 +31,7 @@ from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
 
-from tfrec.errors import RecordingError
+from tfrec.errors import ReadError
 from tfrec.formats._collect import DECODED_TOPICS
 from tfrec.formats._rosbags import read_rosbags
 from tfrec.formats.mcap.reader import read_mcap
@@ -72,21 +72,21 @@ def recording_format(path: str | os.PathLike[str]) -> str:
     """The format of a recording: ``mcap``, ``rosbag2``, ``rosbag1`` or ``rrd``, from its first bytes.
 
     Raises:
-        RecordingError: a missing path, or something that is none of those.
+        ReadError: a missing path, or something that is none of those.
     """
     where = os.fspath(path)
     file = Path(path)
     if file.is_dir():
         if (file / "metadata.yaml").is_file():
             return "rosbag2"
-        raise RecordingError(f"{where}: a folder without metadata.yaml (not a rosbag2 bag)")
+        raise ReadError(f"{where}: a folder without metadata.yaml (not a rosbag2 bag)")
     if not file.exists():
-        raise RecordingError(f"{where}: no such file or folder")
+        raise ReadError(f"{where}: no such file or folder")
     try:
         with open(file, "rb") as stream:
             head = stream.read(16)
     except OSError as err:
-        raise RecordingError(f"{where}: cannot read: {err.strerror or err}") from None
+        raise ReadError(f"{where}: cannot read: {err.strerror or err}") from err
     if head.startswith(MCAP_MAGIC):
         return "mcap"
     if head.startswith(ROS1_MAGIC):
@@ -95,14 +95,14 @@ def recording_format(path: str | os.PathLike[str]) -> str:
         return "rrd"
     if head.startswith(b"SQLite format 3\0") and (file.parent / "metadata.yaml").is_file():
         return "rosbag2"
-    raise RecordingError(f"{where}: not a recording (neither MCAP, rosbag2, ROS 1 bag nor Rerun .rrd)")
+    raise ReadError(f"{where}: not a recording (neither MCAP, rosbag2, ROS 1 bag nor Rerun .rrd)")
 
 
 def identify_recording(path: str | os.PathLike[str]) -> RecordingSource:
     """The format of a recording (:func:`recording_format`) and, for a rosbag2 bag, its ``metadata.yaml``.
 
     Raises:
-        RecordingError: a missing path, something that is not a recording, or a rosbag2 bag
+        ReadError: a missing path, something that is not a recording, or a rosbag2 bag
             whose metadata.yaml is malformed or lists missing files; one line naming the file.
     """
     fmt = recording_format(path)
@@ -128,7 +128,7 @@ def read_recording(
         with ``read_error`` set.
 
     Raises:
-        RecordingError: a missing or unreadable input, or one that is not a recording; one
+        ReadError: a missing or unreadable input, or one that is not a recording; one
             line naming the file.
     """
     source = path if isinstance(path, RecordingSource) else identify_recording(path)

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tfrec.conventions import CHECK_POS_TOL, CHECK_ROT_TOL
-from tfrec.errors import RecordingError
+from tfrec.errors import ReplayError
 from tfrec.kinematics.fk import dynamic_transforms, static_transforms
 from tfrec.kinematics.rotations import rotation_error
 from tfrec.model import Joint, JointType
@@ -110,7 +110,7 @@ class CheckReport:
 
 def _tolerance(name: str, value: float) -> float:
     if not (math.isfinite(value) and value >= 0):
-        raise RecordingError(f"{name} {value} is not a tolerance >= 0")
+        raise ReplayError(f"{name} {value} is not a tolerance >= 0")
     return float(value)
 
 
@@ -192,21 +192,21 @@ def check_replay(replay: Replay, *, pos_tol: float = CHECK_POS_TOL, rot_tol: flo
         description does not have are noted.
 
     Raises:
-        RecordingError: a bad tolerance, no robot model, no /joint_states or no /tf to compare.
+        ReplayError: a bad tolerance, no robot model, no /joint_states or no /tf to compare.
     """
-    pos_tol = _tolerance("--pos-tol", pos_tol)
-    rot_tol = _tolerance("--rot-tol", rot_tol)
+    pos_tol = _tolerance("`pos_tol`", pos_tol)
+    rot_tol = _tolerance("`rot_tol`", rot_tol)
     replay.report_damage()
     robot = replay.robot
     if robot is None:
-        raise RecordingError(f"{replay.path}: no robot description to re-simulate with (no /robot_description in "
-                             "the recording); give --robot FILE")
+        raise ReplayError(f"{replay.path}: no robot description to re-simulate with (no /robot_description in "
+                             "the recording); give `robot` FILE")
     if replay.joint_states is None or not len(replay.joint_states):
-        raise RecordingError(f"{replay.path}: no /joint_states to re-simulate")
+        raise ReplayError(f"{replay.path}: no /joint_states to re-simulate")
     recorded_tf = {pair: s for pair, s in replay.tf.items() if pair not in replay.derived_dynamic and len(s)}
     recorded_static = {pair: v for pair, v in replay.static.items() if pair not in replay.derived_static}
     if not recorded_tf:
-        raise RecordingError(f"{replay.path}: no /tf to compare the re-simulation with")
+        raise ReplayError(f"{replay.path}: no /tf to compare the re-simulation with")
     checker = _Checker(replay)
     by_child: dict[str, list[FrameCheck]] = {}
     other: list[tuple[str, str]] = []

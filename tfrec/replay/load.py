@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tfrec.conventions import JOINT_STATES, NS_PER_S, RECORDED_TOPICS, ROBOT_DESCRIPTION, TF, TF_STATIC
-from tfrec.errors import DescriptionError, RecordingError
+from tfrec.errors import DescriptionError, ReplayError
 from tfrec.formats.reader import read_recording
 from tfrec.kinematics.fk import dynamic_transforms, static_transforms
 from tfrec.kinematics.joints import apply_mimic
@@ -225,11 +225,11 @@ def derive_transforms(
 
 
 def _check_window(start_s: float | None, end_s: float | None) -> None:
-    for name, value in (("--start", start_s), ("--end", end_s)):
+    for name, value in (("`start_s`", start_s), ("`end_s`", end_s)):
         if value is not None and not (math.isfinite(value) and value >= 0):
-            raise RecordingError(f"{name} {value} is not a time in seconds >= 0")
+            raise ReplayError(f"{name} {value} is not a time in seconds >= 0")
     if start_s is not None and end_s is not None and end_s < start_s:
-        raise RecordingError(f"--end {end_s:g} is before --start {start_s:g}")
+        raise ReplayError(f"`end_s` {end_s:g} is before `start_s` {start_s:g}")
 
 
 def _check_topics(topics: Collection[str] | None) -> frozenset[str]:
@@ -237,7 +237,7 @@ def _check_topics(topics: Collection[str] | None) -> frozenset[str]:
         return frozenset(REPLAYED_TOPICS)
     for topic in topics:
         if topic not in REPLAYED_TOPICS:
-            raise RecordingError(f"topic '{topic}' cannot be replayed; tfrec replays {', '.join(REPLAYED_TOPICS)}")
+            raise ReplayError(f"topic '{topic}' cannot be replayed; tfrec replays {', '.join(REPLAYED_TOPICS)}")
     return frozenset(topics)
 
 
@@ -251,9 +251,9 @@ def _robot_of(description: str | None, where: str, *, required: bool) -> Robot |
         return parse_urdf(description, source=None, user_lines=False)
     except DescriptionError as err:
         if required:
-            raise DescriptionError(f"{where}: /robot_description is not a usable robot description: {err}") from None
+            raise DescriptionError(f"{where}: /robot_description is not a usable robot description: {err}") from err
         warnings.warn(f"{where}: /robot_description is not a usable robot description ({err}); "
-                      "replaying without the robot model (give --robot FILE)", stacklevel=3)
+                      "replaying without the robot model (give `robot` FILE)", stacklevel=3)
         return None
 
 
@@ -322,7 +322,7 @@ def load_replay(
         The prepared replay; a damaged MCAP gives what was readable, with ``read_error`` set.
 
     Raises:
-        RecordingError: an unknown topic, a bad time window, a path that is not a recording, a
+        ReplayError: an unknown topic, a bad time window, a path that is not a recording, a
             recording with none of the selected topics, or ``start_s`` past its last sample.
         DescriptionError: ``need_robot`` and a /robot_description that is not a valid URDF.
     """
@@ -335,7 +335,7 @@ def load_replay(
     absent = [topic for topic in REPLAYED_TOPICS if topic in selected and not _has(rec, topic)]
     if len(absent) == len(selected):
         rec_kind = " (an .rrd not written by tfrec?)" if rec.format == "rrd" and not rec.topics else ""
-        raise RecordingError(f"{where}: no {_listed(absent)} in the recording{rec_kind}; nothing to replay")
+        raise ReplayError(f"{where}: no {_listed(absent)} in the recording{rec_kind}; nothing to replay")
     if topics is not None and absent:
         warnings.warn(f"{where}: no {', '.join(absent)} in the recording", stacklevel=2)
     origin = data_start_ns(rec) or 0
@@ -343,14 +343,14 @@ def load_replay(
     if start_s is not None and origin + round(start_s * NS_PER_S) > (origin if last is None else last):
         end = 0.0 if last is None else (last - origin) / NS_PER_S
         damaged = "" if rec.read_error is None else f"; the file is damaged: {rec.read_error}"
-        raise RecordingError(f"{where}: --start {start_s:g} s is beyond the recording's end ({end:g} s){damaged}")
+        raise ReplayError(f"{where}: `start_s` {start_s:g} s is beyond the recording's end ({end:g} s){damaged}")
     if robot is None:
         robot = _robot_of(rec.robot_description, where, required=need_robot)
         if rec.robot_description is None and not need_robot:
             what = ("TF is replayed without robot geometry" if _has(rec, TF) or _has(rec, TF_STATIC)
                     else "only the joint positions are replayed, with no robot model to move")
-            warnings.warn(f"{where}: no /robot_description in the recording and no --robot: {what} "
-                          "(give --robot FILE)", stacklevel=2)
+            warnings.warn(f"{where}: no /robot_description in the recording and no `robot`: {what} "
+                          "(give `robot` FILE)", stacklevel=2)
     description = None
     if ROBOT_DESCRIPTION in selected:
         description = robot.urdf if robot is not None and robot.urdf else rec.robot_description

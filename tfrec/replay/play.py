@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tfrec._atomic import AtomicOutputs, check_target
-from tfrec.errors import RecordingError
+from tfrec.errors import ReplayError
 from tfrec.recording import FrameSeries, JointStates
 from tfrec.replay.load import Replay
 from tfrec.replay.pacing import BATCH_WALL_S, Clock, MonotonicClock, Pacer, batches
@@ -141,7 +141,7 @@ def play(
 def _check_loop(loop: bool, *, live: bool) -> None:
     """A loop plays forever, so only into a live viewer (paced), never into a file."""
     if loop and not live:
-        raise RecordingError("--loop replays forever; it needs a live viewer, not --save")
+        raise ReplayError("`loop` replays forever; it needs a live viewer, not `save`")
 
 
 def _send_batch(sink: ReplaySink, series: list[tuple[Pair, FrameSeries]], tf_index: list[NDArray[np.intp]],
@@ -175,15 +175,15 @@ def check_play_options(
     """Check the options of :func:`replay_to_rerun` before anything is read or written.
 
     Raises:
-        RecordingError: a rate that is not > 0, --save with --connect or --loop, a --save name
+        ReplayError: a rate that is not > 0, --save with --connect or --loop, a --save name
             that is not ``.rrd``, a --save file that exists (without ``force``; a folder in any
             case), no viewer at the --connect URL, or no viewer to spawn (no display or no
             ``rerun`` executable).
     """
     if not (math.isfinite(rate) and rate > 0):
-        raise RecordingError(f"--rate {rate:g} is not a speed > 0")
+        raise ReplayError(f"`rate` {rate:g} is not a speed > 0")
     if save is not None and connect is not None:
-        raise RecordingError("--save and --connect exclude each other")
+        raise ReplayError("`save` and `connect` exclude each other")
     _check_loop(loop, live=save is None)
     if save is None:
         from tfrec.formats.rrd.viewer import check_can_connect, check_can_spawn
@@ -226,7 +226,7 @@ def replay_to_rerun(
             recording was read, as the CLI does), so the viewer is not probed a second time.
 
     Raises:
-        RecordingError: bad options, an output that exists, no viewer to spawn or reach, or a
+        ReplayError: bad options, an output that exists, no viewer to spawn or reach, or a
             file that cannot be written.
     """
     from tfrec.formats.rrd.viewer import open_rerun_sink

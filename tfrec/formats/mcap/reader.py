@@ -30,7 +30,7 @@ import zlib
 from pathlib import Path
 from typing import IO
 
-from tfrec.errors import RecordingError
+from tfrec.errors import ReadError
 from tfrec.formats._collect import DECODE_BATCH, Collector, ReadStopped, read_error_line, with_article
 from tfrec.formats._compression import decompress, salvage
 from tfrec.formats.mcap.records import (
@@ -180,13 +180,13 @@ class _McapReader:
                 try:
                     self._record(memoryview(self.read(length, what)), opcode, 0, length)
                 except (struct.error, ValueError, UnicodeDecodeError) as err:
-                    raise ReadStopped(record_start, f"a damaged {what} record ({err})") from None
+                    raise ReadStopped(record_start, f"a damaged {what} record ({err})") from err
                 if self.pending >= DECODE_BATCH:
                     self.flush()
             elif opcode == OP_HEADER:
                 self.profile, self.library = parse_header(self.read(length, what))
                 if self.profile not in ("ros2", ""):
-                    raise RecordingError(f"{self.where}: MCAP profile '{self.profile}', not ros2")
+                    raise ReadError(f"{self.where}: MCAP profile '{self.profile}', not ros2")
             elif opcode == OP_MESSAGE_INDEX and self._indexing is not None:
                 body = self.read(length, what)  # count what the damaged chunk held
                 if len(body) >= 6:
@@ -348,7 +348,7 @@ class _McapReader:
                 topic, msgtype = record.topic, self.schemas.get(record.schema_id, "")
                 decoded = self.collector.decodes(topic, msgtype)
                 if decoded and record.encoding != "cdr":
-                    raise RecordingError(f"{self.where}: topic {topic} is encoded as '{record.encoding}', not cdr")
+                    raise ReadError(f"{self.where}: topic {topic} is encoded as '{record.encoding}', not cdr")
                 if decoded:
                     self.collector.set_deserializer(topic, topic_deserializer(msgtype, where=self.where, topic=topic))
                 durability = qos_durability(record.metadata.get("offered_qos_profiles", ""))
@@ -372,7 +372,7 @@ def read_mcap(path: Path, wanted: frozenset[str]) -> Recording:
     """Read an MCAP file, decoding the topics in ``wanted``.
 
     Raises:
-        RecordingError: the file cannot be opened, or is damaged before its first channel.
+        ReadError: the file cannot be opened, or is damaged before its first channel.
     """
     where = os.fspath(path)
     recording = Recording(path=where, format="mcap")
@@ -387,9 +387,9 @@ def read_mcap(path: Path, wanted: frozenset[str]) -> Recording:
             except ReadStopped as err:
                 stop = err
             if not reader.channels and reader.damage:
-                raise RecordingError(f"{where}: unreadable MCAP: {reader.damage_summary()}")
+                raise ReadError(f"{where}: unreadable MCAP: {reader.damage_summary()}")
             if not reader.channels and stop is not None:
-                raise RecordingError(f"{where}: unreadable MCAP: {stop.reason} at byte {stop.offset:,}")
+                raise ReadError(f"{where}: unreadable MCAP: {stop.reason} at byte {stop.offset:,}")
             problems = [reader.damage_summary()] if reader.damage else []
             if stop is not None:
                 problems.append(stop.problem(size))
@@ -401,7 +401,7 @@ def read_mcap(path: Path, wanted: frozenset[str]) -> Recording:
             recording.details = {"profile": reader.profile, "library": reader.library,
                                  "compression": ", ".join(sorted(reader.compressions))}
     except OSError as err:
-        raise RecordingError(f"{where}: cannot read: {err.strerror or err}") from None
+        raise ReadError(f"{where}: cannot read: {err.strerror or err}") from err
     collector.finish()
     if true_start is not None and (recording.start_ns is None or true_start < recording.start_ns):
         recording.start_ns = true_start  # messages before the first one read were lost

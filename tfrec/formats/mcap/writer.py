@@ -37,7 +37,7 @@ from tfrec.conventions import (
     TF,
     TF_STATIC,
 )
-from tfrec.errors import RecordingError
+from tfrec.errors import WriteError
 from tfrec.formats.mcap.records import (
     MCAP_MAGIC,
     MESSAGE_HEAD_SIZE,
@@ -103,12 +103,12 @@ def check_time_range(first_ns: int, last_ns: int) -> None:
     unsigned log times: from 1970-01-01 to 2038-01-19.
 
     Raises:
-        RecordingError: a stamp outside that range.
+        WriteError: a stamp outside that range.
     """
     for stamp in (first_ns, last_ns):
         if not 0 <= stamp < STAMP_LIMIT_NS:
             problem = "before 1970" if stamp < 0 else f"out of range: {STAMP_RANGE}"
-            raise RecordingError(f"stamp {stamp / NS_PER_S:.9f} s is {problem}")
+            raise WriteError(f"stamp {stamp / NS_PER_S:.9f} s is {problem}")
 
 
 _ZSTD_BLOCK = 16 * 1024
@@ -137,7 +137,7 @@ def _compressor(compression: str) -> tuple[str, Callable[[bytes], bytes]]:
         return "lz4", lz4.frame.compress
     if compression == "none":
         return "", bytes
-    raise RecordingError(f"compression '{compression}' is not one of {', '.join(COMPRESSIONS)}")
+    raise WriteError(f"compression '{compression}' is not one of {', '.join(COMPRESSIONS)}")
 
 
 def _serialize(*records: Any) -> bytes:
@@ -172,7 +172,7 @@ class McapSink:
             (``<bag>_0.mcap`` in a bag folder); empty lists no file.
 
     Raises:
-        RecordingError: an unknown compression.
+        WriteError: an unknown compression.
     """
 
     def __init__(
@@ -218,7 +218,7 @@ class McapSink:
             start_time_ns: nanoseconds since the epoch.
 
         Raises:
-            RecordingError: ``start_time_ns`` outside the range of ROS 2 stamps.
+            WriteError: ``start_time_ns`` outside the range of ROS 2 stamps.
         """
         if self._state != "new":
             raise RuntimeError("McapSink.begin() called twice")
@@ -274,7 +274,7 @@ class McapSink:
                 same frames in every call.
 
         Raises:
-            RecordingError: a stamp outside the range of ROS 2 stamps.
+            WriteError: a stamp outside the range of ROS 2 stamps.
         """
         if self._state != "open":
             raise RuntimeError(f"McapSink.write_chunk() called {'before begin()' if self._state == 'new' else 'after finish()'}")

@@ -12,7 +12,7 @@ from collections.abc import Callable
 from functools import cache, lru_cache
 from typing import Any
 
-from tfrec.errors import RecordingError
+from tfrec.errors import ReadError
 
 __all__ = ["UndecodableMessage", "deserializer", "ros1_typestore", "topic_deserializer", "typestore"]
 
@@ -85,20 +85,20 @@ def deserializer(msgtype: str, *, ros1: bool = False, store: Any = None) -> Dese
         try:
             return decode(raw, full)
         except errors as err:
-            raise UndecodableMessage(err) from None
+            raise UndecodableMessage(err) from err
 
     return deserialize
 
 
 def topic_deserializer(msgtype: str, *, where: str, topic: str, ros1: bool = False, store: Any = None) -> Deserialize:
     """Like :func:`deserializer`, for the messages of one topic of a recording: a message that
-    cannot be decoded is a :class:`RecordingError` naming the recording, the topic and the type."""
+    cannot be decoded is a :class:`ReadError` naming the recording, the topic and the type."""
     deserialize = deserializer(msgtype, ros1=ros1, store=store)
 
     def checked(raw: bytes | memoryview) -> Any:
         try:
             return deserialize(raw)
         except UndecodableMessage as err:
-            raise RecordingError(f"{where}: a {topic} message cannot be decoded as {msgtype}: {err.reason}") from None
+            raise ReadError(f"{where}: a {topic} message cannot be decoded as {msgtype}: {err.reason}") from err
 
     return checked

@@ -17,7 +17,7 @@ import struct
 from pathlib import Path
 from typing import IO
 
-from tfrec.errors import RecordingError, one_line
+from tfrec.errors import ReadError, one_line
 from tfrec.formats._collect import Collector, ReadStopped, read_error_line, with_article
 from tfrec.formats._compression import decompress, salvage
 from tfrec.formats.ros.cdr import ns_from_stamps
@@ -137,7 +137,7 @@ class _Ros1Reader:
                 fields = _fields(self._read(header_len))
                 op = fields["op"][0]
             except (ValueError, KeyError, IndexError) as err:
-                raise ReadStopped(start, f"a damaged record header ({err})") from None
+                raise ReadStopped(start, f"a damaged record header ({err})") from err
             what = _RECORD_NAMES.get(op, f"op 0x{op:02x}")
             (data_len,) = struct.unpack("<I", self._read(4))
             if self.offset + data_len > self.size:
@@ -155,7 +155,7 @@ class _Ros1Reader:
             try:
                 self._record(op, fields, data)
             except ValueError as err:
-                raise ReadStopped(start, f"a damaged {what} record ({err})") from None
+                raise ReadStopped(start, f"a damaged {what} record ({err})") from err
 
     def _record(self, op: int, fields: dict[str, bytes], data: bytes | memoryview) -> None:
         """One record outside or inside a chunk.
@@ -275,7 +275,7 @@ def read_rosbag1_records(path: Path, wanted: frozenset[str], *, refused: str) ->
         refused: why rosbags refused the bag, for the error when nothing is readable either.
 
     Raises:
-        RecordingError: the file cannot be opened, or no connection record is readable.
+        ReadError: the file cannot be opened, or no connection record is readable.
     """
     where = os.fspath(path)
     recording = Recording(path=where, format="rosbag1")
@@ -290,10 +290,10 @@ def read_rosbag1_records(path: Path, wanted: frozenset[str], *, refused: str) ->
             except ReadStopped as err:
                 stop = err
     except OSError as err:
-        raise RecordingError(f"{where}: cannot read: {err.strerror or err}") from None
+        raise ReadError(f"{where}: cannot read: {err.strerror or err}") from err
     if not reader.connections:
         where_stopped = f"; reading stopped at byte {stop.offset:,}: {stop.reason}" if stop is not None else ""
-        raise RecordingError(f"{where}: cannot read ROS 1 bag: {one_line(refused)}{where_stopped}")
+        raise ReadError(f"{where}: cannot read ROS 1 bag: {one_line(refused)}{where_stopped}")
     problems = [reader.damage_summary()] if reader.damaged else []
     if stop is not None:
         problems.append(stop.problem(size))

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from tfrec.errors import RecordingError
+from tfrec.errors import ReadError
 
 __all__ = [
     "BAG_VERSION",
@@ -169,35 +169,35 @@ def read_bag_metadata(folder: Path) -> BagMetadata:
     """Read a rosbag2 folder's ``metadata.yaml``.
 
     Raises:
-        RecordingError: no or malformed metadata.yaml (one line naming the file, and the line
+        ReadError: no or malformed metadata.yaml (one line naming the file, and the line
             of a YAML syntax error), or a listed file that is missing.
     """
     import yaml
 
     meta = folder / "metadata.yaml"
     if not meta.is_file():
-        raise RecordingError(f"{folder}: a folder without metadata.yaml is not a rosbag2 bag")
+        raise ReadError(f"{folder}: a folder without metadata.yaml is not a rosbag2 bag")
     try:
         document = yaml.safe_load(meta.read_text(encoding="utf-8"))
     except OSError as err:
-        raise RecordingError(f"{meta}: cannot read: {err.strerror or err}") from None
+        raise ReadError(f"{meta}: cannot read: {err.strerror or err}") from err
     except UnicodeDecodeError as err:
-        raise RecordingError(f"{meta}: not UTF-8 text (byte {err.start:,})") from None
+        raise ReadError(f"{meta}: not UTF-8 text (byte {err.start:,})") from err
     except yaml.MarkedYAMLError as err:
         line = f":{err.problem_mark.line + 1}" if err.problem_mark is not None else ""
-        raise RecordingError(f"{meta}{line}: not valid YAML: {one_line(err.problem or str(err))}") from None
+        raise ReadError(f"{meta}{line}: not valid YAML: {one_line(err.problem or str(err))}") from err
     except yaml.YAMLError as err:
-        raise RecordingError(f"{meta}: not valid YAML: {one_line(str(err))}") from None
+        raise ReadError(f"{meta}: not valid YAML: {one_line(str(err))}") from err
     info = document.get("rosbag2_bagfile_information") if isinstance(document, dict) else None
     if not isinstance(info, dict):
-        raise RecordingError(f"{meta}: not a rosbag2 metadata file (no rosbag2_bagfile_information mapping)")
+        raise ReadError(f"{meta}: not a rosbag2 metadata file (no rosbag2_bagfile_information mapping)")
     names = info.get("relative_file_paths")
     if not isinstance(names, list) or not names:
-        raise RecordingError(f"{meta}: rosbag2_bagfile_information lists no relative_file_paths")
+        raise ReadError(f"{meta}: rosbag2_bagfile_information lists no relative_file_paths")
     files = tuple(folder / Path(str(name)).name for name in names)
     for file in files:
         if not file.is_file():
-            raise RecordingError(f"{folder}: metadata.yaml lists {file.name}, which is missing")
+            raise ReadError(f"{folder}: metadata.yaml lists {file.name}, which is missing")
     return BagMetadata(str(info.get("storage_identifier") or ""), files, str(info.get("compression_format") or ""))
 
 

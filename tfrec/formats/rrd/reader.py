@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tfrec.conventions import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC
-from tfrec.errors import RecordingError
+from tfrec.errors import ReadError
 from tfrec.recording import FrameSeries, JointStates, Recording, TopicInfo
 
 __all__ = ["RRD_MAGIC", "read_rrd"]
@@ -32,7 +32,7 @@ def read_rrd(path: Path, wanted: frozenset[str]) -> Recording:
     """Read an ``.rrd`` written by :class:`tfrec.rerun_io.RerunSink`, decoding the topics in ``wanted``.
 
     Raises:
-        RecordingError: Rerun cannot read the file (damaged or not an RRD).
+        ReadError: Rerun cannot read the file (damaged or not an RRD).
     """
     import pyarrow as pa
     import rerun as rr
@@ -52,7 +52,7 @@ def read_rrd(path: Path, wanted: frozenset[str]) -> Recording:
             warnings.simplefilter("ignore", getattr(rr, "RerunWarning", UserWarning))
             chunks = list(RrdReader(path).stream())
     except (RuntimeError, ValueError, OSError) as err:
-        raise RecordingError(f"{where}: unreadable Rerun recording: {err}") from None
+        raise ReadError(f"{where}: unreadable Rerun recording: {err}") from err
     for chunk in chunks:
         top, names = rerun_paths.parse_entity(str(chunk.entity_path))
         if top not in (rerun_paths.TF_ROOT, rerun_paths.TF_STATIC_ROOT, rerun_paths.JOINTS_ROOT,

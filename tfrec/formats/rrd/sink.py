@@ -26,7 +26,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 from numpy.typing import NDArray
 
-from tfrec.errors import KinematicsError, RecordingError
+from tfrec.errors import KinematicsError, WriteError
 from tfrec.formats.rrd.geometry import MeshLoader, default_axis_length, fit_eye, visual_columns, visual_radius
 from tfrec.formats.rrd.paths import (
     APPLICATION_ID,
@@ -86,7 +86,7 @@ class RerunSink:
             between 2 cm and 25 cm.
 
     Raises:
-        RecordingError: the file cannot be created.
+        WriteError: the file cannot be created.
     """
 
     def __init__(
@@ -106,9 +106,9 @@ class RerunSink:
                 pass  # fail here with the OS's own words, not in Rerun's writer thread
             stream.save(file)
         except OSError as err:
-            raise RecordingError(f"{file}: cannot write: {err.strerror or err}") from None
+            raise WriteError(f"{file}: cannot write: {err.strerror or err}") from err
         except RuntimeError as err:  # Rerun could not write the file's header
-            raise RecordingError(f"{file}: cannot write: {err}") from None
+            raise WriteError(f"{file}: cannot write: {err}") from err
         self._setup(stream, target=os.fspath(file), file=file, robot=robot, package_paths=package_paths,
                     frame_prefix=frame_prefix, axis_length_m=axis_length_m)
 
@@ -300,21 +300,21 @@ class RerunSink:
             transforms: parent_from_child of the moving joints, N = n.
 
         Raises:
-            RecordingError: arrays whose shapes do not match, stamps that go back in time, or a
+            WriteError: arrays whose shapes do not match, stamps that go back in time, or a
                 failed write (see :meth:`flush`).
         """
         stamps = _stamps(time_ns)
         n = len(stamps)
         shape = (n, len(joint_names))
         if np.shape(positions) != shape or np.shape(velocities) != shape or len(transforms) != n:
-            raise RecordingError(
+            raise WriteError(
                 f"chunk of {n} stamps has positions {np.shape(positions)}, velocities {np.shape(velocities)} "
                 f"and {len(transforms)} transforms; expected {shape}"
             )
         if n == 0:
             return
         if np.any(np.diff(stamps) < 0) or (self._last_time_ns is not None and stamps[0] < self._last_time_ns):
-            raise RecordingError("chunk stamps go back in time")
+            raise WriteError("chunk stamps go back in time")
         self._last_time_ns = int(stamps[-1])
         index = [_time_column(stamps)]
         for j, name in enumerate(joint_names):
@@ -341,13 +341,13 @@ class RerunSink:
             rotation: float64 (n, 4), quaternions (x, y, z, w).
 
         Raises:
-            RecordingError: arrays whose shapes do not match, stamps that go back in time, or a
+            WriteError: arrays whose shapes do not match, stamps that go back in time, or a
                 failed write (see :meth:`flush`).
         """
         stamps = _stamps(time_ns)
         n = len(stamps)
         if np.shape(translation) != (n, 3) or np.shape(rotation) != (n, 4):
-            raise RecordingError(f"transforms '{parent}' -> '{child}': {n} stamps with translation "
+            raise WriteError(f"transforms '{parent}' -> '{child}': {n} stamps with translation "
                                  f"{np.shape(translation)} and rotation {np.shape(rotation)}")
         if n:
             self._write_pair(parent, child, [_time_column(stamps)], stamps, translation, rotation)
@@ -361,11 +361,11 @@ class RerunSink:
             positions: float64 (n, J).
 
         Raises:
-            RecordingError: arrays whose shapes do not match, or a failed write (see :meth:`flush`).
+            WriteError: arrays whose shapes do not match, or a failed write (see :meth:`flush`).
         """
         stamps = _stamps(time_ns)
         if np.shape(positions) != (len(stamps), len(names)):
-            raise RecordingError(f"{len(stamps)} stamps of {len(names)} joints have positions {np.shape(positions)}")
+            raise WriteError(f"{len(stamps)} stamps of {len(names)} joints have positions {np.shape(positions)}")
         if len(stamps):
             index = [_time_column(stamps)]
             for j, name in enumerate(names):
@@ -416,7 +416,7 @@ class RerunSink:
         """Write (or send) everything logged so far.
 
         Raises:
-            RecordingError: Rerun's file writer failed (disk full, file too large…) or the
+            WriteError: Rerun's file writer failed (disk full, file too large…) or the
                 viewer cannot be reached.
         """
         self._unflushed_bytes = 0
@@ -424,13 +424,13 @@ class RerunSink:
             self._rec.flush()
         except RuntimeError as err:
             verb = "cannot write" if self._file is not None else "cannot send to the recording"
-            raise RecordingError(f"{self._target}: {verb}: {err}") from None
+            raise WriteError(f"{self._target}: {verb}: {err}") from err
 
     def finish(self) -> None:
         """Send the blueprint (unless :meth:`send_blueprint` did), flush everything and close the target.
 
         Raises:
-            RecordingError: the data could not be written out or sent.
+            WriteError: the data could not be written out or sent.
         """
         if not self._blueprint_sent:
             self.send_blueprint()
@@ -470,7 +470,7 @@ class RerunSink:
                     translation: Array, rotation: Array) -> None:
         last = self._last_pair_ns.get((parent, child))
         if np.any(np.diff(stamps) < 0) or (last is not None and stamps[0] < last):
-            raise RecordingError(f"transforms '{parent}' -> '{child}': stamps go back in time")
+            raise WriteError(f"transforms '{parent}' -> '{child}': stamps go back in time")
         self._last_pair_ns[(parent, child)] = int(stamps[-1])
         joint = self._joint_of_child.get(child)
         n = len(stamps)
@@ -490,7 +490,7 @@ class RerunSink:
 def _stamps(time_ns: NDArray[np.int64]) -> NDArray[np.int64]:
     stamps = np.asarray(time_ns)
     if stamps.dtype != np.int64 or stamps.ndim != 1:
-        raise RecordingError(f"time_ns must be int64 of shape (n,), got {stamps.dtype} {stamps.shape}")
+        raise WriteError(f"time_ns must be int64 of shape (n,), got {stamps.dtype} {stamps.shape}")
     return stamps
 
 

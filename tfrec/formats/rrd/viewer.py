@@ -30,7 +30,7 @@ import numpy as np
 import rerun as rr
 from numpy.typing import NDArray
 
-from tfrec.errors import RecordingError
+from tfrec.errors import WriteError
 from tfrec.formats.rrd.paths import APPLICATION_ID
 from tfrec.formats.rrd.sink import RerunSink
 from tfrec.kinematics.fk import Transforms
@@ -87,7 +87,7 @@ class RerunReplaySink:
                 camera is fitted to the robot there.
 
         Raises:
-            RecordingError: a live viewer cannot be reached.
+            WriteError: a live viewer cannot be reached.
         """
         sink = self._sink
         sink.begin(static=Transforms.from_poses(static), start_time_ns=start_time_ns,
@@ -113,7 +113,7 @@ class RerunReplaySink:
         """Flush everything and close the target.
 
         Raises:
-            RecordingError: the data could not be written out or sent.
+            WriteError: the data could not be written out or sent.
         """
         self._sink.finish()
 
@@ -146,7 +146,7 @@ def open_rerun_sink(
         port: where a spawned viewer listens; a viewer already listening there is reused.
 
     Raises:
-        RecordingError: the file cannot be created, the URL is malformed, or the viewer cannot
+        WriteError: the file cannot be created, the URL is malformed, or the viewer cannot
             be spawned.
     """
     if save is not None:
@@ -157,16 +157,16 @@ def open_rerun_sink(
         try:
             stream.connect_grpc(connect)
         except RuntimeError as err:
-            raise RecordingError(f"{connect}: not a Rerun viewer address ({err})") from None
+            raise WriteError(f"{connect}: not a Rerun viewer address ({err})") from err
         target = connect
     else:
         executable = shutil.which("rerun") or _bundled_viewer()
         try:
             rr.sinks.spawn(port=port, recording=stream, executable_path=executable)
         except RuntimeError as err:
-            raise RecordingError(
-                f"cannot spawn the Rerun viewer ({err}); use --save OUT.rrd or --connect URL"
-            ) from None
+            raise WriteError(
+                f"cannot spawn the Rerun viewer ({err}); use `save` OUT.rrd or `connect` URL"
+            ) from err
         target = f"the Rerun viewer on port {port}"
     sink = RerunSink.from_stream(stream, target=target, robot=robot, frame_prefix=frame_prefix,
                                  package_paths=package_paths)
@@ -181,7 +181,7 @@ def check_can_connect(url: str) -> None:
     port is left to Rerun.
 
     Raises:
-        RecordingError: a URL that is not ``rerun+http://host:port/proxy`` (or ``rerun://``,
+        WriteError: a URL that is not ``rerun+http://host:port/proxy`` (or ``rerun://``,
             ``rerun+https://``), or nothing accepting connections at its host and port.
     """
     from urllib.parse import urlsplit
@@ -190,9 +190,9 @@ def check_can_connect(url: str) -> None:
         parts = urlsplit(url)
         host, port = parts.hostname, parts.port
     except ValueError as err:
-        raise RecordingError(f"{url}: not a Rerun viewer address ({err})") from None
+        raise WriteError(f"{url}: not a Rerun viewer address ({err})") from err
     if parts.scheme not in _SCHEMES or not host:
-        raise RecordingError(f"{url}: not a Rerun viewer address "
+        raise WriteError(f"{url}: not a Rerun viewer address "
                              "(expected rerun+http://host:port/proxy, rerun+https:// or rerun://)")
     if port is None:
         return
@@ -201,21 +201,21 @@ def check_can_connect(url: str) -> None:
             pass
     except OSError as err:
         reason = "timed out" if isinstance(err, TimeoutError) else err.strerror or str(err)
-        raise RecordingError(f"cannot connect to the Rerun viewer at {url}: {reason} "
-                             "(is the viewer running? start it with `rerun`, or use --save OUT.rrd)") from None
+        raise WriteError(f"cannot connect to the Rerun viewer at {url}: {reason} "
+                             "(is the viewer running? start it with 'rerun', or use `save` OUT.rrd)") from err
 
 
 def check_can_spawn() -> None:
     """Check, before anything is read, that a Rerun viewer can be spawned on this machine.
 
     Raises:
-        RecordingError: no display (a headless machine), or no ``rerun`` executable.
+        WriteError: no display (a headless machine), or no ``rerun`` executable.
     """
     if not _has_display():
-        raise RecordingError("cannot spawn the Rerun viewer (headless machine?); use --save OUT.rrd or --connect URL")
+        raise WriteError("cannot spawn the Rerun viewer (headless machine?); use `save` OUT.rrd or `connect` URL")
     if shutil.which("rerun") is None and _bundled_viewer() is None:
-        raise RecordingError("cannot spawn the Rerun viewer (no 'rerun' executable on PATH); "
-                             "use --save OUT.rrd or --connect URL")
+        raise WriteError("cannot spawn the Rerun viewer (no 'rerun' executable on PATH); "
+                             "use `save` OUT.rrd or `connect` URL")
 
 
 def _has_display() -> bool:

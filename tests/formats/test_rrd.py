@@ -36,7 +36,7 @@ from tfrec.kinematics.rotations import matrix_from_quaternion
 from tfrec.model import Box, Cylinder, Mesh, Robot, Sphere
 from tfrec.trajectory.generators import make_trajectory
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 CORPUS = REPO.parent / "shared" / "corpus"
 RERUN = Path(sys.executable).with_name("rerun")
 START_NS = 1_700_000_000_000_000_000
@@ -565,7 +565,7 @@ def test_stamps_going_back_in_time_are_refused(tmp_path: Path) -> None:
 FULL_DISK = """
 import resource, signal, sys
 from tfrec.errors import RecordingError
-from tests.test_rerun_io import load_robot, write_rrd
+from tests.formats.test_rrd import load_robot, write_rrd
 robot = load_robot("marm")
 signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
 resource.setrlimit(resource.RLIMIT_FSIZE, (20_000, resource.RLIM_INFINITY))

@@ -261,7 +261,7 @@ def test_sweep_moves_one_joint_at_a_time_through_its_limits(toy: Robot) -> None:
 def test_kinds_stay_within_limits_on_the_repository_robots(name: str) -> None:
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=".*legacy macro calls")  # mbot uses them on purpose
-        robot = load_description(Path(__file__).resolve().parents[1] / "robots" / name)
+        robot = load_description(Path(__file__).resolve().parents[2] / "robots" / name)
     for kind in KINDS:
         trajectory = make_trajectory(robot, kind, duration_s=5, rate_hz=100)
         assert trajectory.joint_names == tuple(j.name for j in robot.actuated_joints)
@@ -309,7 +309,7 @@ def test_period_error_is_one_line_from_the_cli(tmp_path: Path, capsys: pytest.Ca
     from tfrec.cli import main
 
     out = tmp_path / "p.mcap"
-    robot = str(Path(__file__).resolve().parents[1] / "robots" / "marm.xacro")
+    robot = str(Path(__file__).resolve().parents[2] / "robots" / "marm.xacro")
     assert main(["record", robot, "--traj", "random", "--period", "1e-9", "-o", str(out), "--no-rrd"]) == 2
     error = "tfrec: error: period 1e-09 s is shorter than the sample interval 0.02 s of 50 Hz\n"
     assert capsys.readouterr().err == error

@@ -17,7 +17,7 @@ import pytest
 
 from tfrec import cli
 from tfrec.description import load_description, parse_urdf
-from tfrec.errors import RecordingError
+from tfrec.errors import ReplayError
 from tfrec.formats.mcap.writer import McapSink
 from tfrec.formats.rrd.paths import joint_entity, link_entity, pair_entity, tf_entity, tf_static_entity
 from tfrec.kinematics.fk import Transforms, dynamic_transforms, iter_dynamic_chunks, static_transforms
@@ -32,7 +32,7 @@ from tfrec.replay.play import play, replay_to_rerun
 from tfrec.trajectory.generators import make_trajectory
 from tfrec.trajectory.types import JointTrajectory
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 START_NS = DEFAULT_START_TIME_NS
 ATOL32 = 2e-6  # .rrd transforms are float32
 
@@ -282,8 +282,8 @@ def test_pairs_outside_the_model_keep_their_own_entities(marm: Robot, tmp_path: 
                     rotation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)))])
             writer.write(connection, time_ns, bytes(store.serialize_cdr(msg, "tf2_msgs/msg/TFMessage")))
     out = tmp_path / "odom.rrd"
-    with pytest.warns(UserWarning, match="odom: no /robot_description in the recording and no --robot: TF is "
-                                         r"replayed without robot geometry \(give --robot FILE\)"):
+    with pytest.warns(UserWarning, match="odom: no /robot_description in the recording and no `robot`: TF is "
+                                         r"replayed without robot geometry \(give `robot` FILE\)"):
         replay = load_replay(source)
     assert replay.robot is None and replay.root_frame() == "odom"
     replay_to_rerun(replay, save=out)
@@ -370,7 +370,7 @@ def test_an_unusable_description_warns_and_replays_without_a_model(tfrec_main: C
                              velocities=chunk.velocities, transforms=chunk.transforms)
         sink.finish()
     with pytest.warns(UserWarning, match=r"/robot_description is not a usable robot description \(.*\); "
-                                         r"replaying without the robot model \(give --robot FILE\)"):
+                                         r"replaying without the robot model \(give `robot` FILE\)"):
         replay = load_replay(source)
     assert replay.robot is None and replay.root_frame() == "link0"
     replay_to_rerun(replay, save=tmp_path / "broken.rrd")
@@ -609,7 +609,7 @@ def test_loop_repeats_later_on_the_timeline(recorded: Path) -> None:
 
 
 def test_loop_needs_a_live_sink(recorded: Path) -> None:
-    with pytest.raises(RecordingError, match="needs a live viewer"):
+    with pytest.raises(ReplayError, match="needs a live viewer"):
         play(load_replay(recorded), ListSink(), loop=True)
 
 
@@ -717,7 +717,7 @@ def test_connect_to_no_viewer_is_one_line_error_at_once(tfrec_main: Callable[[li
 
 def test_joint_log_without_a_description_warns(marm: Robot, traj: JointTrajectory, tmp_path: Path) -> None:
     source = write_joint_log(tmp_path / "bare", marm, traj, kind="mcap", description=False)
-    with pytest.warns(UserWarning, match=r"bare: no /robot_description in the recording and no --robot: only the "
+    with pytest.warns(UserWarning, match=r"bare: no /robot_description in the recording and no `robot`: only the "
                                          r"joint positions are replayed, with no robot model to move"):
         replay = load_replay(source)
     assert replay.robot is None and not replay.tf and replay.joint_states is not None
@@ -736,7 +736,7 @@ def test_an_rrd_not_written_by_tfrec_is_an_error(tfrec_main: Callable[[list[str]
     stream.disconnect()
     message = (f"{other}: no /robot_description, /tf_static, /joint_states or /tf in the recording "
                "(an .rrd not written by tfrec?); nothing to replay")
-    with pytest.raises(RecordingError) as info:
+    with pytest.raises(ReplayError) as info:
         load_replay(other)
     assert str(info.value) == message
     assert tfrec_main(["replay", str(other), "--save", str(tmp_path / "out.rrd")]) == 2
@@ -745,7 +745,7 @@ def test_an_rrd_not_written_by_tfrec_is_an_error(tfrec_main: Callable[[list[str]
 
 
 def test_start_beyond_the_end_is_an_error_and_an_empty_window_warns(recorded: Path) -> None:
-    with pytest.raises(RecordingError, match=r"marm.mcap: --start 100 s is beyond the recording's end \(2 s\)$"):
+    with pytest.raises(ReplayError, match=r"marm.mcap: `start_s` 100 s is beyond the recording's end \(2 s\)$"):
         load_replay(recorded, start_s=100.0)
     assert load_replay(recorded, start_s=2.0).start_ns == START_NS + 2 * 10**9  # the last sample
     with pytest.warns(UserWarning, match=r"marm.mcap: no /joint_states or /tf sample from 1.001 s to 1.002 s; "
@@ -776,7 +776,7 @@ def test_start_counts_from_the_first_sample_not_an_early_description(marm: Robot
 
 def test_check_refuses_a_bad_tolerance(recorded: Path) -> None:
     replay = load_replay(recorded)  # the command line refuses these first (tests/test_cli.py)
-    with pytest.raises(RecordingError, match=r"^--pos-tol -1.0 is not a tolerance >= 0$"):
+    with pytest.raises(ReplayError, match=r"^`pos_tol` -1.0 is not a tolerance >= 0$"):
         check_replay(replay, pos_tol=-1.0)
-    with pytest.raises(RecordingError, match=r"^--rot-tol nan is not a tolerance >= 0$"):
+    with pytest.raises(ReplayError, match=r"^`rot_tol` nan is not a tolerance >= 0$"):
         check_replay(replay, rot_tol=float("nan"))

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import yaml
 
+from tests.conftest import ROBOTS
 from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.description import load_description, parse_urdf
 from tfrec.errors import RecordingError
@@ -25,8 +26,6 @@ from tfrec.kinematics.fk import iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
 from tfrec.trajectory.generators import make_trajectory
 from tfrec.trajectory.types import JointTrajectory
-
-from .conftest import ROBOTS
 
 TOPICS = ["/robot_description", "/tf_static", "/joint_states", "/tf"]
 
@@ -444,9 +443,8 @@ def test_summarize_every_format(tmp_path: Path, marm_mcap: Path) -> None:
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
 
+    from tests.recording_helpers import write_rosbag1, write_rosbag2
     from tfrec.formats.reader import read_recording
-
-    from .recording_helpers import write_rosbag1, write_rosbag2
 
     rec = read_recording(marm_mcap)
     ref = summarize(marm_mcap)

@@ -10,11 +10,10 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import ROBOTS
 from tfrec.description import load_description, parse_urdf, parse_xacro_args
 from tfrec.errors import DescriptionError
 from tfrec.model import Box, Cylinder, JointType, Sphere
-
-from .conftest import ROBOTS
 
 LEGACY = r"expanded legacy macro calls without the 'xacro:' prefix: <caster>, <wheel>"
 
@@ -252,7 +251,7 @@ def test_missing_include(tmp_path: Path) -> None:
 def test_unknown_package_lists_places(tmp_path: Path) -> None:
     f = _write(tmp_path, "top.xacro", '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
                '<xacro:include filename="$(find no_such_pkg)/x.xacro"/></robot>')
-    with pytest.raises(DescriptionError, match=r"top\.xacro: package 'no_such_pkg' not found; searched: --package-path .*elsewhere"):
+    with pytest.raises(DescriptionError, match=r"top\.xacro: package 'no_such_pkg' not found; searched: `package_paths` .*elsewhere"):
         load_description(f, package_paths=[tmp_path / "elsewhere"])
 
 

@@ -11,6 +11,13 @@ from typing import Any
 import numpy as np
 import pytest
 
+from tests.recording_helpers import (
+    cdr_messages,
+    deserializer,
+    write_mcap,
+    write_rosbag1,
+    write_rosbag2,
+)
 from tfrec.errors import RecordingError
 from tfrec.formats.mcap.writer import DEFAULT_CHUNK_BYTES, DEFAULT_START_TIME_NS, McapSink, message_definition
 from tfrec.formats.reader import read_recording, recording_format
@@ -21,15 +28,7 @@ from tfrec.recording import JointStates, Recording
 from tfrec.trajectory.generators import make_trajectory
 from tfrec.trajectory.types import JointTrajectory
 
-from .recording_helpers import (
-    cdr_messages,
-    deserializer,
-    write_mcap,
-    write_rosbag1,
-    write_rosbag2,
-)
-
-GOLDEN = Path(__file__).parent / "golden"
+GOLDEN = Path(__file__).parents[1] / "golden"
 
 
 def test_mcap_matches_mcap_ros2(marm_mcap: Path, marm_rec: Recording, marm: Robot, traj: JointTrajectory) -> None:
@@ -448,7 +447,7 @@ def _ros1_bag(path: Path, rec: Recording, *, compression: str, chunk_bytes: int)
     """The recording as a ROS 1 bag of small chunks, written by rosbags; latched topics marked."""
     from rosbags.rosbag1 import Writer
 
-    from .recording_helpers import _Messages, _typestore, recording_messages
+    from tests.recording_helpers import _Messages, _typestore, recording_messages
 
     store = _typestore(ros1=True)
     writer = Writer(path)
@@ -710,7 +709,7 @@ def test_out_of_order_log_times(tmp_path: Path, marm_rec: Recording, chunking: b
     topic spans its earliest to its latest message, and the series come out in time order."""
     from mcap.writer import CompressionType, Writer
 
-    from .recording_helpers import _Messages, _typestore, recording_messages
+    from tests.recording_helpers import _Messages, _typestore, recording_messages
 
     store = _typestore(ros1=False)
     messages = recording_messages(marm_rec, _Messages(store, ros1=False))

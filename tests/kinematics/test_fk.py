@@ -31,8 +31,8 @@ from tfrec.trajectory.generators import make_trajectory
 from tfrec.trajectory.joints import joint_bounds
 from tfrec.trajectory.types import JointTrajectory
 
-REPO = Path(__file__).resolve().parents[1]
-CORPUS = Path(__file__).resolve().parents[2] / "shared" / "corpus"
+REPO = Path(__file__).resolve().parents[2]
+CORPUS = Path(__file__).resolve().parents[3] / "shared" / "corpus"
 
 # (name, path, xacro args): the repository's robots, then the real packages.
 ROBOTS = {
