@@ -33,9 +33,11 @@ demo: $(VENV)/.installed
 test: $(VENV)/.installed-test
 	$(BIN)/python -m pytest -q
 
+# ruff (with the layout's import bans), mypy --strict, and import-linter's layer and cycle contracts
 lint: $(VENV)/.installed-lint
 	$(BIN)/ruff check tfrec tests benchmarks scripts
 	$(BIN)/mypy tfrec
+	$(BIN)/lint-imports
 
 bench: $(VENV)/.installed
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done

@@ -1,6 +1,6 @@
 """``tfrec diff`` speed: two one-hour 100 Hz recordings of robots/marm.xacro.
 
-The recordings are made the way ``tfrec record`` makes them (``tfrec.recording.record``:
+The recordings are made the way ``tfrec record`` makes them (``tfrec.record.record``:
 trajectory → FK chunks → McapSink, zstd) and cached in a temporary folder, so a second run
 only measures the diff:
 

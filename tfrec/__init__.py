@@ -1,7 +1,11 @@
 """tfrec: record, replay and compare what a robot description does — headless, without ROS.
 
-The data flows one way: description → model → trajectory → kinematics → sinks → replay/diff.
-Importing :mod:`tfrec` is cheap; each stage imports its heavy libraries itself.
+The data flows one way, one subpackage per stage (docs/architecture.md)::
+
+    description → trajectory → kinematics → formats (MCAP, rosbag2, ROS 1, .rrd) → record / replay / diff
+
+This module is the public API (docs/api.md); everything else is reached through its subpackage.
+Importing :mod:`tfrec` is cheap: each function imports its stage when first used.
 """
 
 from __future__ import annotations
@@ -11,40 +15,76 @@ from typing import TYPE_CHECKING, Any
 __version__ = "0.1.0"
 
 __all__ = [
+    "ConvertError",
     "DescriptionError",
+    "DiffError",
+    "FleetError",
     "Joint",
+    "JointTrajectory",
     "JointType",
     "KinematicsError",
     "Link",
+    "ReadError",
+    "Recording",
     "RecordingError",
+    "ReplayError",
     "Robot",
     "TfrecError",
     "TrajectoryError",
+    "Transforms",
+    "WriteError",
     "__version__",
     "assert_recordings_match",
+    "check_replay",
     "compare",
     "load_description",
+    "load_replay",
     "make_trajectory",
     "parse_urdf",
+    "plan_outputs",
     "read_recording",
+    "record",
 ]
 
-from tfrec.errors import DescriptionError, KinematicsError, RecordingError, TfrecError, TrajectoryError
+from tfrec.errors import (
+    ConvertError,
+    DescriptionError,
+    DiffError,
+    FleetError,
+    KinematicsError,
+    ReadError,
+    RecordingError,
+    ReplayError,
+    TfrecError,
+    TrajectoryError,
+    WriteError,
+)
 from tfrec.model import Joint, JointType, Link, Robot
 
 if TYPE_CHECKING:
     from tfrec.description import load_description, parse_urdf
-    from tfrec.diff.compare import assert_recordings_match, compare
-    from tfrec.formats.reader import read_recording
-    from tfrec.trajectory.generators import make_trajectory
+    from tfrec.diff import assert_recordings_match, compare
+    from tfrec.formats import read_recording
+    from tfrec.kinematics import Transforms
+    from tfrec.record import plan_outputs, record
+    from tfrec.recording import Recording
+    from tfrec.replay import check_replay, load_replay
+    from tfrec.trajectory import JointTrajectory, make_trajectory
 
 _LAZY = {
-    "load_description": "description",
-    "parse_urdf": "description",
-    "make_trajectory": "trajectory",
-    "read_recording": "readers",
-    "compare": "diff",
-    "assert_recordings_match": "diff",
+    "load_description": "tfrec.description",
+    "parse_urdf": "tfrec.description",
+    "make_trajectory": "tfrec.trajectory",
+    "JointTrajectory": "tfrec.trajectory",
+    "Transforms": "tfrec.kinematics",
+    "record": "tfrec.record",
+    "plan_outputs": "tfrec.record",
+    "Recording": "tfrec.recording",
+    "read_recording": "tfrec.formats",
+    "compare": "tfrec.diff",
+    "assert_recordings_match": "tfrec.diff",
+    "load_replay": "tfrec.replay",
+    "check_replay": "tfrec.replay",
 }
 
 
@@ -52,5 +92,5 @@ def __getattr__(name: str) -> Any:  # lazy: each stage imports its heavy librari
     if name in _LAZY:
         import importlib
 
-        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        return getattr(importlib.import_module(_LAZY[name]), name)
     raise AttributeError(f"module 'tfrec' has no attribute {name!r}")

@@ -2,8 +2,8 @@
 
 Each output is written to a temporary name beside its target (same folder, so the rename is atomic) and
 all are renamed together by :meth:`AtomicOutputs.commit`; after an error or Ctrl-C the temporaries are
-deleted and older files of those names are untouched. ``tfrec record`` (:func:`tfrec.recording.record`)
-and ``tfrec replay --save`` (:func:`tfrec.playback.replay_to_rerun`) write through it, before any sink
+deleted and older files of those names are untouched. ``tfrec record`` (:func:`tfrec.record.record`)
+and ``tfrec replay --save`` (:func:`tfrec.replay.play.replay_to_rerun`) write through it, before any sink
 sees a path; :func:`check_target` is their common check of an output's name before anything is read.
 """
 

@@ -1,12 +1,12 @@
 """``tfrec info``: what a recording holds — MCAP, rosbag2 folder (mcap or sqlite3), ROS 1 bag, ``.rrd``.
 
 An intact MCAP (and a rosbag2 folder of them) is summarized from its summary section
-(Statistics, chunk and message indexes, read by :mod:`tfrec.mcap_summary`), so a one-hour file
+(Statistics, chunk and message indexes, read by :mod:`tfrec.formats.mcap.summary`), so a one-hour file
 is summarized without decompressing it; only a few messages are decoded: the first
 /joint_states and /robot_description messages, every /tf_static message and the first
 :data:`TF_MESSAGES_DECODED` /tf messages.
 
-Everything else is read whole with :func:`tfrec.readers.read_recording`: an MCAP without a
+Everything else is read whole with :func:`tfrec.formats.read_recording`: an MCAP without a
 valid summary (a recorder killed mid-write, a damaged file), sqlite3 bags, ROS 1 bags and
 ``.rrd`` files. A damaged file is summarized as far as it is readable, with one warning saying
 what was lost (:attr:`Recording.read_error`, also in the result's ``read_error``).
@@ -63,7 +63,7 @@ class _Scan:
 
 
 def summarize(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """Summarize a recording: whatever :func:`tfrec.readers.read_recording` reads.
+    """Summarize a recording: whatever :func:`tfrec.formats.read_recording` reads.
 
     A damaged file is summarized as far as it is readable, with a warning saying what was lost.
 

@@ -71,7 +71,7 @@ def plan_outputs(
 
     Raises:
         WriteError: nothing to write, conflicting options, or a target that
-            :func:`tfrec.atomic.check_target` refuses (wrong extension, exists without ``force``).
+            :func:`tfrec._atomic.check_target` refuses (wrong extension, exists without ``force``).
     """
     if no_mcap and no_rrd:
         raise WriteError("`no_mcap` and `no_rrd` together leave nothing to write")

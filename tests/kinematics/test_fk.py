@@ -338,7 +338,7 @@ def tree_robot(specs: list[tuple]) -> Robot:
 
 
 def origin_matrix(xyz: tuple, rpy: tuple) -> np.ndarray:
-    """URDF origin from elementary rotations, independently of tfrec.rotations."""
+    """URDF origin from elementary rotations, independently of tfrec.kinematics.rotations."""
     r, p, y = rpy
     rx = np.array([[1, 0, 0], [0, math.cos(r), -math.sin(r)], [0, math.sin(r), math.cos(r)]])
     ry = np.array([[math.cos(p), 0, math.sin(p)], [0, 1, 0], [-math.sin(p), 0, math.cos(p)]])

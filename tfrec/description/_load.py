@@ -1,8 +1,8 @@
 """Loading a robot description: a ``.urdf``, ``.xacro`` or ``.urdf.xacro`` file → :class:`Robot`.
 
-xacro files are expanded in-process (:mod:`tfrec.xacro_expand`), ``$(find pkg)`` resolves
-through :class:`tfrec.packages.PackageFinder`, and the result is validated by
-:func:`tfrec.urdf_parse.parse_urdf`.
+xacro files are expanded in-process (:mod:`tfrec.description.xacro`), ``$(find pkg)`` resolves
+through :class:`tfrec.description.packages.PackageFinder`, and the result is validated by
+:func:`tfrec.description.urdf.parse_urdf`.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 Three things stock xacro does not do for us, done here for the duration of one expansion:
 
-* ``$(find pkg)`` goes to :class:`tfrec.packages.PackageFinder` instead of
+* ``$(find pkg)`` goes to :class:`tfrec.description.packages.PackageFinder` instead of
   ``ament_index_python`` (not on PyPI);
 * calls to defined macros written without the ``xacro:`` prefix (the dialect of
   xacro <= 1.13, used by ROS Kinetic/Melodic course packages) are expanded, with one

@@ -1,7 +1,7 @@
 """``tfrec diff``: compare two recordings by meaning, not by bytes.
 
-:func:`compare` reads two recordings of any format (:func:`tfrec.readers.read_recording`) and
-compares the robot description as URDF (:mod:`tfrec.urdf_diff`), the topics (presence, message
+:func:`compare` reads two recordings of any format (:func:`tfrec.formats.read_recording`) and
+compares the robot description as URDF (:mod:`tfrec.diff.urdf`), the topics (presence, message
 counts, time span), the joint positions per joint and the transforms per (parent, child) pair,
 static and dynamic. The result is a :class:`DiffReport`; :func:`assert_recordings_match` turns
 one into a failing test with the readable report.
@@ -21,7 +21,7 @@ outside B's time span have no counterpart and are reported as such.
 
 Errors: a translation error is the distance between the two translations (m); a rotation error
 is the angle of the relative rotation ``q_a⁻¹ q_b``, ``2·atan2(|v|, |w|)``
-(:func:`tfrec.rotations.rotation_error`, rad); a joint error is the absolute difference of the
+(:func:`tfrec.kinematics.rotations.rotation_error`, rad); a joint error is the absolute difference of the
 positions (rad or m).
 """
 
@@ -320,7 +320,7 @@ def compare(
     """Compare two recordings by meaning.
 
     Args:
-        a, b: recordings, or paths to read (:func:`tfrec.readers.read_recording`).
+        a, b: recordings, or paths to read (:func:`tfrec.formats.read_recording`).
         pos_tol: metres: the largest translation error that counts as equal.
         rot_tol: radians: the largest rotation angle that counts as equal.
         joint_tol: the largest joint position difference (rad or m) that counts as equal;

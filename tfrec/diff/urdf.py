@@ -3,7 +3,7 @@
 Both texts are parsed into :class:`tfrec.model.Robot` and compared by meaning: the robot name,
 the links (added, removed, or changed mass or visuals) and the joints (type, parent, child,
 origin, axis, limits, mimic). Lengths compare within a position tolerance; orientations by the
-angle of the rotation between them (:func:`tfrec.rotations.rotation_error`, as for recorded
+angle of the rotation between them (:func:`tfrec.kinematics.rotations.rotation_error`, as for recorded
 transforms), so ``rpy="3.14159265358979 0 0"`` and ``"-3.14159265358979 0 0"`` are the same
 origin; axes by the angle ``atan2(|a×b|, a·b)`` between them; other numbers within a value
 tolerance. Both angles keep their precision for tiny changes: at a tolerance of 1e-9 rad a

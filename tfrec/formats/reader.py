@@ -6,21 +6,21 @@ the topic table, the joint states as one (N, J) array and every TF frame pair as
 
 How each format is read:
 
-- ``.mcap`` (ROS 2 profile, CDR): :mod:`tfrec.mcap_read`, tfrec's own sequential reader; a
+- ``.mcap`` (ROS 2 profile, CDR): :mod:`tfrec.formats.mcap.reader`, tfrec's own sequential reader; a
   file cut short is read up to the cut (complete records of a partial chunk included), a damaged
   chunk is skipped (its CRC fails) and reading goes on; :attr:`Recording.read_error` says what was lost.
 - rosbag2 folders (mcap or sqlite3 storage) and ROS 1 ``.bag`` files: ``rosbags``' ``AnyReader``
-  (a rosbag2 folder of one uncompressed MCAP: :mod:`tfrec.mcap_read`). What rosbags refuses is
+  (a rosbag2 folder of one uncompressed MCAP: :mod:`tfrec.formats.mcap.reader`). What rosbags refuses is
   read as far as possible, with :attr:`Recording.read_error` saying where reading stopped: a ROS 1
   bag cut short, without an index, with a damaged chunk or with an index that rosbags trips over
   (an assertion fails, a lookup misses) record by record
-  (:mod:`tfrec.rosbag1_read`); a sqlite3 ``.db3`` cut short through SQLite, from a copy whose
+  (:mod:`tfrec.formats.rosbag1.reader`); a sqlite3 ``.db3`` cut short through SQLite, from a copy whose
   header's page count is lowered to the pages the file still has, its ``messages`` table in row
   order up to the first missing page.
-- ``.rrd``: :mod:`tfrec.rrd_read`, through Rerun's own reader. Rerun stores transforms as float32.
+- ``.rrd``: :mod:`tfrec.formats.rrd.reader`, through Rerun's own reader. Rerun stores transforms as float32.
 
 JointState and TFMessage messages with a fixed layout (the same names in every message) are
-decoded in bulk with numpy (:mod:`tfrec.ros_decode`); anything else through rosbags'
+decoded in bulk with numpy (:mod:`tfrec.formats.ros.decode`); anything else through rosbags'
 deserializers, message by message.
 """
 

@@ -149,7 +149,7 @@ def dynamic_transforms(
     Args:
         robot: the robot.
         names: moving joints (revolute, continuous, prismatic, mimic ones included), any
-            order; usually the names from :func:`tfrec.trajectory.all_joint_states`. Mimic
+            order; usually the names from :func:`tfrec.kinematics.joints.all_joint_states`. Mimic
             joints are not derived here: each joint takes the position given for it.
         positions: float (N, len(names)), radians or metres.
         frame_prefix: put in front of every frame id, as robot_state_publisher's frame_prefix.
@@ -237,7 +237,7 @@ def link_poses(robot: Robot, names: Sequence[str], positions: ArrayLike) -> dict
     Args:
         robot: the robot.
         names, positions: every moving joint's positions, as from
-            :func:`tfrec.trajectory.all_joint_states`.
+            :func:`tfrec.kinematics.joints.all_joint_states`.
 
     Returns:
         link name → float64 (N, 4, 4); links below a floating joint are absent.

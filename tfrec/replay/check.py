@@ -10,7 +10,7 @@ Where a recorded transform is stamped between two joint states, the joint positi
 interpolated linearly at its stamp (exact when the stamps coincide, as they do for
 robot_state_publisher, which stamps TF with the joint state's stamp), as ``tfrec diff``
 interpolates (:func:`tfrec.resample.align`). Errors are the distance between translations (m)
-and the angle of the relative rotation (:func:`tfrec.rotations.rotation_error`, rad).
+and the angle of the relative rotation (:func:`tfrec.kinematics.rotations.rotation_error`, rad).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """``tfrec replay``: play a recording back into Rerun, as ``ros2 bag play`` plays one into RViz.
 
-:func:`load_replay` reads any recording :func:`tfrec.readers.read_recording` reads (tfrec's or
+:func:`load_replay` reads any recording :func:`tfrec.formats.read_recording` reads (tfrec's or
 ``ros2 bag record``'s MCAP, rosbag2 folders with mcap or sqlite3 storage, ROS 1 bags, ``.rrd``)
 and prepares what is played: the robot model (the recording's /robot_description, or one given),
 /tf_static and /tf per frame pair, and /joint_states, cut to ``start_s``..``end_s``.
@@ -16,8 +16,8 @@ position, and a mimic joint that is not in a message follows its master in that 
 Latched data — /tf_static and /robot_description — is logged as static data, so it is there
 whatever ``start_s`` cuts away (``ros2 bag play --start-offset`` loses it).
 
-:func:`tfrec.playback.play` sends a prepared replay to a sink in time-ordered batches, paced
-for live viewers; :func:`tfrec.replay_check.check_replay` re-simulates it. Times are header
+:func:`tfrec.replay.play.play` sends a prepared replay to a sink in time-ordered batches, paced
+for live viewers; :func:`tfrec.replay.check.check_replay` re-simulates it. Times are header
 stamps; ``start_s`` and ``end_s`` count from the recording's start, its first /joint_states or
 /tf stamp (:func:`tfrec.resample.data_start_ns`, the start ``tfrec diff`` aligns on), whatever
 ``topics`` selects.
@@ -308,7 +308,7 @@ def load_replay(
     end_s: float | None = None,
     need_robot: bool = False,
 ) -> Replay:
-    """Read a recording and prepare it for :func:`tfrec.playback.play` (or for checking).
+    """Read a recording and prepare it for :func:`tfrec.replay.play.play` (or for checking).
 
     Args:
         path: a recording (``.mcap``, rosbag2 folder, ROS 1 ``.bag``, ``.rrd``).

@@ -1,7 +1,7 @@
 """Playing a prepared replay (:func:`tfrec.replay.load_replay`) into a sink, paced for live viewers.
 
 :func:`play` sends latched data first, then the samples in time-ordered batches (a
-:class:`tfrec.pacing.Pacer` sleeps until each is due); :func:`replay_to_rerun` does it into a
+:class:`tfrec.replay.pacing.Pacer` sleeps until each is due); :func:`replay_to_rerun` does it into a
 spawned Rerun viewer, a running one, or an ``.rrd`` file (no pacing, written atomically).
 """
 
@@ -34,7 +34,7 @@ Pair = tuple[str, str]
 
 
 class ReplaySink(Protocol):
-    """Where a replay goes (:class:`tfrec.rerun_replay.RerunReplaySink`, or a test double)."""
+    """Where a replay goes (:class:`tfrec.formats.rrd.viewer.RerunReplaySink`, or a test double)."""
 
     def begin(self, *, start_time_ns: int, name: str, robot_description: str | None,
               static: dict[Pair, tuple[Array, Array]], frames: Sequence[str], root: str | None,
@@ -90,7 +90,7 @@ def play(
             after the previous one on the timeline, so a viewer following the newest time plays
             it again.
         max_loops: the number of passes of a loop (for tests); None for no limit.
-        span_ns: recording time per batch; default :data:`tfrec.pacing.BATCH_WALL_S` at the
+        span_ns: recording time per batch; default :data:`tfrec.replay.pacing.BATCH_WALL_S` at the
             pacer's rate, or everything in one batch without a pacer.
 
     Returns:

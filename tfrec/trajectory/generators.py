@@ -3,7 +3,7 @@
 A :class:`JointTrajectory` holds the actuated joints of a robot (revolute, continuous and
 prismatic joints that mimic nothing, in URDF document order) sampled at integer-nanosecond
 times. :func:`make_trajectory` builds one from a kind name (``center``, ``random``, ``sine``,
-``sweep``) or a CSV file (:mod:`tfrec.trajectory_csv`); :func:`all_joint_states` adds the
+``sweep``) or a CSV file (:mod:`tfrec.trajectory.csv_file`); :func:`all_joint_states` adds the
 mimic joints (:func:`apply_mimic`, which replay uses too), giving every moving joint as
 joint_state_publisher publishes it.
 
@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 from tfrec.conventions import STAMP_LIMIT_NS, STAMP_RANGE
 from tfrec.errors import TrajectoryError
 from tfrec.model import Robot
-from tfrec.trajectory.joints import _bounds_arrays, _pinned, center_positions, position_range
+from tfrec.trajectory.joints import bounds_arrays, center_positions, pinned_columns, position_range
 from tfrec.trajectory.types import GeneratedTrajectory, JointTrajectory, Sampler, TrajectoryKind
 
 __all__ = [
@@ -199,9 +199,9 @@ def random_trajectory(
     each joint follows a minimum-jerk (quintic) segment: continuous velocity, at rest on every
     waypoint, never beyond either end.
     """
-    pinned = _pinned(robot, overrides)
+    pinned = pinned_columns(robot, overrides)
     center = center_positions(robot, overrides=overrides)
-    lower, upper = _bounds_arrays(robot)
+    lower, upper = bounds_arrays(robot)
     time_ns = sample_times_ns(duration_s, rate_hz)
     count = math.ceil(duration_s / period_s) + 1
     waypoints = np.empty((count, len(center)))
@@ -235,8 +235,8 @@ def sine_trajectory(
     ``T_j = 2·period_s·(1 + f_j)`` and ``f_j = frac(j·φ)``, φ the golden ratio: no two joints
     share a period and phase, and a joint's motion does not depend on how many joints follow it.
     """
-    pinned = _pinned(robot, overrides)
-    lower, upper = _bounds_arrays(robot)
+    pinned = pinned_columns(robot, overrides)
+    lower, upper = bounds_arrays(robot)
     time_ns = sample_times_ns(duration_s, rate_hz)
     fraction = np.mod(np.arange(len(lower)) * _GOLDEN, 1.0)
     omega = 2.0 * np.pi / (2.0 * period_s * (1.0 + fraction))
@@ -270,9 +270,9 @@ def sweep_trajectory(
     minimum-jerk segment (at rest at center and at both limits). The turning points are moved
     to the nearest sample, so the limits themselves are among the positions.
     """
-    pinned = _pinned(robot, overrides)
+    pinned = pinned_columns(robot, overrides)
     center = center_positions(robot, overrides=overrides)
-    lower, upper = _bounds_arrays(robot)
+    lower, upper = bounds_arrays(robot)
     time_ns = sample_times_ns(duration_s, rate_hz)
     swept = [i for i in range(len(center)) if i not in pinned]
     slot = duration_s / max(len(swept), 1)

@@ -19,8 +19,10 @@ from tfrec.model import Joint, JointType, Robot
 
 __all__ = [
     "actuated_column",
+    "bounds_arrays",
     "center_positions",
     "joint_bounds",
+    "pinned_columns",
     "position_range",
 ]
 
@@ -42,7 +44,7 @@ def center_positions(robot: Robot, *, overrides: Mapping[str, float] = {}) -> Ar
     Returns:
         float64 (J,), one value per actuated joint; ``overrides`` replace the computed ones.
     """
-    pinned = _pinned(robot, overrides)
+    pinned = pinned_columns(robot, overrides)
     center = np.empty(len(robot.actuated_joints))
     for i, joint in enumerate(robot.actuated_joints):
         lower, upper = joint_bounds(joint)
@@ -89,8 +91,13 @@ def position_range(joint: Joint) -> tuple[float, float]:
     return joint_bounds(joint)
 
 
-def _pinned(robot: Robot, overrides: Mapping[str, float]) -> dict[int, float]:
-    """Check ``overrides`` and map them to actuated-joint columns."""
+def pinned_columns(robot: Robot, overrides: Mapping[str, float]) -> dict[int, float]:
+    """Check ``overrides`` (joint name → position) and map them to actuated-joint columns.
+
+    Raises:
+        TrajectoryError: a name that is not an actuated joint, a value that is not finite or is
+            beyond the joint's limits.
+    """
     pinned: dict[int, float] = {}
     for name, value in overrides.items():
         where = f"{name}={value!r}"
@@ -104,6 +111,7 @@ def _pinned(robot: Robot, overrides: Mapping[str, float]) -> dict[int, float]:
     return pinned
 
 
-def _bounds_arrays(robot: Robot) -> tuple[Array, Array]:
+def bounds_arrays(robot: Robot) -> tuple[Array, Array]:
+    """Lower and upper bounds (:func:`joint_bounds`) of the actuated joints, float64 (J,) each."""
     bounds = [joint_bounds(joint) for joint in robot.actuated_joints]
     return np.array([b[0] for b in bounds], dtype=np.float64), np.array([b[1] for b in bounds], dtype=np.float64)

@@ -1,4 +1,4 @@
-"""Reading an MCAP file (ROS 2 profile, CDR) into a :class:`~tfrec.recorded.Recording`.
+"""Reading an MCAP file (ROS 2 profile, CDR) into a :class:`~tfrec.recording.Recording`.
 
 tfrec's own sequential reader: it walks the records and the records inside each chunk (zstd,
 lz4 or uncompressed) with ``struct``, keeping each message as a memoryview of its chunk, so no
@@ -9,7 +9,7 @@ A damaged file (a recorder killed mid-write, flipped bytes) is read as far as po
 :attr:`Recording.read_error` says what was lost:
 
 - a file that ends inside a chunk keeps the complete records of the part that is there: the
-  records of every compressed block that is whole are recovered (:func:`tfrec.salvage.salvage`);
+  records of every compressed block that is whole are recovered (:func:`tfrec.formats._compression.salvage`);
 - a whole chunk whose data does not decompress, or does not match its CRC, is skipped, and
   reading goes on with the next record: a flipped byte mostly decompresses to wrong data
   without any error, so only the CRC tells which messages can be trusted. The summary's
@@ -19,7 +19,7 @@ When messages were lost, :attr:`Recording.start_ns` (and ``end_ns``) still give 
 true span, so times count from its real start: the summary's Statistics record when the
 summary is intact (its CRC holds), else the message start times in the headers of the chunk
 records read — a chunk's header survives damage to its compressed records. The records other
-than messages are parsed by :mod:`tfrec.mcap_summary`.
+than messages are parsed by :mod:`tfrec.formats.mcap.summary`.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """MCAP records besides messages — header, schemas, channels, chunk headers — and the summary section.
 
-Shared by the sequential reader (:mod:`tfrec.mcap_read`) and ``tfrec info``
+Shared by the sequential reader (:mod:`tfrec.formats.mcap.reader`) and ``tfrec info``
 (:mod:`tfrec.info`), which summarizes an intact file from its summary section: the
 Statistics record (message counts), the chunk indexes (compressions) and the message index
 records they point to (first and last log time of each channel), reading only the few

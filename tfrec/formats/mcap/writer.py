@@ -1,5 +1,5 @@
 """MCAP output: what ``ros2 bag record -s mcap`` would have recorded from joint_state_publisher
-and robot_state_publisher. (The ``metadata.yaml`` of a rosbag2 folder: :mod:`tfrec.bag_metadata`.)
+and robot_state_publisher. (The ``metadata.yaml`` of a rosbag2 folder: :mod:`tfrec.formats.rosbag2.metadata`.)
 
 Channels, in id order:
 
@@ -10,7 +10,7 @@ Channels, in id order:
 
 The writer is tfrec's own (the small records come from :mod:`mcap.records`): a chunk's Message
 records have a fixed size for fixed joint and frame names, so a chunk is one numpy array filled by
-strided writes (:mod:`tfrec.cdr`), and its message index is arithmetic. Nothing depends on the
+strided writes (:mod:`tfrec.formats.ros.cdr`), and its message index is arithmetic. Nothing depends on the
 wall clock, so the same inputs give the same bytes. See docs/recording-format.md.
 """
 
@@ -318,8 +318,8 @@ class McapSink:
 
     @property
     def bag_info(self) -> dict[str, Any]:
-        """The rosbag2 BagMetadata embedded by :meth:`finish` (:func:`tfrec.bag_metadata.bag_info`),
-        for the ``metadata.yaml`` of a bag folder (:func:`tfrec.bag_metadata.write_bag_metadata`)."""
+        """The rosbag2 BagMetadata embedded by :meth:`finish` (:func:`tfrec.formats.rosbag2.metadata.bag_info`),
+        for the ``metadata.yaml`` of a bag folder (:func:`tfrec.formats.rosbag2.metadata.write_bag_metadata`)."""
         if self._state != "done":
             raise RuntimeError("McapSink.bag_info is known after finish()")
         return self._bag_info

@@ -8,7 +8,7 @@ length whose other bytes all equal the template is then decoded as one (N, size)
 one numpy slice per field. Any other message (different names, a different layout) goes
 through a per-message deserializer supplied by the caller (rosbags'), so nothing is lost.
 
-Pure numpy, with the CDR rules of :mod:`tfrec.cdr`: the readers supply the bytes and the fallback
+Pure numpy, with the CDR rules of :mod:`tfrec.formats.ros.cdr`: the readers supply the bytes and the fallback
 deserializer.
 """
 

@@ -2,7 +2,7 @@
 
 rosbags reads a ROS 1 bag through its index at the end of the file, which a recorder killed
 mid-write never wrote (or wrote only in part), and stops at a chunk that does not decompress.
-:mod:`tfrec.readers` falls back to this reader then: the bag (format 2.0) is walked from the
+:mod:`tfrec.formats` falls back to this reader then: the bag (format 2.0) is walked from the
 start — connection records, chunks (uncompressed, bz2 or lz4) and the message records inside
 them. The complete records of a chunk the file ends inside are kept; a chunk whose data does
 not decompress is skipped and reading goes on after it. The index is not needed: its chunk info

@@ -3,7 +3,7 @@
 A rosbag2 bag is a folder ``<name>/`` holding ``metadata.yaml`` and ``<name>_0.mcap``. The
 metadata is rosbag2's BagMetadata as yaml-cpp encodes it (Jazzy and later: metadata version 9,
 offered QoS profiles as a YAML list with string enums); the same text is embedded in the MCAP
-as its ``rosbag2`` metadata record (:class:`tfrec.mcap_io.McapSink`, which builds it with
+as its ``rosbag2`` metadata record (:class:`tfrec.formats.mcap.writer.McapSink`, which builds it with
 :func:`bag_info` and keeps it for :func:`write_bag_metadata`). The offered QoS profiles are defined
 once here, as data: :data:`QOS_LATCHED`, :data:`QOS_VOLATILE`.
 """
@@ -75,7 +75,7 @@ def write_bag_metadata(bag_dir: str | Path, info: Mapping[str, Any]) -> Path:
 
     Args:
         bag_dir: the bag folder (it exists).
-        info: the bag's BagMetadata, from :func:`bag_info` (:attr:`tfrec.mcap_io.McapSink.bag_info`
+        info: the bag's BagMetadata, from :func:`bag_info` (:attr:`tfrec.formats.mcap.writer.McapSink.bag_info`
             of its MCAP).
 
     Returns:

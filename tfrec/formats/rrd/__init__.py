@@ -4,4 +4,4 @@ geometry (:mod:`.geometry`), the sink record and replay log through (:mod:`.sink
 
 from __future__ import annotations
 
-__all__ = ["geometry", "paths", "reader", "sink", "viewer"]
+__all__ = ["columns", "geometry", "paths", "reader", "sink", "viewer"]

@@ -1,7 +1,7 @@
-"""Reading tfrec's Rerun recording (``.rrd``) into a :class:`~tfrec.recorded.Recording`.
+"""Reading tfrec's Rerun recording (``.rrd``) into a :class:`~tfrec.recording.Recording`.
 
 Through Rerun's own reader (``rerun.chunk.RrdReader``), with the entity paths and the timeline
-of :mod:`tfrec.rerun_paths`: ``/tf/<joint>`` and ``/tf_static/<joint>`` (Transform3D with
+of :mod:`tfrec.formats.rrd.paths`: ``/tf/<joint>`` and ``/tf_static/<joint>`` (Transform3D with
 parent and child frames), ``/joints/<joint>`` (Scalars) and ``/robot_description``
 (TextDocument). Rerun stores transforms as float32, joint positions as float64. An ``.rrd``
 has no topics: its entities are listed under the topics they stand for.
@@ -29,7 +29,7 @@ RRD_MAGIC = b"RRF2"
 
 
 def read_rrd(path: Path, wanted: frozenset[str]) -> Recording:
-    """Read an ``.rrd`` written by :class:`tfrec.rerun_io.RerunSink`, decoding the topics in ``wanted``.
+    """Read an ``.rrd`` written by :class:`tfrec.formats.rrd.sink.RerunSink`, decoding the topics in ``wanted``.
 
     Raises:
         ReadError: Rerun cannot read the file (damaged or not an RRD).

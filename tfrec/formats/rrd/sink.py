@@ -6,10 +6,10 @@ link is a frame named like its TF frame (``frame_prefix`` + link name), joint tr
 frame pairs, and geometry is attached to frames.
 
 ``tfrec record`` writes a ``.rrd`` file through :class:`RerunSink`; ``tfrec replay`` logs
-through the same sink (:mod:`tfrec.rerun_replay`) to a file, a spawned viewer or a running one,
+through the same sink (:mod:`tfrec.formats.rrd.viewer`) to a file, a spawned viewer or a running one,
 so a replayed recording has the entities of a recorded one.
 
-Entity paths and the timeline are defined in :mod:`tfrec.rerun_paths`.
+Entity paths and the timeline are defined in :mod:`tfrec.formats.rrd.paths`.
 """
 
 from __future__ import annotations
@@ -21,12 +21,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pyarrow as pa
 import rerun as rr
 import rerun.blueprint as rrb
 from numpy.typing import NDArray
 
 from tfrec.errors import KinematicsError, WriteError
+from tfrec.formats.rrd.columns import check_stamps, repeated_strings, time_column
 from tfrec.formats.rrd.geometry import MeshLoader, default_axis_length, fit_eye, visual_columns, visual_radius
 from tfrec.formats.rrd.paths import (
     APPLICATION_ID,
@@ -303,7 +303,7 @@ class RerunSink:
             WriteError: arrays whose shapes do not match, stamps that go back in time, or a
                 failed write (see :meth:`flush`).
         """
-        stamps = _stamps(time_ns)
+        stamps = check_stamps(time_ns)
         n = len(stamps)
         shape = (n, len(joint_names))
         if np.shape(positions) != shape or np.shape(velocities) != shape or len(transforms) != n:
@@ -316,7 +316,7 @@ class RerunSink:
         if np.any(np.diff(stamps) < 0) or (self._last_time_ns is not None and stamps[0] < self._last_time_ns):
             raise WriteError("chunk stamps go back in time")
         self._last_time_ns = int(stamps[-1])
-        index = [_time_column(stamps)]
+        index = [time_column(stamps)]
         for j, name in enumerate(joint_names):
             self._write_scalars(joint_entity(name), index, stamps, positions[:, j])
             self._write_scalars(velocity_entity(name), index, stamps, velocities[:, j])
@@ -344,13 +344,13 @@ class RerunSink:
             WriteError: arrays whose shapes do not match, stamps that go back in time, or a
                 failed write (see :meth:`flush`).
         """
-        stamps = _stamps(time_ns)
+        stamps = check_stamps(time_ns)
         n = len(stamps)
         if np.shape(translation) != (n, 3) or np.shape(rotation) != (n, 4):
             raise WriteError(f"transforms '{parent}' -> '{child}': {n} stamps with translation "
                                  f"{np.shape(translation)} and rotation {np.shape(rotation)}")
         if n:
-            self._write_pair(parent, child, [_time_column(stamps)], stamps, translation, rotation)
+            self._write_pair(parent, child, [time_column(stamps)], stamps, translation, rotation)
 
     def write_joint_positions(self, time_ns: NDArray[np.int64], names: Sequence[str], positions: Array) -> None:
         """Log joint positions at ``/joints/<joint>``; NaN (no position in that message) is skipped.
@@ -363,11 +363,11 @@ class RerunSink:
         Raises:
             WriteError: arrays whose shapes do not match, or a failed write (see :meth:`flush`).
         """
-        stamps = _stamps(time_ns)
+        stamps = check_stamps(time_ns)
         if np.shape(positions) != (len(stamps), len(names)):
             raise WriteError(f"{len(stamps)} stamps of {len(names)} joints have positions {np.shape(positions)}")
         if len(stamps):
-            index = [_time_column(stamps)]
+            index = [time_column(stamps)]
             for j, name in enumerate(names):
                 self._write_scalars(joint_entity(name), index, stamps, positions[:, j])
 
@@ -377,7 +377,7 @@ class RerunSink:
         """Aim the 3D view's camera at the robot at (up to 256 of) the instants of ``moving``.
 
         ``moving`` is composed with :meth:`begin`'s latched transforms and the camera placed by
-        :func:`tfrec.rerun_geometry.fit_eye`. Without a robot, or when the frames do not form a
+        :func:`tfrec.formats.rrd.geometry.fit_eye`. Without a robot, or when the frames do not form a
         tree, the viewer's own camera is kept.
         """
         if self._static is None or self._robot is None:
@@ -464,7 +464,7 @@ class RerunSink:
             self._send(entity, index, rr.Scalars.columns(scalars=values), nbytes=stamps.nbytes + values.nbytes)
         elif given.any():
             kept = stamps[given]
-            self._send(entity, [_time_column(kept)], rr.Scalars.columns(scalars=values[given]), nbytes=2 * kept.nbytes)
+            self._send(entity, [time_column(kept)], rr.Scalars.columns(scalars=values[given]), nbytes=2 * kept.nbytes)
 
     def _write_pair(self, parent: str, child: str, index: list[rr.TimeColumn], stamps: NDArray[np.int64],
                     translation: Array, rotation: Array) -> None:
@@ -480,27 +480,9 @@ class RerunSink:
             rr.Transform3D.columns(
                 translation=translation,
                 quaternion=rotation,
-                parent_frame=_repeated(parent, n),
-                child_frame=_repeated(child, n),
+                parent_frame=repeated_strings(parent, n),
+                child_frame=repeated_strings(child, n),
             ),
             nbytes=stamps.nbytes + translation.nbytes + rotation.nbytes + n * (len(parent) + len(child)),
         )
 
-
-def _stamps(time_ns: NDArray[np.int64]) -> NDArray[np.int64]:
-    stamps = np.asarray(time_ns)
-    if stamps.dtype != np.int64 or stamps.ndim != 1:
-        raise WriteError(f"time_ns must be int64 of shape (n,), got {stamps.dtype} {stamps.shape}")
-    return stamps
-
-
-def _time_column(stamps: NDArray[np.int64]) -> rr.TimeColumn:
-    return rr.TimeColumn(TIMELINE, timestamp=stamps.astype("datetime64[ns]"))
-
-
-def _repeated(text: str, n: int) -> pa.Array:
-    """``n`` copies of ``text`` as an Arrow string array, built from buffers (a list of n Python
-    strings costs Rerun's converter about as much as everything else in a chunk)."""
-    data = text.encode()
-    offsets = np.arange(n + 1, dtype=np.int32) * len(data)
-    return pa.StringArray.from_buffers(n, pa.py_buffer(offsets), pa.py_buffer(data * n))

@@ -1,6 +1,6 @@
 """Replaying into Rerun: a spawned viewer, a running one (``--connect``), or an ``.rrd`` file.
 
-A replay is logged through :class:`tfrec.rerun_io.RerunSink`, the sink ``tfrec record`` writes
+A replay is logged through :class:`tfrec.formats.rrd.sink.RerunSink`, the sink ``tfrec record`` writes
 with, so a replayed recording looks like a recorded one: the robot's geometry under
 ``/robot/<link>``, a transform pair whose child frame is a link of the robot at ``/tf/<joint>``
 (``/tf_static/<joint>`` when latched), joint positions at ``/joints/<joint>``, the same
@@ -13,7 +13,7 @@ name keeps its own entities, so nothing recorded is dropped:
 ``/robot/<frame>``                ``CoordinateFrame`` + ``TransformAxes3D`` of such a frame
 ================================  =========================================================
 
-:class:`RerunReplaySink` adapts the sink to :class:`tfrec.playback.ReplaySink`;
+:class:`RerunReplaySink` adapts the sink to :class:`tfrec.replay.play.ReplaySink`;
 :func:`open_rerun_sink` points it at its target.
 """
 
@@ -135,14 +135,14 @@ def open_rerun_sink(
     """A sink to the ``.rrd`` file ``save``, to the viewer at ``connect``, or else to a spawned viewer.
 
     The viewer is not probed here: check first, before reading the recording, with
-    :func:`check_can_connect` or :func:`check_can_spawn` (:func:`tfrec.playback.check_play_options`
+    :func:`check_can_connect` or :func:`check_can_spawn` (:func:`tfrec.replay.play.check_play_options`
     does), so that a missing viewer fails at once rather than after Rerun's background retries.
 
     Args:
         save: write this file (``recording_id`` names the recording in it).
         connect: stream to the viewer (or server) at this URL, ``rerun+http://host:port/proxy``.
         recording_id: the recording id (default: a new one).
-        robot, frame_prefix, package_paths: as for :class:`tfrec.rerun_io.RerunSink`.
+        robot, frame_prefix, package_paths: as for :class:`tfrec.formats.rrd.sink.RerunSink`.
         port: where a spawned viewer listens; a viewer already listening there is reused.
 
     Raises:
