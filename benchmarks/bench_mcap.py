@@ -65,7 +65,7 @@ def write_tfrec(path: Path, robot: Robot, chunks: list[DynamicChunk], compressio
         sink = McapSink(stream, compression=compression)
         sink.begin(robot_description=robot.urdf, static=static_transforms(robot), start_time_ns=DEFAULT_START_TIME_NS)
         for chunk in chunks:
-            sink.write_chunk(time_ns=chunk.time_ns + DEFAULT_START_TIME_NS, joint_names=chunk.names,
+            sink.write_chunk(stamp_ns=chunk.time_ns + DEFAULT_START_TIME_NS, joint_names=chunk.names,
                              positions=chunk.positions, velocities=chunk.velocities, transforms=chunk.transforms)
         sink.finish()
 

@@ -45,7 +45,7 @@ def write_columnar(path: Path, robot: Robot, chunks: list[DynamicChunk]) -> floa
     sink = RerunSink(path, robot=robot, recording_id="bench")
     sink.begin(static=static_transforms(robot), start_time_ns=DEFAULT_START_TIME_NS, robot_description=robot.urdf)
     for chunk in chunks:
-        sink.write_chunk(time_ns=chunk.time_ns + DEFAULT_START_TIME_NS, joint_names=chunk.names,
+        sink.write_chunk(stamp_ns=chunk.time_ns + DEFAULT_START_TIME_NS, joint_names=chunk.names,
                          positions=chunk.positions, velocities=chunk.velocities, transforms=chunk.transforms)
     sink.finish()
     return time.perf_counter() - start

@@ -38,17 +38,17 @@ def write_mcap(
     perturb: Perturb | None = None,
     description: str | None = None,
     compression: str = "zstd",
-    chunk_size: int = 4096,
+    chunk_samples: int = 4096,
 ) -> Path:
     """An MCAP written by tfrec's sink, optionally with transforms changed by ``perturb(time_ns, transforms)``."""
     with open(path, "wb") as stream:
         sink = McapSink(stream, compression=compression)
         sink.begin(robot_description=robot.urdf if description is None else description,
                    static=static_transforms(robot), start_time_ns=start_time_ns)
-        for chunk in iter_dynamic_chunks(robot, trajectory, chunk_size=chunk_size):
+        for chunk in iter_dynamic_chunks(robot, trajectory, chunk_samples=chunk_samples):
             stamps = chunk.time_ns + start_time_ns
             transforms = chunk.transforms if perturb is None else perturb(stamps, chunk.transforms)
-            sink.write_chunk(time_ns=stamps, joint_names=chunk.names, positions=chunk.positions,
+            sink.write_chunk(stamp_ns=stamps, joint_names=chunk.names, positions=chunk.positions,
                              velocities=chunk.velocities, transforms=transforms)
         sink.finish()
     return path

@@ -168,7 +168,7 @@ def test_failure_mid_write_leaves_nothing(tmp_path: Path, error: type[BaseExcept
             raise error("stop")
 
     with pytest.raises(error):
-        record(robot, trajectory, plan, chunk_size=100, progress=progress)
+        record(robot, trajectory, plan, chunk_samples=100, progress=progress)
     assert calls == [100, 200]
     assert out.read_bytes() == b"older"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.mcap"]
@@ -269,8 +269,8 @@ def test_sink_streams_chunk_by_chunk() -> None:
     sink = McapSink(stream, compression="zstd")
     sink.begin(robot_description=robot.urdf, static=static_transforms(robot), start_time_ns=0)
     sizes = []
-    for chunk in iter_dynamic_chunks(robot, trajectory, chunk_size=500):
-        sink.write_chunk(time_ns=chunk.time_ns, joint_names=chunk.names, positions=chunk.positions,
+    for chunk in iter_dynamic_chunks(robot, trajectory, chunk_samples=500):
+        sink.write_chunk(stamp_ns=chunk.time_ns, joint_names=chunk.names, positions=chunk.positions,
                          velocities=chunk.velocities, transforms=chunk.transforms)
         sizes.append(stream.tell())
     sink.finish()

@@ -23,7 +23,7 @@ from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.errors import WriteError
 from tfrec.formats.mcap.writer import McapSink, check_time_range
 from tfrec.formats.rosbag2.metadata import write_bag_metadata
-from tfrec.kinematics.fk import DEFAULT_CHUNK_SIZE, iter_dynamic_chunks, static_transforms
+from tfrec.kinematics.fk import DEFAULT_CHUNK_SAMPLES, iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
 from tfrec.trajectory.types import JointTrajectory, TrajectoryKind
 
@@ -111,7 +111,7 @@ def recording_id(robot: Robot, trajectory: JointTrajectory, *, start_time_ns: in
     for name in trajectory.joint_names:
         digest.update(name.encode() + b"\0")
     digest.update(np.ascontiguousarray(trajectory.time_ns).data.cast("B"))  # hashed in place, not copied
-    for piece in trajectory.chunks(DEFAULT_CHUNK_SIZE):  # the positions' bytes in order, never all at once
+    for piece in trajectory.chunks(DEFAULT_CHUNK_SAMPLES):  # the positions' bytes in order, never all at once
         digest.update(np.ascontiguousarray(piece.positions).data.cast("B"))
     digest.update(f"{start_time_ns}|{frame_prefix}".encode())
     return str(uuid.UUID(bytes=digest.digest()[:16], version=5))
@@ -144,7 +144,7 @@ def record(
     start_time_ns: int = DEFAULT_START_TIME_NS,
     frame_prefix: str = "",
     package_paths: Sequence[str | os.PathLike[str]] = (),
-    chunk_size: int = DEFAULT_CHUNK_SIZE,
+    chunk_samples: int = DEFAULT_CHUNK_SAMPLES,
     progress: Callable[[int, int], None] | None = None,
 ) -> RecordResult:
     """Write the recording ``plan`` describes, streaming the trajectory in chunks.
@@ -157,7 +157,7 @@ def record(
         start_time_ns: the stamp of the first sample.
         frame_prefix: put in front of every TF frame id.
         package_paths: where meshes' packages are looked up (Rerun geometry).
-        chunk_size: samples per chunk; memory is bounded by it.
+        chunk_samples: samples per chunk; memory is bounded by it.
         progress: called with (samples done, samples in all) after every chunk.
 
     Raises:
@@ -196,10 +196,10 @@ def record(
             for sink in sinks:
                 sink.begin(robot_description=robot.urdf, static=static, start_time_ns=start_time_ns)
             done = 0
-            for chunk in iter_dynamic_chunks(robot, trajectory, chunk_size=chunk_size, frame_prefix=frame_prefix):
+            for chunk in iter_dynamic_chunks(robot, trajectory, chunk_samples=chunk_samples, frame_prefix=frame_prefix):
                 stamps = chunk.time_ns + start_time_ns
                 for sink in sinks:
-                    sink.write_chunk(time_ns=stamps, joint_names=chunk.names, positions=chunk.positions,
+                    sink.write_chunk(stamp_ns=stamps, joint_names=chunk.names, positions=chunk.positions,
                                      velocities=chunk.velocities, transforms=chunk.transforms)
                 done += len(chunk.time_ns)
                 if progress is not None:

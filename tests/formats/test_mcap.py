@@ -56,8 +56,8 @@ def record(
 ) -> McapSink:
     sink = McapSink(stream, **options)
     sink.begin(robot_description=robot.urdf, static=static_transforms(robot), start_time_ns=start_time_ns)
-    for chunk in iter_dynamic_chunks(robot, trajectory, chunk_size=samples_per_call):
-        sink.write_chunk(time_ns=chunk.time_ns + start_time_ns, joint_names=chunk.names, positions=chunk.positions,
+    for chunk in iter_dynamic_chunks(robot, trajectory, chunk_samples=samples_per_call):
+        sink.write_chunk(stamp_ns=chunk.time_ns + start_time_ns, joint_names=chunk.names, positions=chunk.positions,
                          velocities=chunk.velocities, transforms=chunk.transforms)
     sink.finish()
     return sink
@@ -73,12 +73,12 @@ def record_bytes(robot: Robot, trajectory: JointTrajectory, **options: Any) -> b
 def marm_mcap(tmp_path_factory: pytest.TempPathFactory, marm: Robot, traj: JointTrajectory) -> Path:
     path = tmp_path_factory.mktemp("rec") / "marm.mcap"
     with open(path, "wb") as stream:
-        record(stream, marm, traj, chunk_size=16 * 1024)  # several chunks
+        record(stream, marm, traj, chunk_bytes=16 * 1024)  # several chunks
     return path
 
 
 def expected(robot: Robot, trajectory: JointTrajectory) -> tuple[Any, Any]:
-    (chunk,) = iter_dynamic_chunks(robot, trajectory, chunk_size=len(trajectory))
+    (chunk,) = iter_dynamic_chunks(robot, trajectory, chunk_samples=len(trajectory))
     return chunk, static_transforms(robot)
 
 
@@ -212,9 +212,9 @@ def test_qos_channel_metadata_text() -> None:
 
 
 def test_byte_identical_whatever_the_pieces(marm: Robot, traj: JointTrajectory) -> None:
-    first = record_bytes(marm, traj, samples_per_call=7, chunk_size=8000)
-    assert first == record_bytes(marm, traj, samples_per_call=7, chunk_size=8000)
-    assert first == record_bytes(marm, traj, samples_per_call=1000, chunk_size=8000)
+    first = record_bytes(marm, traj, samples_per_call=7, chunk_bytes=8000)
+    assert first == record_bytes(marm, traj, samples_per_call=7, chunk_bytes=8000)
+    assert first == record_bytes(marm, traj, samples_per_call=1000, chunk_bytes=8000)
 
 
 @pytest.mark.parametrize("compression", ["none", "lz4", "zstd"])
@@ -497,13 +497,13 @@ def test_bad_compression_and_early_bag_info() -> None:
 def test_chunks_must_keep_their_names(marm: Robot, traj: JointTrajectory) -> None:
     sink = McapSink(io.BytesIO())
     sink.begin(robot_description=marm.urdf, static=static_transforms(marm), start_time_ns=0)
-    chunks = list(iter_dynamic_chunks(marm, traj, chunk_size=10))
+    chunks = list(iter_dynamic_chunks(marm, traj, chunk_samples=10))
     c = chunks[0]
-    sink.write_chunk(time_ns=c.time_ns, joint_names=c.names, positions=c.positions, velocities=c.velocities,
+    sink.write_chunk(stamp_ns=c.time_ns, joint_names=c.names, positions=c.positions, velocities=c.velocities,
                      transforms=c.transforms)
     with pytest.raises(ValueError, match="joint names changed"):
-        sink.write_chunk(time_ns=chunks[1].time_ns, joint_names=c.names[::-1], positions=c.positions,
+        sink.write_chunk(stamp_ns=chunks[1].time_ns, joint_names=c.names[::-1], positions=c.positions,
                          velocities=c.velocities, transforms=c.transforms)
     with pytest.raises(ValueError, match="stamps must not decrease"):
-        sink.write_chunk(time_ns=c.time_ns, joint_names=c.names, positions=c.positions, velocities=c.velocities,
+        sink.write_chunk(stamp_ns=c.time_ns, joint_names=c.names, positions=c.positions, velocities=c.velocities,
                          transforms=c.transforms)

@@ -223,16 +223,16 @@ def test_damaged_chunk(tmp_path: Path, marm_mcap: Path) -> None:
 
 
 def _chunked_mcap(path: Path, robot: Robot, trajectory: JointTrajectory, *, compression: str,
-                  chunk_size: int = DEFAULT_CHUNK_BYTES) -> tuple[Path, list[Any]]:
-    """An MCAP written by tfrec's sink with ``chunk_size`` bytes of records per chunk, and its
+                  chunk_bytes: int = DEFAULT_CHUNK_BYTES) -> tuple[Path, list[Any]]:
+    """An MCAP written by tfrec's sink with ``chunk_bytes`` bytes of records per chunk, and its
     chunk indexes as mcap's reader sees them."""
     from mcap.reader import make_reader
 
     with open(path, "wb") as stream:
-        sink = McapSink(stream, compression=compression, chunk_size=chunk_size)
+        sink = McapSink(stream, compression=compression, chunk_bytes=chunk_bytes)
         sink.begin(robot_description=robot.urdf, static=static_transforms(robot), start_time_ns=DEFAULT_START_TIME_NS)
         for chunk in iter_dynamic_chunks(robot, trajectory):
-            sink.write_chunk(time_ns=chunk.time_ns + DEFAULT_START_TIME_NS, joint_names=chunk.names,
+            sink.write_chunk(stamp_ns=chunk.time_ns + DEFAULT_START_TIME_NS, joint_names=chunk.names,
                              positions=chunk.positions, velocities=chunk.velocities, transforms=chunk.transforms)
         sink.finish()
     with open(path, "rb") as stream:
@@ -294,7 +294,7 @@ def test_cut_inside_the_only_chunk(tmp_path: Path, marm: Robot, compression: str
 @pytest.mark.parametrize("compression", ["zstd", "lz4", "none"])
 def test_cut_in_the_last_chunk(tmp_path: Path, marm: Robot, compression: str) -> None:
     long = make_trajectory(marm, "sine", duration_s=10.0, rate_hz=100.0)
-    full, chunks = _chunked_mcap(tmp_path / "full.mcap", marm, long, compression=compression, chunk_size=400_000)
+    full, chunks = _chunked_mcap(tmp_path / "full.mcap", marm, long, compression=compression, chunk_bytes=400_000)
     assert len(chunks) == 3
     whole = read_recording(full)
     assert whole.joint_states is not None
@@ -317,7 +317,7 @@ def test_damaged_chunk_in_the_middle_is_skipped(tmp_path: Path, marm: Robot, com
     """A flipped byte mostly decompresses to wrong data without any error: the chunk's CRC tells,
     so the chunk is skipped, and the chunks after it are read."""
     long = make_trajectory(marm, "sine", duration_s=3.0, rate_hz=100.0)
-    full, chunks = _chunked_mcap(tmp_path / "full.mcap", marm, long, compression=compression, chunk_size=120_000)
+    full, chunks = _chunked_mcap(tmp_path / "full.mcap", marm, long, compression=compression, chunk_bytes=120_000)
     assert len(chunks) == 3
     middle = chunks[1]
     data = bytearray(full.read_bytes())
@@ -522,7 +522,7 @@ def test_damaged_first_chunk_keeps_the_start(tmp_path: Path, marm: Robot, summar
     """Messages lost at the start do not move the recording's start to the first one read: it
     comes from the summary's statistics, or without a summary from the damaged chunk's header."""
     long = make_trajectory(marm, "sine", duration_s=3.0, rate_hz=100.0)
-    full, chunks = _chunked_mcap(tmp_path / "full.mcap", marm, long, compression="zstd", chunk_size=120_000)
+    full, chunks = _chunked_mcap(tmp_path / "full.mcap", marm, long, compression="zstd", chunk_bytes=120_000)
     assert len(chunks) == 3
     first, last = chunks[0], chunks[-1]
     data = bytearray(full.read_bytes())

@@ -59,7 +59,7 @@ def write_rrd(
     *,
     duration_s: float = 2.0,
     rate_hz: float = 50.0,
-    chunk_size: int = 40,
+    chunk_samples: int = 40,
     frame_prefix: str = "",
     recording_id: str = "test-recording",
 ) -> Path:
@@ -69,8 +69,8 @@ def write_rrd(
                      package_paths=[CORPUS] if CORPUS.is_dir() else [])
     sink.begin(static=static_transforms(robot, frame_prefix=frame_prefix), start_time_ns=START_NS,
                robot_description=robot.urdf)
-    for chunk in iter_dynamic_chunks(robot, trajectory, chunk_size=chunk_size, frame_prefix=frame_prefix):
-        sink.write_chunk(time_ns=chunk.time_ns + START_NS, joint_names=chunk.names, positions=chunk.positions,
+    for chunk in iter_dynamic_chunks(robot, trajectory, chunk_samples=chunk_samples, frame_prefix=frame_prefix):
+        sink.write_chunk(stamp_ns=chunk.time_ns + START_NS, joint_names=chunk.names, positions=chunk.positions,
                          velocities=chunk.velocities, transforms=chunk.transforms)
     sink.finish()
     return path
@@ -284,7 +284,7 @@ def _data(static: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
 def test_pairs_and_positions_logged_separately_land_where_chunks_do(tmp_path: Path) -> None:
     robot = load_robot("marm")
     trajectory = make_trajectory(robot, "sine", duration_s=0.5, rate_hz=50.0)
-    chunked = Rrd(write_rrd(tmp_path / "chunked.rrd", robot, duration_s=0.5, chunk_size=1000))
+    chunked = Rrd(write_rrd(tmp_path / "chunked.rrd", robot, duration_s=0.5, chunk_samples=1000))
     sink = RerunSink(tmp_path / "pairs.rrd", robot=robot, recording_id="test-recording")
     sink.begin(static=static_transforms(robot), start_time_ns=START_NS, robot_description=robot.urdf)
     (chunk,) = iter_dynamic_chunks(robot, trajectory)
@@ -540,7 +540,7 @@ def test_chunk_whose_arrays_do_not_match_is_refused(tmp_path: Path) -> None:
     sink = RerunSink(tmp_path / "x.rrd", robot=robot, recording_id="x")
     sink.begin(static=static_transforms(robot), start_time_ns=START_NS)
     with pytest.raises(RecordingError, match=r"chunk of 6 stamps has positions \(5, 8\)"):
-        sink.write_chunk(time_ns=chunk.time_ns, joint_names=chunk.names, positions=chunk.positions[:5],
+        sink.write_chunk(stamp_ns=chunk.time_ns, joint_names=chunk.names, positions=chunk.positions[:5],
                          velocities=chunk.velocities, transforms=chunk.transforms)
     sink.abort()
     assert not (tmp_path / "x.rrd").exists()
@@ -553,7 +553,7 @@ def test_stamps_going_back_in_time_are_refused(tmp_path: Path) -> None:
     sink.begin(static=static_transforms(robot), start_time_ns=START_NS)
 
     def write_again() -> None:
-        sink.write_chunk(time_ns=chunk.time_ns + START_NS, joint_names=chunk.names, positions=chunk.positions,
+        sink.write_chunk(stamp_ns=chunk.time_ns + START_NS, joint_names=chunk.names, positions=chunk.positions,
                          velocities=chunk.velocities, transforms=chunk.transforms)
 
     write_again()
@@ -590,6 +590,6 @@ def test_stamps_that_are_not_int64_nanoseconds_are_refused(tmp_path: Path) -> No
     sink = RerunSink(tmp_path / "x.rrd", robot=robot, recording_id="x")
     sink.begin(static=static_transforms(robot), start_time_ns=START_NS)
     with pytest.raises(RecordingError, match=r"time_ns must be int64 of shape \(n,\), got float64 \(6,\)"):
-        sink.write_chunk(time_ns=chunk.time_ns * 1e-9, joint_names=chunk.names,  # type: ignore[arg-type]
+        sink.write_chunk(stamp_ns=chunk.time_ns * 1e-9, joint_names=chunk.names,  # type: ignore[arg-type]
                          positions=chunk.positions, velocities=chunk.velocities, transforms=chunk.transforms)
     sink.abort()

@@ -21,8 +21,8 @@ from tfrec.kinematics.fk import (
     dynamic_transforms,
     iter_dynamic_chunks,
     link_poses,
+    root_from_link,
     static_transforms,
-    world_from_link,
 )
 from tfrec.kinematics.joints import all_joint_states
 from tfrec.kinematics.rotations import matrix_from_quaternion, quaternion_from_rpy
@@ -214,19 +214,19 @@ def test_prismatic_axis_is_normalized() -> None:
     np.testing.assert_allclose(dynamic_transforms(hand_built, ["s"], [[0.5]]).translation, tfs.translation)
 
 
-def test_world_from_link_agrees_with_link_poses_and_chunks_with_whole() -> None:
+def test_root_from_link_agrees_with_link_poses_and_chunks_with_whole() -> None:
     robot = load_robot("marm")
     trajectory = make_trajectory(robot, "random", duration_s=3, rate_hz=100, seed=3)
     names, q, _ = all_joint_states(robot, trajectory)
     whole = dynamic_transforms(robot, names, q, frame_prefix="p/")
-    chunks = list(iter_dynamic_chunks(robot, trajectory, chunk_size=64, frame_prefix="p/"))
+    chunks = list(iter_dynamic_chunks(robot, trajectory, chunk_samples=64, frame_prefix="p/"))
     assert [len(c.time_ns) for c in chunks] == [64] * 4 + [45]
     np.testing.assert_array_equal(np.concatenate([c.time_ns for c in chunks]), trajectory.time_ns)
     np.testing.assert_array_equal(np.concatenate([c.positions for c in chunks]), q)
     np.testing.assert_array_equal(np.concatenate([c.transforms.rotation for c in chunks]), whole.rotation)
     np.testing.assert_array_equal(np.concatenate([c.transforms.translation for c in chunks]), whole.translation)
     assert all(c.names == names and c.transforms.children == whole.children for c in chunks)
-    composed = world_from_link(static_transforms(robot, frame_prefix="p/"), whole, root="p/link0")
+    composed = root_from_link(static_transforms(robot, frame_prefix="p/"), whole, root="p/link0")
     poses = link_poses(robot, names, q)
     assert composed.children == tuple("p/" + link for link in poses)
     np.testing.assert_allclose(composed.matrices(), np.stack(list(poses.values()), axis=1), atol=1e-15)
@@ -244,15 +244,15 @@ def test_long_trajectories_are_computed_in_blocks_alike() -> None:
         np.testing.assert_array_equal(poses[link][8000:], tail_poses[link])
 
 
-def test_world_from_link_accepts_static_transforms_sampled_like_dynamic_ones() -> None:
+def test_root_from_link_accepts_static_transforms_sampled_like_dynamic_ones() -> None:
     robot = load_robot("marm")
     positions = random_configurations(robot, 5000, seed=6)  # more than one internal block
     names, q, _ = all_joint_states(robot, trajectory_of(robot, positions))
     static, dynamic = static_transforms(robot), dynamic_transforms(robot, names, q)
     repeated = Transforms(static.parents, static.children, np.repeat(static.translation, 5000, axis=0),
                           np.repeat(static.rotation, 5000, axis=0))
-    once = world_from_link(static, dynamic, root="link0")
-    every = world_from_link(repeated, dynamic, root="link0")
+    once = root_from_link(static, dynamic, root="link0")
+    every = root_from_link(repeated, dynamic, root="link0")
     np.testing.assert_array_equal(every.translation, once.translation)
     np.testing.assert_array_equal(every.rotation, once.rotation)
 
@@ -307,7 +307,7 @@ def test_frame_with_two_parents_is_an_error() -> None:
     one = Transforms(("a", "b"), ("c", "c"), np.zeros((1, 2, 3)), np.tile([0.0, 0, 0, 1], (1, 2, 1)))
     empty = Transforms((), (), np.zeros((1, 0, 3)), np.zeros((1, 0, 4)))
     with pytest.raises(KinematicsError, match="frame 'c' has two parents"):
-        world_from_link(one, empty, root="a")
+        root_from_link(one, empty, root="a")
 
 
 # Property tests on random trees of joints ------------------------------------------------------

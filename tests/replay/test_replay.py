@@ -179,13 +179,13 @@ def write_perturbed_mcap(path: Path, robot: Robot, traj: JointTrajectory, *, joi
     with open(path, "wb") as stream:
         sink = McapSink(stream)
         sink.begin(robot_description=robot.urdf, static=static_transforms(robot), start_time_ns=START_NS)
-        for chunk in iter_dynamic_chunks(robot, traj, chunk_size=1000):
+        for chunk in iter_dynamic_chunks(robot, traj, chunk_samples=1000):
             k = chunk.names.index(joint)
             translation = chunk.transforms.translation.copy()
             translation[sample, k, 0] += offset_m
             moved = Transforms(chunk.transforms.parents, chunk.transforms.children, translation,
                                chunk.transforms.rotation)
-            sink.write_chunk(time_ns=chunk.time_ns + START_NS, joint_names=chunk.names, positions=chunk.positions,
+            sink.write_chunk(stamp_ns=chunk.time_ns + START_NS, joint_names=chunk.names, positions=chunk.positions,
                              velocities=chunk.velocities, transforms=moved)
         sink.finish()
     return path
@@ -366,7 +366,7 @@ def test_an_unusable_description_warns_and_replays_without_a_model(tfrec_main: C
         sink = McapSink(stream)
         sink.begin(robot_description="<robot name='x'>", static=static_transforms(marm), start_time_ns=START_NS)
         for chunk in iter_dynamic_chunks(marm, traj):
-            sink.write_chunk(time_ns=chunk.time_ns + START_NS, joint_names=chunk.names, positions=chunk.positions,
+            sink.write_chunk(stamp_ns=chunk.time_ns + START_NS, joint_names=chunk.names, positions=chunk.positions,
                              velocities=chunk.velocities, transforms=chunk.transforms)
         sink.finish()
     with pytest.warns(UserWarning, match=r"/robot_description is not a usable robot description \(.*\); "
@@ -417,7 +417,7 @@ def test_truncated_mcap_replays_up_to_the_damage(tfrec_main: Callable[[list[str]
         sink = McapSink(stream)  # 1 MiB chunks: these 5 s are one chunk
         sink.begin(robot_description=marm.urdf, static=static_transforms(marm), start_time_ns=START_NS)
         for chunk in iter_dynamic_chunks(marm, long):
-            sink.write_chunk(time_ns=chunk.time_ns + START_NS, joint_names=chunk.names, positions=chunk.positions,
+            sink.write_chunk(stamp_ns=chunk.time_ns + START_NS, joint_names=chunk.names, positions=chunk.positions,
                              velocities=chunk.velocities, transforms=chunk.transforms)
         sink.finish()
     data = full.read_bytes()

@@ -10,19 +10,19 @@ Imports the trajectory type and the base modules.
 from __future__ import annotations
 
 from tfrec.kinematics.fk import (
-    DEFAULT_CHUNK_SIZE,
+    DEFAULT_CHUNK_SAMPLES,
     DynamicChunk,
     Transforms,
     dynamic_transforms,
     iter_dynamic_chunks,
     link_poses,
+    root_from_link,
     static_transforms,
-    world_from_link,
 )
 from tfrec.kinematics.joints import all_joint_states, apply_mimic
 
 __all__ = [
-    "DEFAULT_CHUNK_SIZE",
+    "DEFAULT_CHUNK_SAMPLES",
     "DynamicChunk",
     "Transforms",
     "all_joint_states",
@@ -30,6 +30,6 @@ __all__ = [
     "dynamic_transforms",
     "iter_dynamic_chunks",
     "link_poses",
+    "root_from_link",
     "static_transforms",
-    "world_from_link",
 ]

@@ -33,19 +33,19 @@ from tfrec.model import Joint, JointType, Robot
 from tfrec.trajectory.types import JointTrajectory
 
 __all__ = [
-    "DEFAULT_CHUNK_SIZE",
+    "DEFAULT_CHUNK_SAMPLES",
     "DynamicChunk",
     "Transforms",
     "dynamic_transforms",
     "iter_dynamic_chunks",
     "link_poses",
+    "root_from_link",
     "static_transforms",
-    "world_from_link",
 ]
 
 Array = NDArray[np.float64]
 
-DEFAULT_CHUNK_SIZE = 8192
+DEFAULT_CHUNK_SAMPLES = 8192
 """Samples per chunk in :func:`iter_dynamic_chunks`: ~0.5 MB per transform per chunk."""
 
 STATIC_TYPES = (JointType.FIXED, JointType.PLANAR)
@@ -175,21 +175,21 @@ def iter_dynamic_chunks(
     robot: Robot,
     trajectory: JointTrajectory,
     *,
-    chunk_size: int = DEFAULT_CHUNK_SIZE,
+    chunk_samples: int = DEFAULT_CHUNK_SAMPLES,
     frame_prefix: str = "",
 ) -> Iterator[DynamicChunk]:
-    """Joint states and dynamic transforms of a trajectory, ``chunk_size`` samples at a time.
+    """Joint states and dynamic transforms of a trajectory, ``chunk_samples`` samples at a time.
 
     Memory stays bounded by the chunk size whatever the trajectory's length, so writers
     can stream long recordings.
     """
-    for piece in trajectory.chunks(chunk_size):
+    for piece in trajectory.chunks(chunk_samples):
         names, positions, velocities = all_joint_states(robot, piece)
         transforms = dynamic_transforms(robot, names, positions, frame_prefix=frame_prefix)
         yield DynamicChunk(piece.time_ns, names, positions, velocities, transforms)
 
 
-def world_from_link(static: Transforms, dynamic: Transforms, *, root: str) -> Transforms:
+def root_from_link(static: Transforms, dynamic: Transforms, *, root: str) -> Transforms:
     """Compose per-joint transforms into ``root_from_frame`` for every frame reachable from root.
 
     This is what a tf listener does with /tf_static and /tf: frames are joined by name, so a

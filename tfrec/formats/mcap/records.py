@@ -6,6 +6,7 @@ Cheap to import (``struct`` only). See https://mcap.dev/spec.
 from __future__ import annotations
 
 import struct
+from collections.abc import Iterator
 
 __all__ = [
     "CHUNK_HEAD",
@@ -31,6 +32,7 @@ __all__ = [
     "OP_SUMMARY_OFFSET",
     "RECORD",
     "STATISTICS",
+    "iter_records",
     "record_name",
 ]
 
@@ -68,3 +70,36 @@ COMPRESSIONS = ("", "zstd", "lz4")
 def record_name(opcode: int) -> str:
     """``OP_CHUNK`` → ``"chunk"``; an unknown opcode as ``opcode 0x10``."""
     return _RECORD_NAMES.get(opcode, f"opcode 0x{opcode:02x}")
+
+
+def iter_records(view: memoryview, *, strict: bool = True) -> Iterator[tuple[int, int, int]]:
+    """(opcode, position of the body, length of the body) of each record in ``view``: a chunk's
+    decompressed records, a summary section, or a whole data section read into memory.
+
+    This is the one walk over MCAP records that the summary, ``tfrec info`` and the fallback
+    readers share. tfrec's sequential reader (:mod:`tfrec.formats.mcap.reader`) inlines the same
+    loop in its hot path (it takes a message per iteration without a generator), and is tested to
+    take exactly the records this yields.
+
+    Args:
+        view: the records.
+        strict: raise on a record that runs past the end of ``view``; else stop before it.
+
+    Raises:
+        ValueError: (``strict``) a record header or body runs past the end.
+    """
+    pos, end, head = 0, len(view), RECORD.size
+    unpack = RECORD.unpack_from
+    while pos < end:
+        if pos + head > end:
+            if strict:
+                raise ValueError("a record header runs past the end")
+            return
+        opcode, length = unpack(view, pos)
+        pos += head
+        if pos + length > end:
+            if strict:
+                raise ValueError("a record runs past the end")
+            return
+        yield opcode, pos, length
+        pos += length

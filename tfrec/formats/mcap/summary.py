@@ -44,6 +44,7 @@ from tfrec.formats.mcap.records import (
     OP_STATISTICS,
     RECORD,
     STATISTICS,
+    iter_records,
 )
 
 __all__ = [
@@ -229,15 +230,7 @@ def read_summary_section(stream: IO[bytes], size: int, *, after: int) -> memoryv
 def summary_records(view: memoryview) -> list[tuple[int, int, int]]:
     """The records of a summary section: (opcode, position of the body, length), up to the
     first that runs past its end."""
-    records, pos, end = [], 0, len(view)
-    while pos + RECORD.size <= end:
-        opcode, length = RECORD.unpack_from(view, pos)
-        pos += RECORD.size
-        if pos + length > end:
-            break
-        records.append((opcode, pos, length))
-        pos += length
-    return records
+    return list(iter_records(view, strict=False))
 
 
 class Statistics(NamedTuple):
@@ -367,16 +360,10 @@ def iter_messages(
 
 def _chunk_messages(view: memoryview) -> Iterator[tuple[int, int, memoryview]]:
     """(channel id, log time, data) of the Message records of a chunk's records."""
-    pos, end = 0, len(view)
-    while pos < end:
-        opcode, length = RECORD.unpack_from(view, pos)
-        pos += RECORD.size
-        if pos + length > end:
-            raise ValueError("a record runs past the end of the chunk")
+    for opcode, pos, length in iter_records(view):
         if opcode == OP_MESSAGE:
             channel_id, _, log_time = MESSAGE.unpack_from(view, pos)
             yield channel_id, log_time, view[pos + MESSAGE_HEAD_SIZE : pos + length]
-        pos += length
 
 
 def _sequential_messages(stream: IO[bytes], size: int, topics: Collection[str]) -> Iterator[tuple[int, int, bytes]]:
@@ -412,14 +399,8 @@ def _sequential_messages(stream: IO[bytes], size: int, topics: Collection[str]) 
             else:
                 head = chunk_fields(bytes(view))
                 records = memoryview(decompress(head.compression, head.records, head.size, supported=COMPRESSIONS))
-                pos = 0
-                while pos < len(records):
-                    inner, inner_length = RECORD.unpack_from(records, pos)
-                    pos += RECORD.size
-                    if pos + inner_length > len(records):
-                        raise ValueError("a record runs past the end of the chunk")
+                for inner, pos, inner_length in iter_records(records):
                     yield from take(inner, records, pos, inner_length)
-                    pos += inner_length
         else:
             stream.seek(length, os.SEEK_CUR)
         offset += RECORD.size + length

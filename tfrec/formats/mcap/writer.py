@@ -167,7 +167,7 @@ class McapSink:
         stream: a binary stream to write to.
         compression: chunk compression, one of :data:`~tfrec.conventions.COMPRESSIONS`:
             ``"zstd"`` (default), ``"lz4"`` or ``"none"``.
-        chunk_size: uncompressed bytes per MCAP chunk (whole samples; at least one).
+        chunk_bytes: uncompressed bytes per MCAP chunk (whole samples; at least one).
         file_name: the file's final name, listed in the embedded rosbag2 metadata
             (``<bag>_0.mcap`` in a bag folder); empty lists no file.
 
@@ -180,14 +180,14 @@ class McapSink:
         stream: IO[bytes],
         *,
         compression: str = "zstd",
-        chunk_size: int = DEFAULT_CHUNK_BYTES,
+        chunk_bytes: int = DEFAULT_CHUNK_BYTES,
         file_name: str = "",
     ) -> None:
-        if chunk_size < 1:
-            raise ValueError(f"chunk size must be positive, got {chunk_size}")
+        if chunk_bytes < 1:
+            raise ValueError(f"chunk size must be positive, got {chunk_bytes}")
         self._stream = stream
         self._compression, self._compress = _compressor(compression)
-        self._chunk_size = chunk_size
+        self._chunk_bytes = chunk_bytes
         self._file_name = file_name
         self._offset = 0
         self._state = "new"
@@ -258,16 +258,16 @@ class McapSink:
     def write_chunk(
         self,
         *,
-        time_ns: NDArray[np.int64],
+        stamp_ns: NDArray[np.int64],
         joint_names: Sequence[str],
         positions: NDArray[np.float64],
         velocities: NDArray[np.float64],
         transforms: Transforms,
     ) -> None:
-        """Add N samples: one /joint_states and one /tf message each, stamped ``time_ns``.
+        """Add N samples: one /joint_states and one /tf message each, stamped ``stamp_ns``.
 
         Args:
-            time_ns: int64 (N,) absolute stamps (ns since the epoch), increasing across calls.
+            stamp_ns: int64 (N,) absolute stamps (ns since the epoch), increasing across calls.
             joint_names: the moving joints (the same in every call).
             positions, velocities: float64 (N, J).
             transforms: the dynamic transforms, translation (N, K, 3), rotation (N, K, 4); the
@@ -278,8 +278,8 @@ class McapSink:
         """
         if self._state != "open":
             raise RuntimeError(f"McapSink.write_chunk() called {'before begin()' if self._state == 'new' else 'after finish()'}")
-        time_ns = np.asarray(time_ns, dtype=np.int64)
-        n = len(time_ns)
+        stamp_ns = np.asarray(stamp_ns, dtype=np.int64)
+        n = len(stamp_ns)
         if n == 0:
             return
         if self._joint_states is None:
@@ -289,15 +289,15 @@ class McapSink:
             raise ValueError("joint names changed between chunks")
         if transforms.parents != self._tf.parents or transforms.children != self._tf.children:
             raise ValueError("transform frames changed between chunks")
-        if int(time_ns[0]) < self._last_sample_ns or bool(np.any(np.diff(time_ns) < 0)):
+        if int(stamp_ns[0]) < self._last_sample_ns or bool(np.any(np.diff(stamp_ns) < 0)):
             raise ValueError("stamps must not decrease")
-        check_time_range(int(time_ns[0]), int(time_ns[-1]))
-        self._last_sample_ns = int(time_ns[-1])
+        check_time_range(int(stamp_ns[0]), int(stamp_ns[-1]))
+        self._last_sample_ns = int(stamp_ns[-1])
 
         done = 0
         while done < n:
             take = min(n - done, len(self._rows) - self._filled)
-            self._fill(slice(done, done + take), time_ns, positions, velocities, transforms)
+            self._fill(slice(done, done + take), stamp_ns, positions, velocities, transforms)
             done += take
             if self._filled == len(self._rows):
                 self._flush_chunk()
@@ -338,7 +338,7 @@ class McapSink:
         row += bytes(20) + self._tf.template.tobytes()
         self._row_len = len(row)
         self._js_len = js_len
-        samples = max(1, self._chunk_size // self._row_len)
+        samples = max(1, self._chunk_bytes // self._row_len)
         self._rows = np.tile(np.frombuffer(bytes(row), dtype=np.uint8), (samples, 1))
         self._row_times = np.empty(samples, dtype=np.int64)
         self._filled = 0

@@ -254,7 +254,7 @@ def fit_eye(
 
     Args:
         robot: the robot.
-        world: root_from_frame at N instants, as from :func:`tfrec.kinematics.world_from_link`.
+        world: root_from_frame at N instants, as from :func:`tfrec.kinematics.root_from_link`.
         frame_prefix: in front of the link names in ``world``'s frame ids.
         radii: (link, visual index) → the visual's :func:`visual_radius` (0 when missing).
 

@@ -44,7 +44,7 @@ from tfrec.formats.rrd.paths import (
     velocity_entity,
     visual_entity,
 )
-from tfrec.kinematics.fk import Transforms, world_from_link
+from tfrec.kinematics.fk import Transforms, root_from_link
 from tfrec.model import Mesh, Robot
 
 __all__ = ["RerunSink"]
@@ -283,7 +283,7 @@ class RerunSink:
     def write_chunk(
         self,
         *,
-        time_ns: NDArray[np.int64],
+        stamp_ns: NDArray[np.int64],
         joint_names: Sequence[str],
         positions: Array,
         velocities: Array,
@@ -294,7 +294,7 @@ class RerunSink:
         The first chunk also fits the 3D view's camera (:meth:`fit_camera`).
 
         Args:
-            time_ns: int64 (n,) absolute stamps (nanoseconds since the epoch), increasing.
+            stamp_ns: int64 (n,) absolute stamps (nanoseconds since the epoch), increasing.
             joint_names: the joints of the position and velocity columns.
             positions, velocities: float64 (n, J).
             transforms: parent_from_child of the moving joints, N = n.
@@ -303,7 +303,7 @@ class RerunSink:
             WriteError: arrays whose shapes do not match, stamps that go back in time, or a
                 failed write (see :meth:`flush`).
         """
-        stamps = check_stamps(time_ns)
+        stamps = check_stamps(stamp_ns)
         n = len(stamps)
         shape = (n, len(joint_names))
         if np.shape(positions) != shape or np.shape(velocities) != shape or len(transforms) != n:
@@ -385,7 +385,7 @@ class RerunSink:
         picked = np.unique(np.linspace(0, len(moving) - 1, min(len(moving), _EYE_SAMPLES)).astype(int))
         sampled = Transforms(moving.parents, moving.children, moving.translation[picked], moving.rotation[picked])
         try:
-            world = world_from_link(self._static, sampled, root=self._prefix + self._robot.root)
+            world = root_from_link(self._static, sampled, root=self._prefix + self._robot.root)
         except KinematicsError:  # a frame with two parents (in a replayed recording)
             return
         self._eye = fit_eye(self._robot, world, frame_prefix=self._prefix, radii=self._visual_radii)
