@@ -1,6 +1,6 @@
 """``tfrec diff`` speed: two one-hour 100 Hz recordings of robots/marm.xacro.
 
-The recordings are made the way ``tfrec record`` makes them (``tfrec.record.record``:
+The recordings are made the way ``tfrec record`` makes them (``tfrec.recorder.record``:
 trajectory → FK chunks → McapSink, zstd) and cached in a temporary folder, so a second run
 only measures the diff:
 
@@ -31,7 +31,7 @@ from _common import machine, timed
 from tfrec.description import load_description
 from tfrec.diff.compare import compare
 from tfrec.formats.reader import read_recording
-from tfrec.record import plan_outputs, record
+from tfrec.recorder import plan_outputs, record
 from tfrec.trajectory.generators import make_trajectory
 
 REPO = Path(__file__).resolve().parents[1]

@@ -34,7 +34,7 @@ from tfrec.description import load_description, parse_urdf
 from tfrec.formats.mcap.writer import McapSink, message_definition
 from tfrec.kinematics.fk import DynamicChunk, iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
-from tfrec.record import plan_outputs, record
+from tfrec.recorder import plan_outputs, record
 from tfrec.trajectory.generators import make_trajectory
 from tfrec.trajectory.types import JointTrajectory
 

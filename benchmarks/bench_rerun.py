@@ -32,7 +32,7 @@ from tfrec.formats.rrd.paths import TIMELINE, joint_entity, tf_entity, velocity_
 from tfrec.formats.rrd.sink import RerunSink
 from tfrec.kinematics.fk import DynamicChunk, iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
-from tfrec.record import DEFAULT_START_TIME_NS
+from tfrec.recorder import DEFAULT_START_TIME_NS
 from tfrec.trajectory.generators import make_trajectory
 
 REPO = Path(__file__).resolve().parents[1]

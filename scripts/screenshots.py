@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from tfrec.description import load_description
-from tfrec.record import DEFAULT_START_TIME_NS, RecordingPlan, record
+from tfrec.recorder import DEFAULT_START_TIME_NS, RecordingPlan, record
 from tfrec.trajectory.generators import make_trajectory
 
 REPO = Path(__file__).resolve().parents[1]

@@ -13,7 +13,7 @@ import pytest
 from tfrec.cli import main
 from tfrec.errors import RecordingError
 from tfrec.model import Robot
-from tfrec.record import default_stem, plan_outputs, record
+from tfrec.recorder import default_stem, plan_outputs, record
 from tfrec.trajectory.generators import make_trajectory
 
 from .conftest import ROBOTS

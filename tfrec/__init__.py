@@ -66,7 +66,7 @@ if TYPE_CHECKING:
     from tfrec.diff import assert_recordings_match, compare
     from tfrec.formats import read_recording
     from tfrec.kinematics import Transforms
-    from tfrec.record import plan_outputs, record
+    from tfrec.recorder import plan_outputs, record
     from tfrec.recording import Recording
     from tfrec.replay import check_replay, load_replay
     from tfrec.trajectory import JointTrajectory, make_trajectory
@@ -77,8 +77,8 @@ _LAZY = {
     "make_trajectory": "tfrec.trajectory",
     "JointTrajectory": "tfrec.trajectory",
     "Transforms": "tfrec.kinematics",
-    "record": "tfrec.record",
-    "plan_outputs": "tfrec.record",
+    "record": "tfrec.recorder",
+    "plan_outputs": "tfrec.recorder",
     "Recording": "tfrec.recording",
     "read_recording": "tfrec.formats",
     "compare": "tfrec.diff",

@@ -2,7 +2,7 @@
 
 Each output is written to a temporary name beside its target (same folder, so the rename is atomic) and
 all are renamed together by :meth:`AtomicOutputs.commit`; after an error or Ctrl-C the temporaries are
-deleted and older files of those names are untouched. ``tfrec record`` (:func:`tfrec.record.record`)
+deleted and older files of those names are untouched. ``tfrec record`` (:func:`tfrec.recorder.record`)
 and ``tfrec replay --save`` (:func:`tfrec.replay.play.replay_to_rerun`) write through it, before any sink
 sees a path; :func:`check_target` is their common check of an output's name before anything is read.
 """

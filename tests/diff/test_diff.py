@@ -59,7 +59,7 @@ def test_other_formats_are_identical(tmp_path: Path, marm_rec: Recording, marm_m
 
 
 def test_mcap_against_its_own_rrd(tmp_path: Path, marm: Robot, traj: JointTrajectory) -> None:
-    from tfrec.record import plan_outputs, record
+    from tfrec.recorder import plan_outputs, record
 
     plan = plan_outputs(stem="marm", out=tmp_path / "marm.mcap")
     record(marm, traj, plan)

@@ -112,7 +112,7 @@ def test_rosbag2_folder(tmp_path: Path, marm_rec: Recording, storage: str) -> No
 
 
 def test_tfrec_bag_folder(tmp_path: Path, marm: Robot, traj: JointTrajectory, marm_rec: Recording) -> None:
-    from tfrec.record import plan_outputs, record
+    from tfrec.recorder import plan_outputs, record
 
     plan = plan_outputs(stem="marm", bag=tmp_path / "marm_bag", no_rrd=True)
     record(marm, traj, plan)
@@ -130,7 +130,7 @@ def test_ros1_bag(tmp_path: Path, marm_rec: Recording) -> None:
 
 
 def test_rrd(tmp_path: Path, marm: Robot, traj: JointTrajectory, marm_rec: Recording) -> None:
-    from tfrec.record import plan_outputs, record
+    from tfrec.recorder import plan_outputs, record
 
     plan = plan_outputs(stem="marm", out=tmp_path / "marm.mcap")
     record(marm, traj, plan)

@@ -375,7 +375,7 @@ def test_a_stream_made_elsewhere(tmp_path: Path) -> None:
 
 
 def test_a_replay_has_the_recordings_layout_and_a_fitted_camera(tmp_path: Path) -> None:
-    from tfrec.record import plan_outputs, record
+    from tfrec.recorder import plan_outputs, record
     from tfrec.replay.load import load_replay
     from tfrec.replay.play import replay_to_rerun
 

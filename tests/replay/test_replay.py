@@ -23,7 +23,7 @@ from tfrec.formats.rrd.paths import joint_entity, link_entity, pair_entity, tf_e
 from tfrec.kinematics.fk import Transforms, dynamic_transforms, iter_dynamic_chunks, static_transforms
 from tfrec.kinematics.joints import all_joint_states
 from tfrec.model import Robot
-from tfrec.record import DEFAULT_START_TIME_NS, plan_outputs, record
+from tfrec.recorder import DEFAULT_START_TIME_NS, plan_outputs, record
 from tfrec.recording import JointStates
 from tfrec.replay.check import check_replay
 from tfrec.replay.load import derive_transforms, detect_frame_prefix, load_replay

@@ -540,7 +540,7 @@ def test_recording_id_hashes_time_then_positions(toy: Robot) -> None:
     import hashlib
     import uuid
 
-    from tfrec.record import recording_id
+    from tfrec.recorder import recording_id
 
     trajectory = make_trajectory(toy, "random", duration_s=400.0, rate_hz=50.0)  # several chunks
     assert len(trajectory) > 2 * 8192

@@ -80,7 +80,7 @@ def _parse_overrides(items: Sequence[str]) -> dict[str, float]:
 
 
 def _cmd_record(ns: argparse.Namespace) -> int:
-    from tfrec.record import default_stem, plan_outputs, record
+    from tfrec.recorder import default_stem, plan_outputs, record
     from tfrec.trajectory.generators import make_trajectory
     from tfrec.trajectory.types import TrajectoryKind
 
