@@ -1,0 +1,44 @@
+"""The layout stays what docs/architecture.md says (import rules are kept by `make lint`)."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+from tests.conftest import REPO
+
+PACKAGE = REPO / "tfrec"
+
+
+def test_at_most_14_modules_at_the_top() -> None:
+    modules = sorted(path.name for path in PACKAGE.glob("*.py"))
+    assert len(modules) <= 14, modules
+
+
+def test_every_subpackage_has_a_docstring_and_all() -> None:
+    for init in sorted(PACKAGE.rglob("__init__.py")):
+        tree = ast.parse(init.read_text(encoding="utf-8"))
+        assert ast.get_docstring(tree), f"{init} has no docstring"
+        names = [t.id for node in tree.body if isinstance(node, ast.Assign) for t in node.targets
+                 if isinstance(t, ast.Name)]
+        assert "__all__" in names, f"{init} has no __all__"
+
+
+def test_no_module_over_500_lines() -> None:
+    long = {str(path.relative_to(REPO)): n for path in PACKAGE.rglob("*.py")
+            if (n := len(path.read_text(encoding="utf-8").splitlines())) > 500}
+    assert not long, long
+
+
+def test_format_libraries_only_in_formats_and_xacro_only_in_description() -> None:
+    """What ruff's banned-api enforces in `make lint`, checked here too (also lazy imports in functions)."""
+    formats_only = {"mcap", "mcap_ros2", "rosbags", "rerun", "pyarrow", "yaml", "zstandard", "lz4"}
+    for path in PACKAGE.rglob("*.py"):
+        inside = path.relative_to(PACKAGE).parts[0]
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                     else [node.module or ""] if isinstance(node, ast.ImportFrom) and node.level == 0 else [])
+            for name in names:
+                top = name.split(".")[0]
+                assert top not in formats_only or inside == "formats", f"{path} imports {name}"
+                assert top != "xacro" or inside == "description", f"{path} imports {name}"
