@@ -198,11 +198,14 @@ class Robot:
     @cached_property
     def mimic_order(self) -> tuple[Joint, ...]:
         """Moving mimic joints ordered so that every joint comes after the joint it mimics."""
+        known = {joint.name for joint in self.joints}
         done: set[str] = {joint.name for joint in self.joints if joint.mimic is None}
         pending = [joint for joint in self.joints if joint.mimic is not None]
         ordered: list[Joint] = []
         while pending:
-            ready = [joint for joint in pending if joint.mimic and joint.mimic.joint in done]
+            # a mimic of an unknown joint (urdfdom accepts it) is ready at once: it stays at its offset
+            ready = [joint for joint in pending if joint.mimic and (joint.mimic.joint in done
+                                                                    or joint.mimic.joint not in known)]
             if not ready:  # description.py rejects cycles; guard against a hand-built model
                 raise ValueError("mimic joints form a cycle: " + ", ".join(j.name for j in pending))
             for joint in ready:

@@ -110,11 +110,18 @@ def recording_id(robot: Robot, trajectory: JointTrajectory, *, start_time_ns: in
     digest.update(robot.urdf.encode())
     for name in trajectory.joint_names:
         digest.update(name.encode() + b"\0")
-    digest.update(np.ascontiguousarray(trajectory.time_ns).data.cast("B"))  # hashed in place, not copied
+    digest.update(_bytes_of(trajectory.time_ns))
     for piece in trajectory.chunks(DEFAULT_CHUNK_SAMPLES):  # the positions' bytes in order, never all at once
-        digest.update(np.ascontiguousarray(piece.positions).data.cast("B"))
+        digest.update(_bytes_of(piece.positions))
     digest.update(f"{start_time_ns}|{frame_prefix}".encode())
     return str(uuid.UUID(bytes=digest.digest()[:16], version=5))
+
+
+def _bytes_of(array: np.ndarray[Any, Any]) -> memoryview:
+    """The bytes of an array, hashed in place (not copied); none for an array without elements (a robot
+    without moving joints), whose memoryview cannot be cast."""
+    contiguous = np.ascontiguousarray(array)
+    return contiguous.data.cast("B") if contiguous.size else memoryview(b"")
 
 
 @dataclass(frozen=True, slots=True)
@@ -196,7 +203,10 @@ def record(
             for sink in sinks:
                 sink.begin(robot_description=robot.urdf, static=static, start_time_ns=start_time_ns)
             done = 0
-            for chunk in iter_dynamic_chunks(robot, trajectory, chunk_samples=chunk_samples, frame_prefix=frame_prefix):
+            # joint_state_publisher publishes nothing for a robot without moving joints, and
+            # robot_state_publisher no /tf: such a recording holds /robot_description and /tf_static only
+            chunks = iter_dynamic_chunks(robot, trajectory, chunk_samples=chunk_samples, frame_prefix=frame_prefix)
+            for chunk in chunks if robot.moving_joints else ():
                 stamps = chunk.time_ns + start_time_ns
                 for sink in sinks:
                     sink.write_chunk(stamp_ns=stamps, joint_names=chunk.names, positions=chunk.positions,

@@ -103,8 +103,12 @@ def _cmd_record(ns: argparse.Namespace) -> int:
     finally:
         progress.close()
     seconds = (result.end_time_ns - result.start_time_ns) / NS_PER_S
-    print(f"recorded {robot.name}: {result.samples} samples over {seconds:g} s "
-          f"({len(trajectory.joint_names)} actuated joints, --traj {ns.traj})")
+    if robot.moving_joints:
+        print(f"recorded {robot.name}: {result.samples} samples over {seconds:g} s "
+              f"({len(trajectory.joint_names)} actuated joints, --traj {ns.traj})")
+    else:  # joint_state_publisher publishes nothing for it, robot_state_publisher no /tf
+        print(f"recorded {robot.name}: no moving joints, so /robot_description and /tf_static only "
+              f"({len(robot.links)} link{'s' if len(robot.links) != 1 else ''})")
     if plan.bag_dir is not None:
         print(f"wrote {plan.bag_dir}/  (rosbag2: metadata.yaml + {plan.mcap.name if plan.mcap else ''})")
     elif plan.mcap is not None:

@@ -124,12 +124,15 @@ def _largest(errors: Array, times: NDArray[np.int64] | None, replay: Replay) -> 
 
 class _Checker:
     def __init__(self, replay: Replay) -> None:
-        assert replay.robot is not None and replay.joint_states is not None
+        assert replay.robot is not None
         self.replay = replay
         self.robot = replay.robot
         self.prefix = replay.frame_prefix
         self.joint_states = replay.joint_states
-        self.names, self.positions = joint_positions(self.robot, self.joint_states)
+        self.names: tuple[str, ...] = ()
+        self.positions = np.zeros((0, 0))
+        if self.joint_states is not None:  # none: a robot without moving joints, only fixed frames to check
+            self.names, self.positions = joint_positions(self.robot, self.joint_states)
         self.column = {name: k for k, name in enumerate(self.names)}
         fixed = static_transforms(self.robot, frame_prefix=self.prefix).poses()
         self.fixed = {child: pose for (_, child), pose in fixed.items()}
@@ -141,6 +144,8 @@ class _Checker:
             translation, rotation = self.fixed[child]
             return (np.broadcast_to(translation, (len(times), 3)), np.broadcast_to(rotation, (len(times), 4)),
                     np.ones(len(times), dtype=bool))
+        if self.joint_states is None or joint.name not in self.column:
+            return np.zeros((0, 3)), np.zeros((0, 4)), np.zeros(len(times), dtype=bool)
         column = self.positions[:, self.column[joint.name]]
         known = np.isfinite(column)
         if not known.any():
@@ -201,11 +206,12 @@ def check_replay(replay: Replay, *, pos_tol: float = CHECK_POS_TOL, rot_tol: flo
     if robot is None:
         raise ReplayError(f"{replay.path}: no robot description to re-simulate with (no /robot_description in "
                              "the recording); give `robot` FILE")
-    if replay.joint_states is None or not len(replay.joint_states):
+    moving = bool(robot.moving_joints)  # a robot without moving joints has only /tf_static to check
+    if moving and (replay.joint_states is None or not len(replay.joint_states)):
         raise ReplayError(f"{replay.path}: no /joint_states to re-simulate")
     recorded_tf = {pair: s for pair, s in replay.tf.items() if pair not in replay.derived_dynamic and len(s)}
     recorded_static = {pair: v for pair, v in replay.static.items() if pair not in replay.derived_static}
-    if not recorded_tf:
+    if moving and not recorded_tf:
         raise ReplayError(f"{replay.path}: no /tf to compare the re-simulation with")
     checker = _Checker(replay)
     by_child: dict[str, list[FrameCheck]] = {}
@@ -266,7 +272,9 @@ def format_check(report: CheckReport) -> str:
         lines.append(("  ".join(cell.ljust(width) for cell, width in zip(row, widths)) + "  " + row[-1]).rstrip())
     lines.extend(f"note: {note}" for note in report.notes)
     failures = report.failures
-    if not failures:
+    if not report.frames:
+        lines.append("PASS: the description has no joints, so there is no transform to compare")
+    elif not failures:
         lines.append(f"PASS: all {len(report.frames)} frames match the description")
     else:
         named = []
