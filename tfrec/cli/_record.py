@@ -18,8 +18,9 @@ from tfrec.conventions import (
     COMPRESSIONS,
     DEFAULT_START_TIME_NS,
     NS_PER_S,
+    ROS1_COMPRESSIONS,
 )
-from tfrec.errors import TrajectoryError
+from tfrec.errors import TrajectoryError, WriteError
 
 __all__ = ["add_parser"]
 
@@ -51,13 +52,15 @@ def add_parser(sub: Any) -> None:
                       help="put P in front of every TF frame id, as robot_state_publisher's frame_prefix")
     out = rec.add_argument_group("output")
     out.add_argument("-o", "--output", metavar="OUT.mcap",
-                     help="MCAP file (default recordings/<robot>-<traj>-<YYYYmmdd-HHMMSS>.mcap)")
+                     help="MCAP file, or a ROS 1 bag when it ends in .bag "
+                          "(default recordings/<robot>-<traj>-<YYYYmmdd-HHMMSS>.mcap)")
     out.add_argument("--bag", metavar="DIR", help="write a rosbag2 folder (metadata.yaml + .mcap) instead")
     out.add_argument("--rrd", metavar="OUT.rrd", help="Rerun recording (default: beside the MCAP, same stem)")
     out.add_argument("--no-rrd", action="store_true", help="write no Rerun recording")
     out.add_argument("--no-mcap", action="store_true", help="write no MCAP (only the .rrd)")
-    out.add_argument("--compression", choices=COMPRESSIONS, default="zstd",
-                     help="MCAP chunk compression (default zstd)")
+    out.add_argument("--compression", choices=sorted({*COMPRESSIONS, *ROS1_COMPRESSIONS}), default=None,
+                     help=f"chunk compression: MCAP {', '.join(COMPRESSIONS)} (default zstd); ROS 1 bag "
+                          f"{', '.join(ROS1_COMPRESSIONS)} (default none, as rosbag record)")
     out.add_argument("--start-time", metavar="S", type=start_time, default=None,
                      help="stamp of the first sample, seconds since the Unix epoch "
                           f"(default {DEFAULT_START_TIME_NS // NS_PER_S} = 2023-11-14T22:13:20Z, so runs are "
@@ -96,6 +99,10 @@ def _cmd_record(ns: argparse.Namespace) -> int:
     )
     plan = plan_outputs(stem=default_stem(robot, ns.traj), out=ns.output, rrd=ns.rrd, bag=ns.bag,
                         no_mcap=ns.no_mcap, no_rrd=ns.no_rrd, force=ns.force)
+    allowed = ROS1_COMPRESSIONS if plan.ros1_bag is not None else COMPRESSIONS
+    if ns.compression is not None and ns.compression not in allowed and plan.main is not None:
+        raise WriteError(f"--compression {ns.compression}: a {'ROS 1 bag' if plan.ros1_bag else 'MCAP'} chunk "
+                         f"compression is one of {', '.join(allowed)}")
     progress = Progress(sys.stderr)
     try:
         result = record(robot, trajectory, plan, compression=ns.compression, start_time_ns=start_ns,
@@ -111,6 +118,8 @@ def _cmd_record(ns: argparse.Namespace) -> int:
               f"({len(robot.links)} link{'s' if len(robot.links) != 1 else ''})")
     if plan.bag_dir is not None:
         print(f"wrote {plan.bag_dir}/  (rosbag2: metadata.yaml + {plan.mcap.name if plan.mcap else ''})")
+    elif plan.ros1_bag is not None:
+        print(f"wrote {plan.ros1_bag}  (ROS 1 bag)")
     elif plan.mcap is not None:
         print(f"wrote {plan.mcap}")
     if plan.rrd is not None:
@@ -118,7 +127,7 @@ def _cmd_record(ns: argparse.Namespace) -> int:
     hints = []
     if plan.rrd is not None:
         hints.append(f"rerun {plan.rrd}")
-    target = plan.bag_dir or plan.mcap
+    target = plan.main
     if target is not None:
         hints.append(f"tfrec info {target}")
     if hints:
