@@ -233,7 +233,7 @@ def test_bad_trajectory_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixtur
 def test_option_conflicts(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     code, _, err = run(capsys, "record", MARM, "--no-rrd", "--no-mcap")
     assert code == 2 and "leave nothing to write" in err
-    code, _, err = run(capsys, "record", MARM, "-o", str(tmp_path / "x.bag"), "--no-rrd")
+    code, _, err = run(capsys, "record", MARM, "-o", str(tmp_path / "x.db3"), "--no-rrd")
     assert code == 2 and "must end in .mcap" in err
     folder = tmp_path / "x.rrd"
     folder.mkdir()
