@@ -167,8 +167,8 @@ def test_python_dash_m() -> None:
 def test_usage_errors_are_one_line(capsys: pytest.CaptureFixture[str]) -> None:
     code, _, err = run(capsys, "record", str(ROBOTS / "marm.xacro"), "--compression", "foo")
     assert code == 2
-    assert err == ("tfrec: error: argument --compression: invalid choice: 'foo' (choose from 'none', 'lz4', "
-                   "'zstd') (see 'tfrec record --help')\n")
+    assert err == ("tfrec: error: argument --compression: invalid choice: 'foo' (choose from 'bz2', 'lz4', "
+                   "'none', 'zstd') (see 'tfrec record --help')\n")
     code, _, err = run(capsys, "diff", "a.mcap")
     assert code == 2 and err.count("\n") == 1 and err.startswith("tfrec: error: the following arguments")
 
