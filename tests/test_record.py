@@ -332,14 +332,14 @@ def test_start_time_is_exact_decimal(tmp_path: Path) -> None:
     assert [s for s, _ in _read_all_rosbags(out)["/joint_states"]] == [1700000000123456789, 1700000000223456789]
 
 
-def test_csv_trajectory_warns_that_duration_and_rate_do_not_apply(
+def test_csv_trajectory_warns_that_duration_does_not_apply(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     csv = tmp_path / "t.csv"
     csv.write_text("time,joint1\n0,0\n0.5,0.1\n")
     code, _, err = run(capsys, "record", MARM, "--traj", str(csv), "--duration", "5", "--no-rrd",
                        "-o", str(tmp_path / "o.mcap"))
     assert code == 0
-    assert f"tfrec: warning: --duration and --rate do not apply to the CSV trajectory {csv}" in err
+    assert f"tfrec: warning: --duration does not apply to the CSV trajectory {csv}: its own times are used" in err
 
 
 def test_sigterm_leaves_no_partial_output(tmp_path: Path) -> None:

@@ -23,6 +23,7 @@ __all__ = [
     "Mimic",
     "Pose",
     "Robot",
+    "SafetyController",
     "Sphere",
     "Visual",
 ]
@@ -65,6 +66,15 @@ class Limit:
 
 
 @dataclass(frozen=True, slots=True)
+class SafetyController:
+    """A joint's ``<safety_controller>``: the soft limits (rad or m) joint_state_publisher narrows its
+    range to (``use_smallest_joint_limits``), None where not given."""
+
+    soft_lower_limit: float | None = None
+    soft_upper_limit: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
 class Mimic:
     """``<mimic>``: position = multiplier * position(joint) + offset."""
 
@@ -85,6 +95,7 @@ class Joint:
     axis: Vec3 = (1.0, 0.0, 0.0)
     limit: Limit | None = None
     mimic: Mimic | None = None
+    safety: SafetyController | None = None
 
     @property
     def actuated(self) -> bool:

@@ -187,7 +187,8 @@ def test_package_path_comes_first(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     (other / "urdf" / "part.xacro").write_text(
         '<robot xmlns:xacro="http://www.ros.org/wiki/xacro"><link name="from_b"/></robot>')
     monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path / "a"))
-    robot = load_description(_main_file(tmp_path, "dup_pkg"), package_paths=[tmp_path / "b"])
+    with pytest.warns(UserWarning, match=r"package 'dup_pkg' is in .*/b/dup_pkg and .*/a/dup_pkg; using .*/b/dup_pkg$"):
+        robot = load_description(_main_file(tmp_path, "dup_pkg"), package_paths=[tmp_path / "b"])
     assert robot.links[0].name == "from_b"
 
 

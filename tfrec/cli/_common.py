@@ -12,6 +12,7 @@ from tfrec.conventions import (
 )
 
 if TYPE_CHECKING:
+    from tfrec.description.launch import LaunchRobot
     from tfrec.model import Robot
 
 __all__ = [
@@ -22,6 +23,7 @@ __all__ = [
     "as_flags",
     "fmt",
     "load_robot",
+    "load_robot_and_launch",
     "number",
     "start_time",
     "tolerance",
@@ -31,8 +33,11 @@ PROG = "tfrec"
 
 
 def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("robot", metavar="ROBOT", help="a .urdf, .xacro or .urdf.xacro file")
-    parser.add_argument("xacro_args", metavar="name:=value", nargs="*", default=[], help="xacro arguments, as for ROS")
+    parser.add_argument("robot", metavar="ROBOT",
+                        help="a .urdf, .xacro or .urdf.xacro file, or a launch file that loads one "
+                             "(.launch, .launch.xml, .launch.yaml)")
+    parser.add_argument("xacro_args", metavar="name:=value", nargs="*", default=[],
+                        help="xacro arguments (launch arguments for a launch file), as for ROS")
     parser.add_argument(
         "--package-path", metavar="DIR", action="append", default=[],
         help="a package, or a folder of packages, for $(find pkg) and package:// (repeatable; searched "
@@ -55,14 +60,20 @@ class Parser(argparse.ArgumentParser):
 
 
 def load_robot(ns: argparse.Namespace) -> Robot:
-    from tfrec.description import load_description, parse_xacro_args
+    """The ROBOT argument (with its ``name:=value`` arguments) loaded."""
+    return load_robot_and_launch(ns)[0]
 
-    return load_description(
-        ns.robot,
-        args=parse_xacro_args(ns.xacro_args),
-        package_paths=ns.package_path,
-        strict_xacro=ns.strict_xacro,
-    )
+
+def load_robot_and_launch(ns: argparse.Namespace) -> tuple[Robot, LaunchRobot | None]:
+    """The ROBOT argument loaded, and what its launch file says when it is one (its ``name:=value``
+    arguments are then launch arguments, as for roslaunch)."""
+    from tfrec.description import load_description, load_launch, parse_xacro_args
+    from tfrec.description.launch import is_launch_file
+
+    args = parse_xacro_args(ns.xacro_args)
+    if is_launch_file(ns.robot):
+        return load_launch(ns.robot, args=args, package_paths=ns.package_path, strict_xacro=ns.strict_xacro)
+    return load_description(ns.robot, args=args, package_paths=ns.package_path, strict_xacro=ns.strict_xacro), None
 
 
 def fmt(x: float) -> str:

@@ -11,7 +11,7 @@ from typing import Any
 from tfrec.cli._common import (
     Progress,
     add_robot_arguments,
-    load_robot,
+    load_robot_and_launch,
     start_time,
 )
 from tfrec.conventions import (
@@ -39,7 +39,15 @@ def add_parser(sub: Any) -> None:
                       help="center, random, sine, sweep, or a CSV file (time column in s + one column per "
                            "joint) (default: sine)")
     traj.add_argument("--duration", metavar="S", type=float, default=None, help="seconds (default 10)")
-    traj.add_argument("--rate", metavar="HZ", type=float, default=None, help="samples per second (default 50)")
+    traj.add_argument("--rate", metavar="HZ", type=float, default=None,
+                      help="samples per second (default 50, or what a launch file gives joint_state_publisher); with "
+                           "a CSV file: resample its rows (keyframes) onto this clock")
+    traj.add_argument("--interp", choices=("linear", "cubic", "hold"), default="linear",
+                      help="how --rate resamples CSV keyframes: linear, cubic (smooth velocity, no overshoot) or "
+                           "hold (steps) (default linear)")
+    traj.add_argument("--hard-limits", action="store_true",
+                      help="move joints within their hard <limit>s; by default, as joint_state_publisher does "
+                           "(use_smallest_joint_limits), within their <safety_controller> soft limits")
     traj.add_argument("--seed", metavar="N", type=int, default=0, help="seed of --traj random (default 0)")
     traj.add_argument("--period", metavar="S", type=float, default=2.0,
                       help="seconds between random waypoints (Randomize presses); sine periods; at least 1/rate "
@@ -48,7 +56,7 @@ def add_parser(sub: Any) -> None:
                       help="sine amplitude, a fraction of each joint's half-range (default 0.8)")
     traj.add_argument("--set", metavar="JOINT=VALUE", action="append", default=[], dest="overrides",
                       help="hold a joint at a value (repeatable), like joint_state_publisher's zeros")
-    traj.add_argument("--frame-prefix", metavar="P", default="",
+    traj.add_argument("--frame-prefix", metavar="P", default=None,
                       help="put P in front of every TF frame id, as robot_state_publisher's frame_prefix")
     out = rec.add_argument_group("output")
     out.add_argument("-o", "--output", metavar="OUT.mcap",
@@ -88,14 +96,30 @@ def _cmd_record(ns: argparse.Namespace) -> int:
     from tfrec.trajectory.types import TrajectoryKind
 
     start_ns = DEFAULT_START_TIME_NS if ns.start_time is None else ns.start_time
-    robot = load_robot(ns)
-    if ns.traj not in TrajectoryKind._value2member_map_ and (ns.duration is not None or ns.rate is not None):
-        warnings.warn(f"--duration and --rate do not apply to the CSV trajectory {ns.traj}: its own times are used",
+    robot, launch = load_robot_and_launch(ns)
+    params = launch.node_params if launch is not None else None
+    csv = ns.traj not in TrajectoryKind._value2member_map_
+    if csv and ns.duration is not None:
+        warnings.warn(f"--duration does not apply to the CSV trajectory {ns.traj}: its own times are used",
                       stacklevel=1)
+    rate = ns.rate
+    if rate is None and params is not None and not csv:  # the launch file's joint_state_publisher and
+        rates = [r for r in (params.jsp_rate_hz, params.publish_frequency_hz) if r]  # robot_state_publisher
+        if rates:
+            rate = min(rates)  # /tf is published at the slower of the two
+            if len(rates) == 2 and params.publish_frequency_hz and params.publish_frequency_hz < (params.jsp_rate_hz or 0):
+                warnings.warn(f"{launch.launch_file if launch else ''}: robot_state_publisher publishes /tf at "
+                              f"{params.publish_frequency_hz:g} Hz, below joint_state_publisher's {params.jsp_rate_hz:g} "
+                              "Hz: both are recorded at the /tf rate (--rate overrides)", stacklevel=1)
+    overrides = _parse_overrides(ns.overrides)
+    if not overrides and params is not None and params.jsp_zeros and ns.traj == "center":
+        overrides = dict(params.jsp_zeros)  # joint_state_publisher's zeros: where Center puts the joints
+    frame_prefix = ns.frame_prefix
+    if frame_prefix is None:
+        frame_prefix = params.frame_prefix if params is not None and params.frame_prefix else ""
     trajectory = make_trajectory(
-        robot, ns.traj, duration_s=10.0 if ns.duration is None else ns.duration,
-        rate_hz=50.0 if ns.rate is None else ns.rate, seed=ns.seed, period_s=ns.period,
-        amplitude=ns.amplitude, overrides=_parse_overrides(ns.overrides),
+        robot, ns.traj, duration_s=ns.duration, rate_hz=rate, seed=ns.seed, period_s=ns.period,
+        amplitude=ns.amplitude, overrides=overrides, soft_limits=not ns.hard_limits, interp=ns.interp,
     )
     plan = plan_outputs(stem=default_stem(robot, ns.traj), out=ns.output, rrd=ns.rrd, bag=ns.bag,
                         no_mcap=ns.no_mcap, no_rrd=ns.no_rrd, force=ns.force)
@@ -106,7 +130,7 @@ def _cmd_record(ns: argparse.Namespace) -> int:
     progress = Progress(sys.stderr)
     try:
         result = record(robot, trajectory, plan, compression=ns.compression, start_time_ns=start_ns,
-                        frame_prefix=ns.frame_prefix, package_paths=ns.package_path, progress=progress)
+                        frame_prefix=frame_prefix, package_paths=ns.package_path, progress=progress)
     finally:
         progress.close()
     seconds = (result.end_time_ns - result.start_time_ns) / NS_PER_S

@@ -27,6 +27,7 @@ from tfrec.model import (
     Mimic,
     Pose,
     Robot,
+    SafetyController,
     Sphere,
     Visual,
 )
@@ -232,9 +233,16 @@ class _Parser:
                 multiplier=self.number(mimic_elem, "multiplier", f"{what} mimic", 1.0),
                 offset=self.number(mimic_elem, "offset", f"{what} mimic", 0.0),
             )
+        safety = None
+        safety_elem = elem.find("safety_controller")
+        if safety_elem is not None:
+            soft = [self.number(safety_elem, attr, f"{what} safety_controller") if safety_elem.get(attr) is not None
+                    else None for attr in ("soft_lower_limit", "soft_upper_limit")]
+            safety = SafetyController(soft[0], soft[1])
         return Joint(
             name=name, type=jtype, parent=links["parent"], child=links["child"],
             origin=self.pose(elem, what), axis=(axis[0], axis[1], axis[2]), limit=limit, mimic=mimic,
+            safety=safety,
         )
 
 
@@ -286,6 +294,13 @@ def parse_urdf(text: str, *, source: str | None = None, user_lines: bool = True)
 
     _check_tree(p, name, links, joints, joint_elems.__getitem__)
     _check_mimic(p, joints, joint_elems.__getitem__)
+    frozen = [joint.name for joint in joints if joint.type in (JointType.REVOLUTE, JointType.PRISMATIC)
+              and joint.mimic is None and joint.limit is not None and joint.limit.lower == joint.limit.upper]
+    if frozen:
+        shown = ", ".join(f"'{name}'" for name in frozen[:_SHOWN]) + (f" and {len(frozen) - _SHOWN} more"
+                                                                      if len(frozen) > _SHOWN else "")
+        warnings.warn(f"{where}: joint{'s' if len(frozen) > 1 else ''} {shown} cannot move: lower and upper limit "
+                      "are equal (blank limits, as sw_urdf_exporter writes them?)", stacklevel=2)
     for joint in joints:
         if joint.type is JointType.PLANAR:
             p.warn(joint_elems[joint.name], f"joint '{joint.name}' is planar: treated as fixed, "
