@@ -41,13 +41,31 @@ def add_parser(sub: Any) -> None:
     diff.add_argument("--absolute", action="store_true",
                       help="align samples on their stamps, not on the time since each recording's start")
     diff.add_argument("--json", action="store_true", help="print the report as JSON")
+    diff.add_argument("--plot", metavar="OUT",
+                      help="draw each frame's translation and rotation error over time, worst frames first, with "
+                           "the tolerance and the first time it is exceeded (OUT.png, .svg or .pdf)")
+    diff.add_argument("--force", action="store_true", help="overwrite an existing --plot file")
+    diff.formatter_class = argparse.RawDescriptionHelpFormatter
+    diff.epilog = ("examples:\n  tfrec diff golden.mcap new.mcap\n"
+                   "  tfrec diff a.mcap b.bag --pos-tol 1e-6 --json\n"
+                   "  tfrec diff before.mcap after.mcap --plot diff.png")
     diff.set_defaults(handler=_cmd_diff)
 
 
 def _cmd_diff(ns: argparse.Namespace) -> int:
     from tfrec.diff.compare import compare
 
+    if ns.plot is not None:
+        from tfrec.plots import plot_format, refuse_existing
+
+        plot_format(ns.plot)
+        refuse_existing(ns.plot, force=ns.force)
     report = compare(ns.a, ns.b, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol, joint_tol=ns.joint_tol,
                      topics=ns.topics, absolute=ns.absolute)
     sys.stdout.write(report.to_json() + "\n" if ns.json else as_flags(report.to_text()))
+    if ns.plot is not None:
+        from tfrec.plots import plot_diff
+
+        plot_diff(report, ns.plot, force=ns.force)
+        print(f"wrote {ns.plot}", file=sys.stderr if ns.json else sys.stdout)
     return 0 if report.equal else 1

@@ -31,9 +31,29 @@ from tfrec.recording import FrameSeries
 from tfrec.replay.load import Replay, joint_positions
 from tfrec.resample import align
 
-__all__ = ["CheckReport", "FrameCheck", "check_replay", "format_check"]
+__all__ = [
+    "CheckReport",
+    "FrameCheck",
+    "FrameErrors",
+    "check_replay",
+    "format_check",
+]
 
 Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class FrameErrors:
+    """A frame's errors at every compared stamp (for plots; not in the JSON report).
+
+    Attributes:
+        time_ns: int64 (n,) stamps (ns since the epoch); one 0 for a latched transform.
+        translation_m, rotation_rad: float64 (n,) errors.
+    """
+
+    time_ns: NDArray[np.int64]
+    translation_m: Array
+    rotation_rad: Array
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,6 +70,7 @@ class FrameCheck:
         translation_time_s, rotation_time_s: when they occur (seconds from the recording's
             first stamp; None for latched transforms or nothing compared).
         problem: why the frame could not be compared, or None.
+        errors: the errors at every compared stamp, or None (not in :meth:`to_dict`).
     """
 
     frame: str
@@ -62,12 +83,15 @@ class FrameCheck:
     rotation_rad: float = 0.0
     rotation_time_s: float | None = None
     problem: str | None = None
+    errors: FrameErrors | None = field(default=None, repr=False, compare=False)
 
     def passed(self, pos_tol: float, rot_tol: float) -> bool:
         return self.problem is None and self.translation_m <= pos_tol and self.rotation_rad <= rot_tol
 
     def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
+        out = asdict(replace(self, errors=None))
+        del out["errors"]
+        return out
 
 
 @dataclass
@@ -80,6 +104,7 @@ class CheckReport:
             from the recording, in the description's order.
         pos_tol, rot_tol: the tolerances.
         notes: remarks that are not failures (frames the description does not have).
+        origin_ns: the recording's start (``Replay.origin_ns``): times in the report count from it.
     """
 
     path: str
@@ -87,6 +112,7 @@ class CheckReport:
     pos_tol: float
     rot_tol: float
     notes: list[str] = field(default_factory=list)
+    origin_ns: int = 0
 
     @property
     def failures(self) -> list[FrameCheck]:
@@ -179,8 +205,9 @@ class _Checker:
         stamps = times[inside] if series is not None else None
         t_max, t_at = _largest(translation_err, stamps, self.replay)
         r_max, r_at = _largest(rotation_err, stamps, self.replay)
+        errors = FrameErrors(times[inside], translation_err, rotation_err)
         return replace(check, samples=int(inside.sum()), translation_m=t_max, translation_time_s=t_at,
-                        rotation_rad=r_max, rotation_time_s=r_at)
+                        rotation_rad=r_max, rotation_time_s=r_at, errors=errors)
 
 
 def check_replay(replay: Replay, *, pos_tol: float = CHECK_POS_TOL, rot_tol: float = CHECK_ROT_TOL) -> CheckReport:
@@ -238,7 +265,7 @@ def check_replay(replay: Replay, *, pos_tol: float = CHECK_POS_TOL, rot_tol: flo
             topic = "/tf" if joint.type.moves else "/tf_static"
             frames.append(FrameCheck(child, replay.frame_prefix + joint.parent, joint.name, topic,
                                      problem=f"not in the recording (joint '{joint.name}' of the description)"))
-    report = CheckReport(replay.path, frames, pos_tol, rot_tol)
+    report = CheckReport(replay.path, frames, pos_tol, rot_tol, origin_ns=replay.origin_ns)
     if other:
         shown = ", ".join(f"{p} → {c}" for p, c in other[:3]) + (" …" if len(other) > 3 else "")
         report.notes.append(f"{len(other)} recorded frame pair{'s' if len(other) > 1 else ''} not in the "
