@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 import re
+import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn, TextIO
 
 from tfrec.conventions import (
@@ -21,6 +23,7 @@ __all__ = [
     "Progress",
     "add_robot_arguments",
     "as_flags",
+    "command",
     "fmt",
     "load_robot",
     "load_robot_and_launch",
@@ -159,3 +162,21 @@ def as_flags(message: str) -> str:
     """A library message as the command line says it: each parameter named in backquotes
     (```no_mcap```) becomes its flag (``--no-mcap``)."""
     return _PARAMETER.sub(lambda m: _FLAGS.get(m[1], "--" + m[1].replace("_", "-")), message)
+
+
+def command(name: str) -> str:
+    """How to type the command ``name`` (``rerun``, ``tfrec``) that came with this installation: the bare
+    name when it is what the shell finds, else its path (``.venv/bin/rerun`` before the virtual
+    environment is activated), so that printed hints work as typed."""
+    import os
+    import shutil
+
+    installed = Path(sys.executable).parent / name
+    found = shutil.which(name)
+    if not installed.exists() or (found is not None and Path(found).resolve() == installed.resolve()):
+        return name
+    try:
+        relative = os.path.relpath(installed)
+    except ValueError:  # another drive
+        return str(installed)
+    return str(installed) if relative.startswith("..") else relative

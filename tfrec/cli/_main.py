@@ -32,6 +32,12 @@ def _build_parser() -> argparse.ArgumentParser:
     parser = Parser(
         prog=PROG,
         description="Record, replay and compare what a robot description does — headless, without ROS.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="examples:\n  tfrec record robots/mbot.xacro --traj sine     (then: rerun recordings/<name>.rrd)\n"
+               "  tfrec replay --check recordings/<name>.mcap\n"
+               "  tfrec diff golden.mcap new.mcap --plot diff.png\n\n"
+               "'tfrec COMMAND --help' describes each command. Without an activated virtual environment, type "
+               "the commands as .venv/bin/tfrec and .venv/bin/rerun.",
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)

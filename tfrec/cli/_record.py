@@ -11,6 +11,7 @@ from typing import Any
 from tfrec.cli._common import (
     Progress,
     add_robot_arguments,
+    command,
     load_robot_and_launch,
     start_time,
 )
@@ -33,6 +34,11 @@ def add_parser(sub: Any) -> None:
                     "record: /robot_description, /tf_static, /joint_states and /tf, as a ROS 2 MCAP file, "
                     "plus a Rerun .rrd beside it.",
     )
+    rec.formatter_class = argparse.RawDescriptionHelpFormatter
+    rec.epilog = ("examples:\n  tfrec record robots/mbot.xacro --traj sine\n"
+                  "  tfrec record robots/marm.xacro --traj random --seed 3 --duration 60 -o marm.bag\n"
+                  "  tfrec record marm_description/launch/view_marm.launch --traj keyframes.csv --rate 100 "
+                  "--interp cubic")
     add_robot_arguments(rec)
     traj = rec.add_argument_group("trajectory")
     traj.add_argument("--traj", metavar="KIND", default="sine",
@@ -150,10 +156,10 @@ def _cmd_record(ns: argparse.Namespace) -> int:
         print(f"wrote {plan.rrd}")
     hints = []
     if plan.rrd is not None:
-        hints.append(f"rerun {plan.rrd}")
+        hints.append(f"{command('rerun')} {plan.rrd}")
     target = plan.main
     if target is not None:
-        hints.append(f"tfrec info {target}")
+        hints.append(f"{command('tfrec')} info {target}")
     if hints:
         print("open with: " + "   |   ".join(hints))
     return 0
