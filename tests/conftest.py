@@ -15,7 +15,11 @@ if TYPE_CHECKING:
 
 REPO = Path(__file__).resolve().parents[1]
 ROBOTS = REPO / "robots"
-CORPUS = REPO.parent / "shared" / "corpus"
+SHARED = next((folder / "shared" for folder in REPO.parents if (folder / "shared").is_dir()), REPO.parent / "shared")
+"""../shared: beside the repository, or beside a folder of worktrees that holds it."""
+CORPUS = SHARED / "corpus"
+BAGS = SHARED / "bags"
+"""Recordings written by other tools (rosbag2's and rosbag.js's test bags), read-only."""
 
 
 @pytest.fixture

@@ -9,6 +9,7 @@ from __future__ import annotations
 __all__ = [
     "CHECK_POS_TOL",
     "CHECK_ROT_TOL",
+    "CLOCK_GAP_NS",
     "COMPRESSIONS",
     "DEFAULT_START_TIME_NS",
     "DIFF_JOINT_TOL",
@@ -24,6 +25,10 @@ __all__ = [
     "STAMP_RANGE",
     "TF",
     "TF_STATIC",
+    "global_topic",
+    "namespace_name",
+    "robot_topic_kind",
+    "split_topic",
 ]
 
 NS_PER_S = 1_000_000_000
@@ -34,6 +39,10 @@ STAMP_LIMIT_NS = 2**31 * NS_PER_S
 STAMP_RANGE = f"ROS 2 stamps hold less than {STAMP_LIMIT_NS // NS_PER_S} s"
 """How messages about out-of-range times end."""
 
+CLOCK_GAP_NS = 3600 * NS_PER_S
+"""Header stamps further than this from their messages' log times are on another clock than the
+recorder's: sim time (``use_sim_time``: seconds since the simulator started), or a driver's own."""
+
 DEFAULT_START_TIME_NS = 1_700_000_000 * NS_PER_S
 """Stamps start here unless ``--start-time`` says otherwise: 2023-11-14T22:13:20Z. A fixed epoch
 makes the same command give byte-identical files."""
@@ -43,7 +52,8 @@ TF_STATIC = "/tf_static"
 JOINT_STATES = "/joint_states"
 TF = "/tf"
 RECORDED_TOPICS = (ROBOT_DESCRIPTION, TF_STATIC, JOINT_STATES, TF)
-"""The topics tfrec records, in channel order; replay and diff read these."""
+"""The topics tfrec records, in channel order; replay and diff read these (in every namespace:
+``/robot1/tf`` is robot1's /tf)."""
 
 COMPRESSIONS = ("none", "lz4", "zstd")
 """MCAP chunk compressions ``--compression`` accepts."""
@@ -62,3 +72,36 @@ CHECK_POS_TOL = 1e-6
 """``tfrec replay --check``'s default translation tolerance (m)."""
 CHECK_ROT_TOL = 1e-6
 """``tfrec replay --check``'s default rotation tolerance (rad)."""
+
+
+# -- topic names ------------------------------------------------------------------------------------
+
+
+def global_topic(name: str) -> str:
+    """A recorded topic name as a player in the root namespace publishes it.
+
+    ``rosbag play`` and ``ros2 bag play`` resolve a relative name (``joint_states``, which
+    robot_state_publisher's own ROS 1 test bag records) in the root namespace: ``/joint_states``.
+    Repeated and trailing slashes are dropped, as ROS's name resolution drops them.
+    """
+    return "/" + "/".join(part for part in name.split("/") if part)
+
+
+def split_topic(name: str) -> tuple[str, str]:
+    """A topic's namespace and base name: ``/robot1/tf`` → ``("/robot1", "/tf")``,
+    ``/tf`` → ``("", "/tf")``, ``joint_states`` → ``("", "/joint_states")``."""
+    namespace, _, base = global_topic(name).rpartition("/")
+    return namespace, "/" + base
+
+
+def robot_topic_kind(name: str) -> tuple[str, str] | None:
+    """(namespace, kind) of one of a robot's topics — kind one of :data:`RECORDED_TOPICS`, in any
+    namespace: ``/robot1/tf`` → ``("/robot1", "/tf")``; None for any other topic."""
+    namespace, base = split_topic(name)
+    return (namespace, base) if base in RECORDED_TOPICS else None
+
+
+def namespace_name(text: str) -> str:
+    """A namespace as given by a user (``robot1``, ``/robot1/``, ``/``) in tfrec's form:
+    ``/robot1``, and ``""`` for the root namespace."""
+    return "" if global_topic(text) == "/" else global_topic(text)

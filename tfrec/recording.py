@@ -15,11 +15,13 @@ __all__ = [
     "FrameSeries",
     "JointStates",
     "Recording",
+    "RobotTopics",
     "TopicInfo",
     "TopicStats",
 ]
 
 Array = NDArray[np.float64]
+Pair = tuple[str, str]
 
 
 @dataclass(frozen=True, slots=True)
@@ -120,6 +122,34 @@ class FrameSeries:
         return len(self.time_ns)
 
 
+@dataclass(frozen=True, slots=True)
+class RobotTopics:
+    """What one namespace's robot topics hold: ``<ns>/robot_description``, ``<ns>/joint_states``,
+    ``<ns>/tf`` and ``<ns>/tf_static`` (``ns`` empty for the root namespace).
+
+    Attributes:
+        descriptions: every robot description on ``<ns>/robot_description`` — several robots
+            may publish on one topic — the last text of each robot name, in order of first
+            appearance.
+        joint_states: ``<ns>/joint_states``, or None.
+        tf: (parent, child) → :class:`FrameSeries` of ``<ns>/tf``.
+        tf_static: (parent, child) → (translation, rotation) of ``<ns>/tf_static``.
+    """
+
+    descriptions: tuple[str, ...] = ()
+    joint_states: JointStates | None = None
+    tf: dict[Pair, FrameSeries] = field(default_factory=dict)
+    tf_static: dict[Pair, tuple[Array, Array]] = field(default_factory=dict)
+
+    @property
+    def robot_description(self) -> str | None:
+        """The last description (that of the robot that published last), or None."""
+        return self.descriptions[-1] if self.descriptions else None
+
+    def __bool__(self) -> bool:
+        return bool(self.descriptions or self.joint_states is not None or self.tf or self.tf_static)
+
+
 @dataclass
 class Recording:
     """What a recording holds, format aside.
@@ -128,12 +158,25 @@ class Recording:
         path: the file or folder read.
         format: ``"mcap"``, ``"rosbag2"``, ``"rosbag1"`` or ``"rrd"``.
         robot_description: the URDF text of the last /robot_description message, or None.
-        topics: topic name → :class:`TopicInfo`. An ``.rrd`` has no topics: its entities are
-            listed under the topics they stand for.
+            This and ``joint_states``, ``tf``, ``tf_static`` and ``robot_descriptions`` are the
+            root namespace's robot topics; ``namespaces`` holds those of every other namespace
+            (:meth:`robot_topics` gives either).
+        topics: topic name → :class:`TopicInfo`, in the order the file lists them, names as they
+            are played (relative names made global, remapped). An ``.rrd`` has no topics: its
+            entities are listed under the topics they stand for.
         joint_states: /joint_states, or None when the recording has none.
-        tf: (parent, child) → :class:`FrameSeries` of the transforms on /tf.
+        tf: (parent, child) → :class:`FrameSeries` of the transforms on /tf. Frame ids are
+            as tf2 sees them: a leading slash (ROS 1) is dropped.
         tf_static: (parent, child) → (translation (3,), rotation (4,)) of the last /tf_static
             transform of that pair.
+        robot_descriptions: every robot's description on /robot_description when several
+            robots publish there (see :attr:`RobotTopics.descriptions`); empty when
+            ``robot_description`` is the only one.
+        namespaces: namespace (``/robot1``) → :class:`RobotTopics` of ``/robot1/tf`` etc., for
+            every namespace but the root that holds robot topics.
+        time_base: what the stamps of ``joint_states`` and ``tf`` are: ``header`` (the
+            messages' header stamps, as tf2 and robot_state_publisher use them) or ``log``
+            (the times the messages were logged, ``use_log_time``).
         start_ns, end_ns: log times of the first and last message (ns since the epoch), or
             None for an empty recording. When a damaged file lost messages, the recording's
             true start (and end) as far as the file still tells — an MCAP's summary
@@ -143,8 +186,9 @@ class Recording:
             or which chunks were skipped); the rest of the recording holds what was readable.
         float32: True when the format stores transforms as float32 (``.rrd``).
         details: what ``tfrec info`` shows about the container, where known: ``profile``,
-            ``library`` (MCAP header), ``compression`` (chunk or file compression, ``none``),
-            ``storage`` (rosbag2 storage plugin).
+            ``library`` (MCAP header), ``compression`` (chunk compressions, ``none``),
+            ``storage`` (rosbag2 storage plugin), ``bag_compression`` (a rosbag2 bag compressed
+            ``zstd file`` by file or ``zstd message`` by message).
     """
 
     path: str
@@ -154,6 +198,9 @@ class Recording:
     joint_states: JointStates | None = None
     tf: dict[tuple[str, str], FrameSeries] = field(default_factory=dict)
     tf_static: dict[tuple[str, str], tuple[Array, Array]] = field(default_factory=dict)
+    robot_descriptions: tuple[str, ...] = ()
+    namespaces: dict[str, RobotTopics] = field(default_factory=dict)
+    time_base: str = "header"
     start_ns: int | None = None
     end_ns: int | None = None
     read_error: str | None = None
@@ -163,3 +210,17 @@ class Recording:
     @property
     def duration_ns(self) -> int:
         return 0 if self.start_ns is None or self.end_ns is None else self.end_ns - self.start_ns
+
+    def robot_topics(self, namespace: str = "") -> RobotTopics:
+        """The robot topics of one namespace (``""``: the root's, from the fields above)."""
+        if namespace:
+            return self.namespaces.get(namespace) or RobotTopics()
+        descriptions = self.robot_descriptions
+        if self.robot_description not in descriptions:  # none, one, or a description set by hand
+            descriptions = () if self.robot_description is None else (self.robot_description,)
+        return RobotTopics(descriptions, self.joint_states, self.tf, self.tf_static)
+
+    def namespace_names(self) -> list[str]:
+        """Every namespace with robot topics, the root (``""``) first, then in name order."""
+        root = [""] if self.robot_topics("") else []
+        return root + sorted(name for name, topics in self.namespaces.items() if name and topics)

@@ -14,37 +14,58 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from tfrec.conventions import CLOCK_GAP_NS, JOINT_STATES, TF, robot_topic_kind
 from tfrec.kinematics.rotations import slerp
 from tfrec.recording import Recording
 
-__all__ = ["Alignment", "align", "data_end_ns", "data_start_ns"]
+__all__ = ["Alignment", "align", "data_end_ns", "data_start_ns", "log_start_ns"]
 
 Array = NDArray[np.float64]
 
 
-def data_start_ns(rec: Recording) -> int | None:
-    """A recording's start: the first stamp of its /joint_states or /tf, whichever comes first.
+def _series(rec: Recording) -> list[NDArray[np.int64]]:
+    """The stamps of every namespace's /joint_states and /tf."""
+    out = []
+    for namespace in rec.namespace_names() or [""]:
+        topics = rec.robot_topics(namespace)
+        out += [series.time_ns for series in topics.tf.values() if len(series)]
+        if topics.joint_states is not None and len(topics.joint_states):
+            out.append(topics.joint_states.time_ns)
+    return out
 
-    Header stamps, as the samples compared and replayed carry. Latched one-off messages
-    (/robot_description, /tf_static) are left out, so one published long before the data does
-    not shift the start. A recording without either (or without them decoded) starts at its
-    first message; None when it is empty. A damaged file whose first messages were lost starts
-    at its true start (from the MCAP summary or chunk headers), so what was read keeps its time.
+
+def data_start_ns(rec: Recording) -> int | None:
+    """A recording's start: the first stamp of its /joint_states or /tf, whichever comes first
+    (of any namespace: ``/robot1/tf`` too).
+
+    Header stamps, as the samples compared and replayed carry (log times with
+    :attr:`Recording.time_base` ``log``). Latched one-off messages (/robot_description,
+    /tf_static) are left out, so one published long before the data does not shift the start.
+    A recording without either (or without them decoded) starts at its first message; None when
+    it is empty. A damaged file whose first messages were lost starts at its true start (from
+    the MCAP summary or chunk headers), so what was read keeps its time.
     """
-    firsts = [int(series.time_ns.min()) for series in rec.tf.values() if len(series)]
-    if rec.joint_states is not None and len(rec.joint_states):
-        firsts.append(int(rec.joint_states.time_ns.min()))
+    firsts = [int(time_ns.min()) for time_ns in _series(rec)]
     start = min(firsts) if firsts else rec.start_ns
-    if rec.read_error is not None and rec.start_ns is not None and start is not None:
+    if (rec.read_error is not None and rec.start_ns is not None and start is not None
+            and abs(start - rec.start_ns) < CLOCK_GAP_NS):  # stamps and log times on one clock
         start = min(start, rec.start_ns)  # a damaged file lost its first messages: keep its true start
     return start
 
 
+def log_start_ns(rec: Recording) -> int | None:
+    """When the recording's first /joint_states or /tf message (of any namespace) was logged: the
+    start of :func:`data_start_ns` on the log's clock, which times the topic table (the same
+    instant but for the stamp-to-log latency; another clock altogether for sim time). The
+    first message's log time without either."""
+    firsts = [info.first_ns for name, info in rec.topics.items() if info.first_ns is not None
+              and info.count and (found := robot_topic_kind(name)) is not None and found[1] in (JOINT_STATES, TF)]
+    return min(firsts) if firsts else rec.start_ns
+
+
 def data_end_ns(rec: Recording) -> int | None:
-    """The last stamp of the recording's /joint_states and /tf, or None without either."""
-    lasts = [int(series.time_ns.max()) for series in rec.tf.values() if len(series)]
-    if rec.joint_states is not None and len(rec.joint_states):
-        lasts.append(int(rec.joint_states.time_ns.max()))
+    """The last stamp of the recording's /joint_states and /tf (of any namespace), or None without either."""
+    lasts = [int(time_ns.max()) for time_ns in _series(rec)]
     return max(lasts) if lasts else None
 
 

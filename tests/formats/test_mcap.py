@@ -394,7 +394,7 @@ def test_summarize_errors(tmp_path: Path, marm_mcap: Path) -> None:
             "/joint_states", "cdr", writer.register_schema("sensor_msgs/msg/JointState", "ros2msg", b""))
         writer.add_message(channel, log_time=1, publish_time=1, data=b"\0\1\0\0\7")
         writer.finish()  # type: ignore[no-untyped-call]
-    with pytest.raises(RecordingError, match=r"garbled\.mcap: cannot decode a /joint_states message as sensor_msgs"):
+    with pytest.raises(RecordingError, match=r"garbled\.mcap: a /joint_states message cannot be decoded as sensor_msgs"):
         summarize(garbled)
     folder = tmp_path / "folder"
     folder.mkdir()

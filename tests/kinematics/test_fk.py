@@ -14,6 +14,7 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
+from tests.conftest import CORPUS as SHARED_CORPUS
 from tfrec.description import load_description, parse_urdf
 from tfrec.errors import KinematicsError
 from tfrec.kinematics.fk import (
@@ -32,7 +33,7 @@ from tfrec.trajectory.joints import joint_bounds
 from tfrec.trajectory.types import JointTrajectory
 
 REPO = Path(__file__).resolve().parents[2]
-CORPUS = Path(__file__).resolve().parents[3] / "shared" / "corpus"
+CORPUS = SHARED_CORPUS
 
 # (name, path, xacro args): the repository's robots, then the real packages.
 ROBOTS = {

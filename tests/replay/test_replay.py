@@ -17,7 +17,7 @@ import pytest
 
 from tfrec import cli
 from tfrec.description import load_description, parse_urdf
-from tfrec.errors import ReplayError
+from tfrec.errors import ReadError, ReplayError
 from tfrec.formats.mcap.writer import McapSink
 from tfrec.formats.rrd.paths import joint_entity, link_entity, pair_entity, tf_entity, tf_static_entity
 from tfrec.kinematics.fk import Transforms, dynamic_transforms, iter_dynamic_chunks, static_transforms
@@ -464,7 +464,8 @@ def test_headless_machine_suggests_save_or_connect(tfrec_main: Callable[[list[st
     (["--rate", "0"], "--rate 0 is not a speed > 0"),
     (["--save", "x.mcap"], "x.mcap: the Rerun output's name must end in .rrd"),
     (["--topics", "/odom", "--save", "x.rrd"],
-     "topic '/odom' cannot be replayed; tfrec replays /robot_description, /tf_static, /joint_states, /tf"),
+     ("topic '/odom' cannot be replayed; tfrec replays /robot_description, /tf_static, /joint_states, /tf "
+      "(of any namespace, e.g. /robot1/tf)")),
     (["--start", "2", "--end", "1", "--save", "x.rrd"], "--end 1 is before --start 2"),
     (["--start", "-1", "--save", "x.rrd"], "--start -1.0 is not a time in seconds >= 0"),
 ])
@@ -527,10 +528,11 @@ class ListSink:
         self.began = kwargs
 
     def write_transforms(self, parent: str, child: str, time_ns: np.ndarray, translation: np.ndarray,
-                         rotation: np.ndarray) -> None:
+                         rotation: np.ndarray, *, robot: int = 0) -> None:
         self.transforms.append((self._now(), (parent, child), time_ns.copy()))
 
-    def write_joint_positions(self, time_ns: np.ndarray, names: Sequence[str], positions: np.ndarray) -> None:
+    def write_joint_positions(self, time_ns: np.ndarray, names: Sequence[str], positions: np.ndarray, *,
+                              robot: int = 0) -> None:
         self.joints.append((self._now(), time_ns.copy()))
 
     def finish(self) -> None:
@@ -723,7 +725,7 @@ def test_joint_log_without_a_description_warns(marm: Robot, traj: JointTrajector
     assert replay.robot is None and not replay.tf and replay.joint_states is not None
 
 
-def test_an_rrd_not_written_by_tfrec_is_an_error(tfrec_main: Callable[[list[str]], int], tmp_path: Path,
+def test_an_rrd_not_written_by_tfrec_is_refused(tfrec_main: Callable[[list[str]], int], tmp_path: Path,
                                                  capsys: pytest.CaptureFixture[str]) -> None:
     import rerun as rr
 
@@ -734,9 +736,9 @@ def test_an_rrd_not_written_by_tfrec_is_an_error(tfrec_main: Callable[[list[str]
     stream.log("points", rr.Points3D([[0.0, 0.0, 0.0]]))
     stream.flush()
     stream.disconnect()
-    message = (f"{other}: no /robot_description, /tf_static, /joint_states or /tf in the recording "
-               "(an .rrd not written by tfrec?); nothing to replay")
-    with pytest.raises(ReplayError) as info:
+    message = (f"{other}: a Rerun recording of 'someone-else', not written by tfrec: tfrec reads back only its "
+               "own .rrd files (their entities stand for ROS topics)")
+    with pytest.raises(ReadError) as info:
         load_replay(other)
     assert str(info.value) == message
     assert tfrec_main(["replay", str(other), "--save", str(tmp_path / "out.rrd")]) == 2

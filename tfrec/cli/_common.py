@@ -21,6 +21,7 @@ __all__ = [
     "PROG",
     "Parser",
     "Progress",
+    "add_naming_arguments",
     "add_robot_arguments",
     "as_flags",
     "command",
@@ -51,6 +52,20 @@ def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
         help="refuse macro calls without the 'xacro:' prefix (legacy xacro <= 1.13 dialect) "
              "instead of expanding them with a warning",
     )
+
+
+def add_naming_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGroup, *, log_time: bool = True) -> None:
+    """``--namespace``, ``--remap`` (and ``--use-log-time``): which robot topics are read, and how."""
+    parser.add_argument("--namespace", metavar="NS",
+                        help="only the robot(s) of this namespace (its NS/robot_description, NS/joint_states, "
+                             "NS/tf, NS/tf_static); '/' for the root namespace")
+    parser.add_argument("--remap", metavar="FROM:=TO", action="append", default=[],
+                        help="rename a topic as ROS remapping does, before anything else (repeatable), "
+                             "e.g. --remap /robot1/tf:=/tf")
+    if log_time:
+        parser.add_argument("--use-log-time", action="store_true",
+                            help="take each message's log time for the stamps of /joint_states and /tf (a driver "
+                                 "that stamps 0, stamps on another clock)")
 
 
 class Parser(argparse.ArgumentParser):

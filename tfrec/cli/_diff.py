@@ -7,6 +7,7 @@ import sys
 from typing import Any
 
 from tfrec.cli._common import (
+    add_naming_arguments,
     as_flags,
     number,
     tolerance,
@@ -49,6 +50,7 @@ def add_parser(sub: Any) -> None:
     diff.epilog = ("examples:\n  tfrec diff golden.mcap new.mcap\n"
                    "  tfrec diff a.mcap b.bag --pos-tol 1e-6 --json\n"
                    "  tfrec diff before.mcap after.mcap --plot diff.png")
+    add_naming_arguments(diff)
     diff.set_defaults(handler=_cmd_diff)
 
 
@@ -61,7 +63,8 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
         plot_format(ns.plot)
         refuse_existing(ns.plot, force=ns.force)
     report = compare(ns.a, ns.b, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol, joint_tol=ns.joint_tol,
-                     topics=ns.topics, absolute=ns.absolute)
+                     topics=ns.topics, absolute=ns.absolute, namespace=ns.namespace, remap=ns.remap,
+                     use_log_time=ns.use_log_time)
     sys.stdout.write(report.to_json() + "\n" if ns.json else as_flags(report.to_text()))
     if ns.plot is not None:
         from tfrec.plots import plot_diff

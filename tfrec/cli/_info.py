@@ -7,14 +7,17 @@ import json
 import sys
 from typing import Any
 
+from tfrec.cli._common import add_naming_arguments
+
 __all__ = ["add_parser"]
 
 
 def add_parser(sub: Any) -> None:
     """Add the subcommand to ``sub`` (argparse subparsers)."""
     info = sub.add_parser("info", help="summarize a recording (MCAP, rosbag2 folder, ROS 1 bag or .rrd)",
-                          description="Duration, start and end, topics with type, count and rate, joints, "
-                                      "TF frames and the robot's name, of tfrec's or any ROS 2 recording.")
+                          description="Duration, start and end, topics with type, count and rate, and the "
+                                      "robots (one per description and namespace) with their joints and TF "
+                                      "frames, of tfrec's or any ROS recording, from the file's own index.")
     info.add_argument("file", metavar="FILE", help="a .mcap file, a rosbag2 folder, a ROS 1 .bag or a tfrec .rrd")
     info.add_argument("--json", action="store_true", help="print the summary as JSON")
     info.add_argument("--graph", metavar="OUT",
@@ -24,6 +27,7 @@ def add_parser(sub: Any) -> None:
     info.formatter_class = argparse.RawDescriptionHelpFormatter
     info.epilog = ("examples:\n  tfrec info recordings/marm.mcap\n  tfrec info bag_folder/ --json\n"
                    "  tfrec info recordings/marm.mcap --graph frames.pdf")
+    add_naming_arguments(info, log_time=False)
     info.set_defaults(handler=_cmd_info)
 
 
@@ -35,13 +39,14 @@ def _cmd_info(ns: argparse.Namespace) -> int:
 
         graph_format(ns.graph)
         refuse_existing(ns.graph, force=ns.force)
-    summary = summarize(ns.file)
+    summary = summarize(ns.file, namespace=ns.namespace, remap=ns.remap)
     if ns.graph is not None:
         from tfrec.conventions import TF, TF_STATIC
         from tfrec.formats import read_recording
         from tfrec.plots import recorded_graph, render_graph
 
-        render_graph(recorded_graph(read_recording(ns.file, topics=(TF, TF_STATIC))), ns.graph, force=ns.force)
+        render_graph(recorded_graph(read_recording(ns.file, topics=(TF, TF_STATIC), namespace=ns.namespace,
+                                                   remap=ns.remap)), ns.graph, force=ns.force)
     if ns.json:
         json.dump(summary, sys.stdout, indent=2)
         sys.stdout.write("\n")

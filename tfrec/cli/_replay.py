@@ -8,6 +8,7 @@ import sys
 from typing import Any
 
 from tfrec.cli._common import (
+    add_naming_arguments,
     number,
     tolerance,
 )
@@ -57,7 +58,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     how.add_argument("--end", metavar="S", type=float, default=None,
                      help="stop this many seconds after the recording's start")
     how.add_argument("--topics", metavar="TOPIC", nargs="+",
-                     help=f"replay only these of {' '.join(RECORDED_TOPICS)}")
+                     help=f"replay only these of {' '.join(RECORDED_TOPICS)} (of every namespace), or of one "
+                          "namespace (/robot1/tf)")
+    add_naming_arguments(rep.add_argument_group("topics and robots"))
     check = rep.add_argument_group("re-simulation")
     check.add_argument("--check", action="store_true",
                        help="recompute TF from /joint_states and the description and compare with the recorded "
@@ -100,7 +103,7 @@ def _cmd_replay(ns: argparse.Namespace) -> int:
         robot = load_description(ns.robot[0], args=parse_xacro_args(ns.robot[1:]), package_paths=ns.package_path,
                                  strict_xacro=ns.strict_xacro)
     replay = load_replay(ns.file, robot=robot, topics=ns.topics, start_s=ns.start, end_s=ns.end,
-                         need_robot=ns.check)
+                         need_robot=ns.check, namespace=ns.namespace, remap=ns.remap, use_log_time=ns.use_log_time)
     status = 0
     if ns.check:
         report = check_replay(replay, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol)
@@ -121,6 +124,8 @@ def _cmd_replay(ns: argparse.Namespace) -> int:
                     package_paths=ns.package_path, force=ns.force, checked=True)
     span = 0.0 if replay.start_ns is None or replay.end_ns is None else (replay.end_ns - replay.start_ns) / NS_PER_S
     derived = f", {replay.derived_summary()}" if replay.derived else ""
-    print(f"replayed {ns.file}: {span:g} s{derived}" + (f"; wrote {ns.save}" if ns.save else ""),
+    keys = [robot.key for robot in replay.robots]
+    robots = f", {len(keys)} robots ({', '.join(key or '/' for key in keys)})" if len(keys) > 1 else ""
+    print(f"replayed {ns.file}: {span:g} s{robots}{derived}" + (f"; wrote {ns.save}" if ns.save else ""),
           file=sys.stdout if ns.save and not ns.json else sys.stderr)
     return status

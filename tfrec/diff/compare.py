@@ -9,11 +9,20 @@ one into a failing test with the readable report.
 A /tf_static whose messages hold no transforms (tfrec records one for a robot without fixed
 joints; its ``.rrd`` has none) is the same as no /tf_static: the report's notes say so.
 
+Robots: a recording of several robots (namespaces, or several descriptions on one topic,
+:func:`tfrec.robots.find_robots`) is compared robot by robot — each robot's description and TF
+with the robot of the same key in the other recording, each namespace's joint states with the
+same namespace's — and every difference names its robot. Two recordings of one robot each are
+compared whatever their namespaces. Frame ids are compared as tf2 sees them (no leading slash).
+
 Time: samples are aligned by time since each recording's start, so two recordings made at
 different wall-clock times compare; ``absolute=True`` aligns on the stamps. A recording's start
 (:func:`tfrec.resample.data_start_ns`) is the first stamp of its time series, /joint_states or /tf, whichever
 comes first — not its first message: a latched /robot_description or /tf_static published
 seconds before the data does not shift it. ``tfrec replay --start`` counts from the same start.
+Samples are on their header stamps (or their log times, ``use_log_time``); the topic table's
+spans are log times, counted from when that first /joint_states or /tf message was logged — so a
+simulation's stamps (seconds since it started) are never mixed with the wall clock of the log.
 Where A's times fall between B's samples, B is interpolated at A's times — linearly for joint
 positions and translations, by slerp for rotations — and the report says so (not when B merely
 has more samples or a longer span, its samples at A's times where both have data). A's samples
@@ -30,7 +39,7 @@ from __future__ import annotations
 import math
 import os
 import warnings
-from collections.abc import Collection, Iterable
+from collections.abc import Collection, Iterable, Mapping
 from typing import Any
 
 import numpy as np
@@ -39,14 +48,15 @@ from numpy.typing import NDArray
 from tfrec.conventions import DIFF_JOINT_TOL as DEFAULT_JOINT_TOL
 from tfrec.conventions import DIFF_POS_TOL as DEFAULT_POS_TOL
 from tfrec.conventions import DIFF_ROT_TOL as DEFAULT_ROT_TOL
-from tfrec.conventions import FLOAT32_TOL, JOINT_STATES, NS_PER_S, ROBOT_DESCRIPTION, TF, TF_STATIC
+from tfrec.conventions import FLOAT32_TOL, JOINT_STATES, NS_PER_S, ROBOT_DESCRIPTION, TF, TF_STATIC, namespace_name
 from tfrec.diff.report import Difference, DiffReport, Largest, at_time, format_time
 from tfrec.errors import DiffError
 from tfrec.formats._collect import decodes_type
 from tfrec.formats.reader import read_recording
 from tfrec.kinematics.rotations import rotation_error
-from tfrec.recording import FrameSeries, Recording
-from tfrec.resample import Alignment, align, data_start_ns
+from tfrec.recording import FrameSeries, JointStates, Recording
+from tfrec.resample import Alignment, align, data_start_ns, log_start_ns
+from tfrec.robots import RecordedRobot, find_robots
 
 __all__ = [
     "DEFAULT_JOINT_TOL",
@@ -86,12 +96,15 @@ class _Comparison:
         self.interpolated: dict[str, list[str]] = {}  # "(A 50 Hz, B 100 Hz)" → what
         self.origin_a = 0 if absolute else data_start_ns(a) or 0
         self.origin_b = 0 if absolute else data_start_ns(b) or 0
+        self.log_origin_a = 0 if absolute else log_start_ns(a) or 0  # the topic table's log times count from these
+        self.log_origin_b = 0 if absolute else log_start_ns(b) or 0
+        self.who = ""  # "robot /robot1: " while comparing one robot of several
 
     def wants(self, topic: str) -> bool:
         return self.topics is None or topic in self.topics
 
     def diff(self, kind: str, what: str, detail: str, time_ns: int | None = None, value: float | None = None) -> None:
-        self.report.differences.append(Difference(kind, what, detail, time_ns, value))
+        self.report.differences.append(Difference(kind, self.who + what, self.who + detail, time_ns, value))
 
     def origin(self, rec: Recording) -> int:
         return self.origin_a if rec is self.a else self.origin_b
@@ -99,16 +112,45 @@ class _Comparison:
     def largest(self, quantity: str, value: float, what: str, time_ns: int | None) -> None:
         current = self.report.largest.get(quantity)
         if current is None or value > current.value:
-            self.report.largest[quantity] = Largest(value, what, time_ns)
+            self.report.largest[quantity] = Largest(value, self.who + what, time_ns)
+
+    # -- robots -------------------------------------------------------------------------------
+
+    def robots(self, namespace: str | None) -> None:
+        """Compare the recordings robot by robot (see the module docstring)."""
+        found_a, found_b = find_robots(self.a, namespace=namespace), find_robots(self.b, namespace=namespace)
+        if len(found_a) == 1 and len(found_b) == 1:
+            pairs: list[tuple[RecordedRobot | None, RecordedRobot | None]] = [(found_a[0], found_b[0])]
+        else:
+            by_key = {robot.key: robot for robot in found_b}
+            pairs = [(robot, by_key.pop(robot.key, None)) for robot in found_a]
+            pairs += [(None, robot) for robot in by_key.values()]
+        several = len(pairs) > 1
+        joint_states: set[tuple[str, str]] = set()
+        for ra, rb in pairs:
+            self.who = f"{(ra or rb).label}: " if several else ""  # type: ignore[union-attr]
+            if ra is None or rb is None:
+                side = "A" if rb is None else "B"
+                robot = ra or rb
+                assert robot is not None
+                self.who = ""
+                self.diff("robot", robot.label, f"{robot.label} only in {side} ({_contents(robot)})")
+                continue
+            self.description(ra.description, rb.description)
+            self.transforms(ra, rb)
+            if (ra.joint_states_namespace, rb.joint_states_namespace) not in joint_states:
+                joint_states.add((ra.joint_states_namespace, rb.joint_states_namespace))
+                self.who = f"{ra.joint_states_namespace or '/'}: " if several else ""
+                self.joint_states(ra.joint_states, rb.joint_states)
+        self.who = ""
 
     # -- the robot description ----------------------------------------------------------------
 
-    def description(self) -> None:
+    def description(self, da: str | None, db: str | None) -> None:
         if not self.wants(ROBOT_DESCRIPTION):
             return
-        da, db = self.a.robot_description, self.b.robot_description
-        for rec, other in ((self.a, self.b), (self.b, self.a)):
-            if rec.robot_description is None and other.robot_description is not None and rec.format == "rrd":
+        for rec, own, other in ((self.a, da, db), (self.b, db, da)):
+            if own is None and other is not None and rec.format == "rrd":
                 self.report.notes.append(
                     f"the robot description is not in {rec.path} (an .rrd without /robot_description)"
                 )
@@ -138,7 +180,9 @@ class _Comparison:
             if ia is None or ib is None:
                 side, info, rec = ("A", ia, a) if ib is None else ("B", ib, b)
                 assert info is not None
-                if name == TF_STATIC and not rec.tf_static and decodes_type(name, info.type):
+                namespace = name[: -len(TF_STATIC)]
+                if (name.endswith(TF_STATIC) and not rec.robot_topics(namespace).tf_static
+                        and decodes_type(name, info.type)):
                     self.report.notes.append(
                         f"{name} only in {side}, whose {info.count} message{'s' if info.count != 1 else ''} "
                         f"hold{'s' if info.count == 1 else ''} no transforms: the same as no {name}"
@@ -150,9 +194,9 @@ class _Comparison:
                 self.diff("topic", name, f"{name}: type {ia.type} in A, {ib.type} in B")
             if ia.count != ib.count:
                 self.diff("topic", name, f"{name}: {ia.count} messages in A, {ib.count} in B")
-            if None not in (ia.first_ns, ia.last_ns, ib.first_ns, ib.last_ns):
-                span_a = (ia.first_ns - self.origin(a), ia.last_ns - self.origin(a))  # type: ignore[operator]
-                span_b = (ib.first_ns - self.origin(b), ib.last_ns - self.origin(b))  # type: ignore[operator]
+            if None not in (ia.first_ns, ia.last_ns, ib.first_ns, ib.last_ns):  # log times, on the log's clock
+                span_a = (ia.first_ns - self.log_origin_a, ia.last_ns - self.log_origin_a)  # type: ignore[operator]
+                span_b = (ib.first_ns - self.log_origin_b, ib.last_ns - self.log_origin_b)  # type: ignore[operator]
                 if span_a != span_b:
                     self.diff(
                         "topic", name,
@@ -209,8 +253,7 @@ class _Comparison:
     def note_interpolation(self, what: str, ta: NDArray[np.int64], tb: NDArray[np.int64]) -> None:
         self.interpolated.setdefault(f"A {_rate(ta)}, B {_rate(tb)}", []).append(what)
 
-    def joint_states(self) -> None:
-        ja, jb = self.a.joint_states, self.b.joint_states
+    def joint_states(self, ja: JointStates | None, jb: JointStates | None) -> None:
         if not self.wants(JOINT_STATES) or ja is None or jb is None:
             return
         for name in ja.names:
@@ -238,8 +281,7 @@ class _Comparison:
         for j, name in enumerate(common):
             self.errors("joint_states", f"joint '{name}'", "joint position", "", self.joint_tol, error[:, j], times)
 
-    def transforms(self) -> None:
-        a, b = self.a, self.b
+    def transforms(self, a: RecordedRobot, b: RecordedRobot) -> None:
         want_tf, want_static = self.wants(TF), self.wants(TF_STATIC)
         pairs_a = {pair: "tf" for pair in a.tf if want_tf} | {pair: "tf_static" for pair in a.tf_static if want_static}
         pairs_b = {pair: "tf" for pair in b.tf if want_tf} | {pair: "tf_static" for pair in b.tf_static if want_static}
@@ -293,6 +335,15 @@ class _Comparison:
                 self.diff("tf_static", label, f"{label}: {quantity} differs by {_num(value)} {unit}", None, value)
 
 
+def _contents(robot: RecordedRobot) -> str:
+    """``marm, 9 frame pairs``: what a robot of one recording only holds."""
+    parts = [robot.name or "no description"]
+    pairs = len(robot.tf) + len(robot.tf_static)
+    if pairs:
+        parts.append(f"{pairs} frame pair{'s' if pairs != 1 else ''}")
+    return ", ".join(parts)
+
+
 def _nan_is_inf(error: Array) -> Array:
     return np.where(np.isnan(error), np.inf, error)
 
@@ -316,8 +367,11 @@ def compare(
     joint_tol: float = DEFAULT_JOINT_TOL,
     topics: Iterable[str] | None = None,
     absolute: bool = False,
+    namespace: str | None = None,
+    remap: Iterable[str] | Mapping[str, str] | None = None,
+    use_log_time: bool = False,
 ) -> DiffReport:
-    """Compare two recordings by meaning.
+    """Compare two recordings by meaning, robot by robot.
 
     Args:
         a, b: recordings, or paths to read (:func:`tfrec.formats.read_recording`).
@@ -328,13 +382,16 @@ def compare(
         topics: compare only these topics (default: all); each must be in A or B.
         absolute: align samples on their stamps instead of the time since each start
             (:func:`tfrec.resample.data_start_ns`).
+        namespace: compare only the robots of this namespace (``/robot1``; ``/`` the root's).
+        remap: ``FROM:=TO`` topic remapping rules, applied to both recordings as they are read.
+        use_log_time: compare the samples at their log times instead of their header stamps.
 
     Returns:
         The report; ``report.equal`` is False when anything differs beyond tolerance.
 
     Raises:
-        DiffError: a path that cannot be read as a recording, or a topic of ``topics``
-            that is in neither recording.
+        DiffError: a topic of ``topics`` that is in neither recording.
+        ReadError: a path that cannot be read as a recording, a bad remapping rule.
         ValueError: a negative or non-finite tolerance.
     """
     tolerances = {
@@ -345,8 +402,9 @@ def compare(
     wanted = None if topics is None else frozenset(topics)
     # the time series are read whatever the topics, for each recording's start (data_start_ns)
     decoded = wanted if wanted is None or absolute else wanted | {JOINT_STATES, TF}
-    rec_a = a if isinstance(a, Recording) else read_recording(a, topics=decoded)
-    rec_b = b if isinstance(b, Recording) else read_recording(b, topics=decoded)
+    options: dict[str, Any] = {"namespace": namespace, "remap": remap, "use_log_time": use_log_time}
+    rec_a = a if isinstance(a, Recording) else read_recording(a, topics=decoded, **options)
+    rec_b = b if isinstance(b, Recording) else read_recording(b, topics=decoded, **options)
     if wanted is not None:
         absent = sorted(topic for topic in wanted if topic not in rec_a.topics and topic not in rec_b.topics)
         if absent:
@@ -354,7 +412,8 @@ def compare(
                 f"`topics` {' '.join(absent)}: in neither {rec_a.path} nor {rec_b.path} "
                 f"(their topics: {', '.join(sorted(set(rec_a.topics) | set(rec_b.topics))) or 'none'})"
             )
-    report = DiffReport(rec_a, rec_b, tolerances=tolerances, absolute=absolute)
+    report = DiffReport(rec_a, rec_b, tolerances=tolerances, absolute=absolute,
+                        time_base="log" if "log" in (rec_a.time_base, rec_b.time_base) else "header")
     for rec in (rec_a, rec_b):
         if rec.read_error is not None:
             warnings.warn(rec.read_error, stacklevel=2)
@@ -362,10 +421,8 @@ def compare(
     cmp = _Comparison(rec_a, rec_b, report, wanted, absolute)
     if not absolute:
         report.origins = (cmp.origin_a, cmp.origin_b)
-    cmp.description()
     cmp.topic_table()
-    cmp.joint_states()
-    cmp.transforms()
+    cmp.robots(None if namespace is None else namespace_name(namespace))
     if cmp.interpolated:
         groups = []
         for rates, whats in cmp.interpolated.items():

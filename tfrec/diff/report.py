@@ -11,6 +11,7 @@ from tfrec.recording import Recording
 __all__ = ["DiffReport", "Difference", "Largest", "at_time", "format_time"]
 
 _KIND_TITLES = {
+    "robot": "robots",
     "description": "robot description",
     "topic": "topics",
     "joint_states": "joint states (/joint_states)",
@@ -25,7 +26,7 @@ class Difference:
     """One way in which the recordings differ.
 
     Attributes:
-        kind: ``description``, ``topic``, ``joint_states``, ``tf``, ``tf_static`` or ``frame``.
+        kind: ``robot``, ``description``, ``topic``, ``joint_states``, ``tf``, ``tf_static`` or ``frame``.
         what: the element: ``joint 'joint2'``, ``/tf``, ``link1 → link2``.
         detail: one readable line.
         time_ns: when it first exceeds its tolerance (ns since A's start, its first
@@ -73,6 +74,8 @@ class DiffReport:
         origins: each recording's start, the stamp its times count from (ns since the epoch):
             its first /joint_states or /tf stamp (:func:`tfrec.resample.data_start_ns`); None with
             ``absolute``.
+        time_base: what the samples' times are: ``header`` stamps, or ``log`` times
+            (``use_log_time``). The topic table's spans are always log times.
     """
 
     a: Recording
@@ -83,6 +86,7 @@ class DiffReport:
     tolerances: dict[str, float] = field(default_factory=dict)
     absolute: bool = False
     origins: tuple[int | None, int | None] = (None, None)
+    time_base: str = "header"
 
     @property
     def equal(self) -> bool:
@@ -113,8 +117,10 @@ class DiffReport:
             self._side("B", self.b),
             f"tolerances: position {tol['pos_tol']:g} m, rotation {tol['rot_tol']:g} rad, "
             f"joint {tol['joint_tol']:g}; times are "
-            + ("stamps (s since the epoch)" if self.absolute
-               else "s since each recording's start (its first /joint_states or /tf stamp)"),
+            + (("log times" if self.time_base == "log" else "stamps") + " (s since the epoch)" if self.absolute
+               else "s since each recording's start (its first /joint_states or /tf "
+               + ("message's log time)" if self.time_base == "log" else "stamp)"))
+            + "; topic spans are log times" + ("" if self.absolute else ", s since that message was logged"),
         ]
         for kind, title in _KIND_TITLES.items():
             items = [d for d in self.differences if d.kind == kind]
@@ -158,6 +164,7 @@ class DiffReport:
             "b": side(self.b, self.origins[1]),
             "tolerances": dict(self.tolerances),
             "absolute": self.absolute,
+            "time_base": self.time_base,
             "differences": [d.to_dict() for d in self.differences],
             "largest": {
                 quantity: {"value": found.value, "what": found.what,

@@ -1,22 +1,24 @@
 """Reading recordings back into arrays: MCAP, rosbag2 folders, ROS 1 bags and tfrec's ``.rrd``.
 
-:func:`read_recording` gives one :class:`Recording` whatever the format: the robot description,
-the topic table, the joint states as one (N, J) array and every TF frame pair as a time series.
+:func:`read_recording` gives one :class:`Recording` whatever the format: the robot descriptions,
+the topic table, the joint states as one (N, J) array and every TF frame pair as a time series —
+for the root namespace and for every other namespace that holds robot topics (``/robot1/tf``).
 ``diff`` compares two of them and ``replay`` plays one back.
 
-How each format is read:
+How each format is read (each reader reads only what it decodes; the topic table comes from the
+file's own index where it has one):
 
-- ``.mcap`` (ROS 2 profile, CDR): :mod:`tfrec.formats.mcap.reader`, tfrec's own sequential reader; a
-  file cut short is read up to the cut (complete records of a partial chunk included), a damaged
-  chunk is skipped (its CRC fails) and reading goes on; :attr:`Recording.read_error` says what was lost.
-- rosbag2 folders (mcap or sqlite3 storage) and ROS 1 ``.bag`` files: ``rosbags``' ``AnyReader``
-  (a rosbag2 folder of one uncompressed MCAP: :mod:`tfrec.formats.mcap.reader`). What rosbags refuses is
-  read as far as possible, with :attr:`Recording.read_error` saying where reading stopped: a ROS 1
-  bag cut short, without an index, with a damaged chunk or with an index that rosbags trips over
-  (an assertion fails, a lookup misses) record by record
-  (:mod:`tfrec.formats.rosbag1.reader`); a sqlite3 ``.db3`` cut short through SQLite, from a copy whose
-  header's page count is lowered to the pages the file still has, its ``messages`` table in row
-  order up to the first missing page.
+- ``.mcap`` (ROS 2 profile, CDR): :mod:`tfrec.formats.mcap.reader`, tfrec's own reader, chunks
+  found through their message indexes; a file cut short is read up to the cut (complete records
+  of a partial chunk included), a damaged chunk is skipped (its CRC fails) and reading goes on;
+  :attr:`Recording.read_error` says what was lost.
+- rosbag2 folders (:mod:`tfrec.formats.rosbag2`): MCAP storage through the MCAP reader,
+  file by file; sqlite3 storage through SQL (every message the database holds, whatever the QoS
+  in ``metadata.yaml``), a ``.db3`` cut short read up to the first missing page. Counts that differ
+  from ``metadata.yaml`` warn. A folder of ``.mcap`` files without ``metadata.yaml`` is read as one bag.
+- ROS 1 ``.bag`` files: :mod:`tfrec.formats.rosbag1.index`, through the bag's index; a bag
+  without an index (cut short), with a damaged chunk or an index that does not describe its chunks
+  is read record by record (:mod:`tfrec.formats.rosbag1.reader`).
 - ``.rrd``: :mod:`tfrec.formats.rrd.reader`, through Rerun's own reader. Rerun stores transforms as float32.
 
 JointState and TFMessage messages with a fixed layout (the same names in every message) are
@@ -27,26 +29,30 @@ deserializers, message by message.
 from __future__ import annotations
 
 import os
-from collections.abc import Collection
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 from tfrec.errors import ReadError
-from tfrec.formats._collect import DECODED_TOPICS
-from tfrec.formats._rosbags import read_rosbags
-from tfrec.formats.mcap.reader import read_mcap
+from tfrec.formats._collect import Collector, ReadOptions
+from tfrec.formats.mcap.reader import read_mcap, read_mcap_into
 from tfrec.formats.mcap.records import MCAP_MAGIC
+from tfrec.formats.rosbag1.index import read_rosbag1
 from tfrec.formats.rosbag1.reader import ROS1_MAGIC
-from tfrec.formats.rosbag2.metadata import BagMetadata, read_bag_metadata
+from tfrec.formats.rosbag2.metadata import BagMetadata, bag_without_metadata, read_bag_metadata
+from tfrec.formats.rosbag2.sqlite3 import Damaged, read_sqlite3_into, salvage_sqlite3_into
+from tfrec.formats.rosbag2.storage import check_metadata_counts, message_decompressor, plain_files
 from tfrec.formats.rrd.reader import RRD_MAGIC, read_rrd
 from tfrec.recording import Recording
 
 __all__ = [
+    "ReadOptions",
     "RecordingSource",
     "identify_recording",
     "read_recording",
     "recording_format",
 ]
+
 
 @dataclass(frozen=True, slots=True)
 class RecordingSource:
@@ -77,9 +83,10 @@ def recording_format(path: str | os.PathLike[str]) -> str:
     where = os.fspath(path)
     file = Path(path)
     if file.is_dir():
-        if (file / "metadata.yaml").is_file():
+        if (file / "metadata.yaml").is_file() or bag_without_metadata(file) is not None:
             return "rosbag2"
-        raise ReadError(f"{where}: a folder without metadata.yaml (not a rosbag2 bag)")
+        raise ReadError(f"{where}: a folder without metadata.yaml and without .mcap or .db3 files "
+                        "(not a rosbag2 bag)")
     if not file.exists():
         raise ReadError(f"{where}: no such file or folder")
     try:
@@ -95,6 +102,8 @@ def recording_format(path: str | os.PathLike[str]) -> str:
         return "rrd"
     if head.startswith(b"SQLite format 3\0") and (file.parent / "metadata.yaml").is_file():
         return "rosbag2"
+    if not head:
+        raise ReadError(f"{where}: an empty file (0 bytes), not a recording")
     raise ReadError(f"{where}: not a recording (neither MCAP, rosbag2, ROS 1 bag nor Rerun .rrd)")
 
 
@@ -109,43 +118,95 @@ def identify_recording(path: str | os.PathLike[str]) -> RecordingSource:
     file = Path(path)
     if fmt != "rosbag2":
         return RecordingSource(file, fmt)
-    return RecordingSource(file, fmt, read_bag_metadata(file.parent if file.is_file() else file))
+    folder = file.parent if file.is_file() else file
+    if not (folder / "metadata.yaml").is_file():
+        meta = bag_without_metadata(folder)
+        assert meta is not None  # recording_format found its files
+        return RecordingSource(file, fmt, meta)
+    return RecordingSource(file, fmt, read_bag_metadata(folder))
 
 
 def read_recording(
-    path: str | os.PathLike[str] | RecordingSource, *, topics: Collection[str] | None = None
+    path: str | os.PathLike[str] | RecordingSource,
+    *,
+    topics: Collection[str] | None = None,
+    namespace: str | None = None,
+    remap: Iterable[str] | Mapping[str, str] | None = None,
+    use_log_time: bool = False,
+    summary: bool = False,
 ) -> Recording:
     """Read a recording into arrays.
 
     Args:
         path: an ``.mcap`` file, a rosbag2 folder (or its ``.db3``), a ROS 1 ``.bag`` or an
             ``.rrd``; or what :func:`identify_recording` found of one.
-        topics: decode only these of /robot_description, /tf_static, /joint_states and /tf
-            (the topic table always lists every topic); None for all.
+        topics: decode only these of /robot_description, /tf_static, /joint_states and /tf —
+            in every namespace (``/tf`` is robot1's ``/robot1/tf`` too), or one namespace's
+            (``/robot1/tf``); the topic table always lists every topic. None for all.
+        namespace: decode only the robot topics of this namespace (``/robot1``, ``"/"`` for the
+            root) and of the root namespace, whose /tf and /joint_states its robots may share.
+        remap: ``FROM:=TO`` rules (or a mapping) that rename topics as ROS remapping does,
+            before anything else: ``["/robot1/tf:=/tf"]``.
+        use_log_time: take each message's log time for the stamps of /joint_states and /tf
+            (:attr:`Recording.time_base` ``log``): for a driver that stamps 0, say.
+        summary: decode only what a summary needs: every description and /tf_static message,
+            the first /joint_states message and the first thousand /tf messages of each namespace.
 
     Returns:
         The recording. A damaged MCAP, ROS 1 bag or sqlite3 bag yields what was readable,
         with ``read_error`` set.
 
     Raises:
-        ReadError: a missing or unreadable input, or one that is not a recording; one
-            line naming the file.
+        ReadError: a missing or unreadable input, one that is not a recording, or a bad `remap` rule;
+            one line naming the file.
     """
+    options = ReadOptions.of(topics=topics, namespace=namespace, remap=remap, use_log_time=use_log_time,
+                             summary=summary)
     source = path if isinstance(path, RecordingSource) else identify_recording(path)
-    wanted = DECODED_TOPICS if topics is None else frozenset(topics)
     fmt, file = source.format, source.path
     if fmt == "mcap":
-        return read_mcap(file, wanted)
+        return read_mcap(file, options)
     if fmt == "rrd":
-        return read_rrd(file, wanted)
+        return read_rrd(file, options)
     if fmt == "rosbag1":
-        return read_rosbags(file, fmt, wanted)
+        return read_rosbag1(file, options)
     if file.is_file():
         file = file.parent
     meta = source.bag if source.bag is not None else read_bag_metadata(file)  # its errors are one line
-    if meta.storage == "mcap" and not meta.compression and len(meta.files) == 1:
-        recording = read_mcap(meta.files[0], wanted)  # tfrec record --bag: much faster than rosbags
-        recording.path, recording.format = os.fspath(file), "rosbag2"
-        recording.details["storage"] = "mcap"
-        return recording
-    return read_rosbags(file, fmt, wanted, meta)
+    return _read_rosbag2(file, meta, options)
+
+
+def _read_rosbag2(folder: Path, meta: BagMetadata, options: ReadOptions) -> Recording:
+    """A rosbag2 bag's files as one recording: MCAP storage file by file through the MCAP reader,
+    sqlite3 storage through SQL (read again row by row, as far as SQLite goes, when a database is damaged).
+
+    Raises:
+        ReadError: an unknown storage or compression, a file that cannot be read, or nothing readable.
+    """
+    where = os.fspath(folder)
+    if meta.storage not in ("mcap", "sqlite3"):
+        raise ReadError(f"{where}: storage '{meta.storage}' (tfrec reads mcap and sqlite3 bags)")
+    decompress = message_decompressor(meta, where)
+    recording = Recording(path=where, format="rosbag2")
+    collector = Collector(recording, options, ros1=False, decompress=decompress)
+    with plain_files(meta, where) as files:
+        if meta.storage == "mcap":
+            true_starts = [lost[1] for file in files
+                           if (lost := read_mcap_into(file, collector, where=where)) is not None and lost[1] is not None]
+        else:
+            true_starts = []
+            try:
+                read_sqlite3_into(files, collector, where=where)
+            except Damaged as err:
+                recording = Recording(path=where, format="rosbag2")
+                collector = Collector(recording, options, ros1=False, decompress=decompress)
+                salvage_sqlite3_into(files, collector, where=where, refused=str(err))
+    collector.finish()
+    if true_starts and (recording.start_ns is None or min(true_starts) < recording.start_ns):
+        recording.start_ns = min(true_starts)  # messages before the first one read were lost
+    recording.details["storage"] = meta.storage
+    if meta.compression:
+        recording.details["bag_compression"] = f"{meta.compression} {meta.compression_mode or 'file'}"
+    if meta.topic_counts is not None and recording.read_error is None:
+        check_metadata_counts(recording, meta, options, where)
+    return recording

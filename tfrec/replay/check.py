@@ -28,7 +28,8 @@ from tfrec.kinematics.fk import dynamic_transforms, static_transforms
 from tfrec.kinematics.rotations import rotation_error
 from tfrec.model import Joint, JointType
 from tfrec.recording import FrameSeries
-from tfrec.replay.load import Replay, joint_positions
+from tfrec.replay.load import joint_positions
+from tfrec.replay.prepared import Replay, RobotReplay
 from tfrec.resample import align
 
 __all__ = [
@@ -71,6 +72,7 @@ class FrameCheck:
             first stamp; None for latched transforms or nothing compared).
         problem: why the frame could not be compared, or None.
         errors: the errors at every compared stamp, or None (not in :meth:`to_dict`).
+        robot: the robot's key (``/robot1``; ``""`` for the only robot of a recording).
     """
 
     frame: str
@@ -84,6 +86,7 @@ class FrameCheck:
     rotation_time_s: float | None = None
     problem: str | None = None
     errors: FrameErrors | None = field(default=None, repr=False, compare=False)
+    robot: str = ""
 
     def passed(self, pos_tol: float, rot_tol: float) -> bool:
         return self.problem is None and self.translation_m <= pos_tol and self.rotation_rad <= rot_tol
@@ -105,6 +108,9 @@ class CheckReport:
         pos_tol, rot_tol: the tolerances.
         notes: remarks that are not failures (frames the description does not have).
         origin_ns: the recording's start (``Replay.origin_ns``): times in the report count from it.
+        robots: the keys of the robots checked (``[""]`` for the only robot of a recording).
+        unchecked: robot key → why it was not checked (no description, no joint states…);
+            its frames are not in ``frames``, and the verdict never calls them a pass.
     """
 
     path: str
@@ -113,6 +119,8 @@ class CheckReport:
     rot_tol: float
     notes: list[str] = field(default_factory=list)
     origin_ns: int = 0
+    robots: list[str] = field(default_factory=lambda: [""])
+    unchecked: dict[str, str] = field(default_factory=dict)
 
     @property
     def failures(self) -> list[FrameCheck]:
@@ -131,6 +139,8 @@ class CheckReport:
             "frames": [frame.to_dict() for frame in self.frames],
             "failures": [frame.frame for frame in self.failures],
             "notes": self.notes,
+            "robots": self.robots,
+            "unchecked": self.unchecked,
         }
 
 
@@ -149,12 +159,14 @@ def _largest(errors: Array, times: NDArray[np.int64] | None, replay: Replay) -> 
 
 
 class _Checker:
-    def __init__(self, replay: Replay) -> None:
-        assert replay.robot is not None
+    def __init__(self, part: RobotReplay, replay: Replay) -> None:
+        assert part.robot is not None
         self.replay = replay
-        self.robot = replay.robot
-        self.prefix = replay.frame_prefix
-        self.joint_states = replay.joint_states
+        self.key = part.key
+        self.joint_topic = part.namespace + "/joint_states"
+        self.robot = part.robot
+        self.prefix = part.frame_prefix
+        self.joint_states = part.joint_states
         self.names: tuple[str, ...] = ()
         self.positions = np.zeros((0, 0))
         if self.joint_states is not None:  # none: a robot without moving joints, only fixed frames to check
@@ -183,7 +195,7 @@ class _Checker:
 
     def frame(self, joint: Joint, parent: str, child: str, topic: str, series: FrameSeries | None,
               static: tuple[Array, Array] | None) -> FrameCheck:
-        check = FrameCheck(child, parent, joint.name, topic)
+        check = FrameCheck(child, parent, joint.name, topic, robot=self.key)
         expected_parent = self.prefix + joint.parent
         if parent != expected_parent:
             return replace(check, problem=f"parent is '{parent}' in the recording, '{expected_parent}' in the "
@@ -199,7 +211,7 @@ class _Checker:
             translation, rotation = static[0][np.newaxis], static[1][np.newaxis]
         want_t, want_q, inside = self.expected(joint, times)
         if not inside.any():
-            return replace(check, problem=f"no /joint_states position for joint '{joint.name}' at its stamps")
+            return replace(check, problem=f"no {self.joint_topic} position for joint '{joint.name}' at its stamps")
         translation_err = np.linalg.norm(translation[inside] - want_t, axis=1)
         rotation_err = rotation_error(rotation[inside], want_q)
         stamps = times[inside] if series is not None else None
@@ -210,41 +222,33 @@ class _Checker:
                         rotation_rad=r_max, rotation_time_s=r_at, errors=errors)
 
 
-def check_replay(replay: Replay, *, pos_tol: float = CHECK_POS_TOL, rot_tol: float = CHECK_ROT_TOL) -> CheckReport:
-    """Recompute TF from the recorded joint states and compare it with the recorded TF.
+def _why_unchecked(part: RobotReplay) -> str | None:
+    """Why a robot cannot be re-simulated (the error of a recording of one robot), or None."""
+    ns = part.namespace
+    if part.robot is None:
+        return (f"no robot description to re-simulate with (no {ns}/robot_description in the recording); "
+                "give `robot` FILE")
+    if not part.robot.moving_joints:  # only /tf_static to check
+        return None
+    if part.joint_states is None or not len(part.joint_states):
+        return f"no {ns}/joint_states to re-simulate"
+    if not any(len(s) for pair, s in part.tf.items() if pair not in part.derived_dynamic):
+        return f"no {ns}/tf to compare the re-simulation with"
+    return None
 
-    Args:
-        replay: from :func:`tfrec.replay.load_replay` (its time window applies).
-        pos_tol: metres; a frame whose largest translation error exceeds it fails.
-        rot_tol: radians; the same for the rotation angle.
 
-    Returns:
-        One :class:`FrameCheck` per frame of the description that the recording has or should
-        have; frames of the description missing from the recording fail, frames the
-        description does not have are noted.
-
-    Raises:
-        ReplayError: a bad tolerance, no robot model, no /joint_states or no /tf to compare.
-    """
-    pos_tol = _tolerance("`pos_tol`", pos_tol)
-    rot_tol = _tolerance("`rot_tol`", rot_tol)
-    replay.report_damage()
-    robot = replay.robot
-    if robot is None:
-        raise ReplayError(f"{replay.path}: no robot description to re-simulate with (no /robot_description in "
-                             "the recording); give `robot` FILE")
-    moving = bool(robot.moving_joints)  # a robot without moving joints has only /tf_static to check
-    if moving and (replay.joint_states is None or not len(replay.joint_states)):
-        raise ReplayError(f"{replay.path}: no /joint_states to re-simulate")
-    recorded_tf = {pair: s for pair, s in replay.tf.items() if pair not in replay.derived_dynamic and len(s)}
-    recorded_static = {pair: v for pair, v in replay.static.items() if pair not in replay.derived_static}
-    if moving and not recorded_tf:
-        raise ReplayError(f"{replay.path}: no /tf to compare the re-simulation with")
-    checker = _Checker(replay)
+def _check_robot(part: RobotReplay, replay: Replay, report: CheckReport) -> None:
+    """Check one robot's recorded frames, in its description's order; notes name it when there are several."""
+    robot = part.robot
+    assert robot is not None
+    who = f"{part.label}: " if part.key else ""
+    recorded_tf = {pair: s for pair, s in part.tf.items() if pair not in part.derived_dynamic and len(s)}
+    recorded_static = {pair: v for pair, v in part.static.items() if pair not in part.derived_static}
+    checker = _Checker(part, replay)
     by_child: dict[str, list[FrameCheck]] = {}
     other: list[tuple[str, str]] = []
     floating: list[str] = []
-    joint_of_child = {replay.frame_prefix + joint.child: joint for joint in robot.joints}
+    joint_of_child = {part.frame_prefix + joint.child: joint for joint in robot.joints}
     for topic, pairs in (("/tf_static", recorded_static), ("/tf", recorded_tf)):
         for (parent, child), value in pairs.items():
             joint = joint_of_child.get(child)
@@ -256,22 +260,62 @@ def check_replay(replay: Replay, *, pos_tol: float = CHECK_POS_TOL, rot_tol: flo
                 series = value if isinstance(value, FrameSeries) else None
                 static = None if isinstance(value, FrameSeries) else value
                 by_child.setdefault(child, []).append(checker.frame(joint, parent, child, topic, series, static))
-    frames: list[FrameCheck] = []
     for joint in robot.joints:
-        child = replay.frame_prefix + joint.child
+        child = part.frame_prefix + joint.child
         if child in by_child:
-            frames.extend(by_child[child])
+            report.frames.extend(by_child[child])
         elif joint.type is not JointType.FLOATING:
             topic = "/tf" if joint.type.moves else "/tf_static"
-            frames.append(FrameCheck(child, replay.frame_prefix + joint.parent, joint.name, topic,
-                                     problem=f"not in the recording (joint '{joint.name}' of the description)"))
-    report = CheckReport(replay.path, frames, pos_tol, rot_tol, origin_ns=replay.origin_ns)
+            report.frames.append(FrameCheck(child, part.frame_prefix + joint.parent, joint.name, topic,
+                                            problem=f"not in the recording (joint '{joint.name}' of the description)",
+                                            robot=part.key))
     if other:
         shown = ", ".join(f"{p} → {c}" for p, c in other[:3]) + (" …" if len(other) > 3 else "")
-        report.notes.append(f"{len(other)} recorded frame pair{'s' if len(other) > 1 else ''} not in the "
+        report.notes.append(f"{who}{len(other)} recorded frame pair{'s' if len(other) > 1 else ''} not in the "
                             f"description, not checked: {shown}")
     if floating:
-        report.notes.append(f"frames below floating joints are not re-simulated: {', '.join(floating)}")
+        report.notes.append(f"{who}frames below floating joints are not re-simulated: {', '.join(floating)}")
+
+
+def check_replay(replay: Replay, *, pos_tol: float = CHECK_POS_TOL, rot_tol: float = CHECK_ROT_TOL) -> CheckReport:
+    """Recompute TF from the recorded joint states and compare it with the recorded TF, robot by robot.
+
+    Args:
+        replay: from :func:`tfrec.replay.load_replay` (its time window applies).
+        pos_tol: metres; a frame whose largest translation error exceeds it fails.
+        rot_tol: radians; the same for the rotation angle.
+
+    Returns:
+        One :class:`FrameCheck` per frame of each robot's description that the recording has or
+        should have; frames of a description missing from the recording fail, frames no
+        description has are noted, robots that cannot be checked are listed in ``unchecked``.
+
+    Raises:
+        ReplayError: a bad tolerance, or no robot that can be checked: none with a model,
+            /joint_states and /tf (for a recording of one robot: which of them it lacks).
+    """
+    pos_tol = _tolerance("`pos_tol`", pos_tol)
+    rot_tol = _tolerance("`rot_tol`", rot_tol)
+    replay.report_damage()
+    parts = [part for part in replay.robots if not part.unclaimed]
+    reasons = {part.key: _why_unchecked(part) for part in parts}
+    checkable = [part for part in parts if reasons[part.key] is None]
+    if not checkable:
+        first = next((reason for reason in reasons.values() if reason is not None),
+                     "no robot description to re-simulate with (no /robot_description in the recording); "
+                     "give `robot` FILE")
+        raise ReplayError(f"{replay.path}: {first}")
+    report = CheckReport(replay.path, [], pos_tol, rot_tol, origin_ns=replay.origin_ns,
+                         robots=[part.key for part in checkable],
+                         unchecked={key: reason for key, reason in reasons.items() if reason is not None})
+    for part in checkable:
+        _check_robot(part, replay, report)
+    for part in replay.robots:
+        if part.unclaimed:
+            pairs = [*part.static, *part.tf]
+            shown = ", ".join(f"{p} → {c}" for p, c in pairs[:3]) + (" …" if len(pairs) > 3 else "")
+            report.notes.append(f"{len(pairs)} frame pair{'s' if len(pairs) != 1 else ''} of no robot's "
+                                f"description ({part.key}), not checked: {shown}")
     return report
 
 
@@ -284,35 +328,51 @@ def _time(value: float | None) -> str:
 
 
 def format_check(report: CheckReport) -> str:
-    """The report as a table, one row per frame, then the verdict naming the failing frames."""
-    header = ("frame", "parent", "topic", "samples", "max transl. (m)", "at t (s)", "max rot. (rad)", "at t (s)", "")
-    rows = []
+    """The report as a table, one row per frame (naming its robot when there are several), then the
+    verdict naming the failing frames — per robot, with the robots that could not be checked."""
+    several = report.robots != [""] or bool(report.unchecked)
+    header: tuple[str, ...] = ("frame", "parent", "topic", "samples", "max transl. (m)", "at t (s)",
+                               "max rot. (rad)", "at t (s)", "")
+    if several:
+        header = ("robot", *header)
+    rows: list[tuple[str, ...]] = []
     for f in report.frames:
         ok = f.passed(report.pos_tol, report.rot_tol)
-        rows.append((f.frame, f.parent, f.topic, str(f.samples),
-                     _number(f.translation_m), _time(f.translation_time_s if f.translation_m else None),
-                     _number(f.rotation_rad), _time(f.rotation_time_s if f.rotation_rad else None),
-                     "ok" if ok else f"FAIL {f.problem or ''}".strip()))
+        row = (f.frame, f.parent, f.topic, str(f.samples),
+               _number(f.translation_m), _time(f.translation_time_s if f.translation_m else None),
+               _number(f.rotation_rad), _time(f.rotation_time_s if f.rotation_rad else None),
+               "ok" if ok else f"FAIL {f.problem or ''}".strip())
+        rows.append((f.robot or "/", *row) if several else row)
     widths = [max(len(row[i]) for row in [header, *rows]) for i in range(len(header) - 1)]
     lines = [f"re-simulated TF of {report.path} (tolerances {report.pos_tol:g} m, {report.rot_tol:g} rad)"]
-    for row in [header, *rows]:
-        lines.append(("  ".join(cell.ljust(width) for cell, width in zip(row, widths)) + "  " + row[-1]).rstrip())
+    for cells in [header, *rows]:
+        lines.append(("  ".join(cell.ljust(width) for cell, width in zip(cells, widths)) + "  " + cells[-1]).rstrip())
     lines.extend(f"note: {note}" for note in report.notes)
-    failures = report.failures
-    if not report.frames:
-        lines.append("PASS: the description has no joints, so there is no transform to compare")
-    elif not failures:
-        lines.append(f"PASS: all {len(report.frames)} frames match the description")
-    else:
-        named = []
-        for f in failures[:5]:
-            if f.problem is not None:
-                named.append(f"{f.frame} ({f.problem})")
-            elif f.translation_m > report.pos_tol:
-                named.append(f"{f.frame} (translation off by {_number(f.translation_m)} m at t={_time(f.translation_time_s)} s)")
-            else:
-                named.append(f"{f.frame} (rotation off by {_number(f.rotation_rad)} rad at t={_time(f.rotation_time_s)} s)")
-        more = f" and {len(failures) - 5} more" if len(failures) > 5 else ""
-        lines.append(f"FAIL: {len(failures)} of {len(report.frames)} frames differ from the description: "
-                     + "; ".join(named) + more)
+    if not several:
+        lines.append(_verdict(report.frames, report, "the description"))
+        return "\n".join(lines) + "\n"
+    for key in report.robots:
+        frames = [f for f in report.frames if f.robot == key]
+        lines.append(f"robot {key or '/'}: " + _verdict(frames, report, "its description"))
+    for key, reason in report.unchecked.items():
+        lines.append(f"robot {key or '/'}: NOT CHECKED: {reason}")
     return "\n".join(lines) + "\n"
+
+
+def _verdict(frames: list[FrameCheck], report: CheckReport, description: str) -> str:
+    failures = [f for f in frames if not f.passed(report.pos_tol, report.rot_tol)]
+    if not frames:
+        return f"PASS: {description.replace('its', 'the')} has no joints, so there is no transform to compare"
+    if not failures:
+        return f"PASS: all {len(frames)} frames match {description}"
+    named = []
+    for f in failures[:5]:
+        if f.problem is not None:
+            named.append(f"{f.frame} ({f.problem})")
+        elif f.translation_m > report.pos_tol:
+            named.append(f"{f.frame} (translation off by {_number(f.translation_m)} m at t={_time(f.translation_time_s)} s)")
+        else:
+            named.append(f"{f.frame} (rotation off by {_number(f.rotation_rad)} rad at t={_time(f.rotation_time_s)} s)")
+    more = f" and {len(failures) - 5} more" if len(failures) > 5 else ""
+    return (f"FAIL: {len(failures)} of {len(frames)} frames differ from {description}: "
+            + "; ".join(named) + more)

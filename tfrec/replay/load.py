@@ -2,8 +2,10 @@
 
 :func:`load_replay` reads any recording :func:`tfrec.formats.read_recording` reads (tfrec's or
 ``ros2 bag record``'s MCAP, rosbag2 folders with mcap or sqlite3 storage, ROS 1 bags, ``.rrd``)
-and prepares what is played: the robot model (the recording's /robot_description, or one given),
-/tf_static and /tf per frame pair, and /joint_states, cut to ``start_s``..``end_s``.
+and prepares what is played (:class:`~tfrec.replay.prepared.Replay`), robot by robot
+(:func:`tfrec.robots.find_robots`: one per description and namespace, ``/robot1/tf``…): the
+robot model (the recording's description, or one given), /tf_static and /tf per frame pair, and
+/joint_states, cut to ``start_s``..``end_s``.
 
 The replay behaves as if robot_state_publisher were running beside ``ros2 bag play``: a joint of
 the robot whose child frame is on none of the replayed /tf and /tf_static gets its transforms
@@ -28,24 +30,36 @@ from __future__ import annotations
 import math
 import os
 import warnings
-from collections.abc import Collection, Iterable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Collection, Iterable, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.conventions import JOINT_STATES, NS_PER_S, RECORDED_TOPICS, ROBOT_DESCRIPTION, TF, TF_STATIC
+from tfrec.conventions import (
+    JOINT_STATES,
+    NS_PER_S,
+    RECORDED_TOPICS,
+    ROBOT_DESCRIPTION,
+    TF,
+    TF_STATIC,
+    global_topic,
+    namespace_name,
+    robot_topic_kind,
+)
 from tfrec.errors import DescriptionError, ReplayError
 from tfrec.formats.reader import read_recording
 from tfrec.kinematics.fk import dynamic_transforms, static_transforms
 from tfrec.kinematics.joints import apply_mimic
 from tfrec.model import Robot
 from tfrec.recording import FrameSeries, JointStates, Recording
+from tfrec.replay.prepared import Replay, RobotReplay
 from tfrec.resample import data_end_ns, data_start_ns
+from tfrec.robots import RecordedRobot, detect_frame_prefix, find_robots
 
 __all__ = [
     "REPLAYED_TOPICS",
     "Replay",
+    "RobotReplay",
     "derive_transforms",
     "detect_frame_prefix",
     "joint_positions",
@@ -56,115 +70,7 @@ Array = NDArray[np.float64]
 Pair = tuple[str, str]
 
 REPLAYED_TOPICS = RECORDED_TOPICS
-"""The topics tfrec replays, those it records; a recording's other topics are skipped."""
-
-
-@dataclass
-class Replay:
-    """A recording prepared for playing.
-
-    Attributes:
-        path: the recording read.
-        format: ``mcap``, ``rosbag2``, ``rosbag1`` or ``rrd``.
-        robot: the robot model, or None when there is none (transforms are replayed alone).
-        robot_description: the URDF text to log at /robot_description, or None.
-        frame_prefix: what the recording's frame ids put in front of the link names.
-        static: latched transforms, (parent, child) → (translation (3,), rotation (4,)).
-        tf: (parent, child) → transforms within the cut, recorded pairs first.
-        joint_states: /joint_states within the cut, or None.
-        derived_static: the pairs of ``static`` that are fixed joints of the model, not recorded.
-        derived_dynamic: the pairs of ``tf`` computed from the model and the joint states.
-        origin_ns: the recording's start, its first /joint_states or /tf stamp: ``start_s`` and
-            reported times count from it.
-        start_ns, end_ns: the first and last stamp replayed (None when no sample is left).
-        read_error: where reading a damaged file stopped, or None.
-    """
-
-    path: str
-    format: str
-    robot: Robot | None
-    robot_description: str | None
-    frame_prefix: str
-    static: dict[Pair, tuple[Array, Array]]
-    tf: dict[Pair, FrameSeries]
-    joint_states: JointStates | None
-    derived_static: frozenset[Pair]
-    derived_dynamic: frozenset[Pair]
-    origin_ns: int
-    start_ns: int | None
-    end_ns: int | None
-    read_error: str | None = None
-    _damage_reported: bool = field(default=False, repr=False)
-
-    @property
-    def derived(self) -> frozenset[Pair]:
-        """Every pair that robot_state_publisher's part of the replay added (static and dynamic)."""
-        return self.derived_static | self.derived_dynamic
-
-    def derived_summary(self) -> str:
-        """What the model added, for the replay's summary line, or ``""`` when nothing.
-
-        ``TF of 7 frames computed from the joint states and of 12 fixed frames taken from the
-        robot description``.
-        """
-        parts = []
-        if self.derived_dynamic:
-            n = len(self.derived_dynamic)
-            parts.append(f"{n} frame{'s' if n != 1 else ''} computed from the joint states")
-        if self.derived_static:
-            n = len(self.derived_static)
-            parts.append(f"{n} fixed frame{'s' if n != 1 else ''} taken from the robot description")
-        return "TF of " + " and of ".join(parts) if parts else ""
-
-    def seconds(self, time_ns: int) -> float:
-        """A stamp as seconds from the recording's start (``origin_ns``)."""
-        return (time_ns - self.origin_ns) / NS_PER_S
-
-    def frames(self) -> list[str]:
-        """Every frame id of the latched and dynamic transforms, in order of appearance."""
-        seen: dict[str, None] = {}
-        for parent, child in list(self.static) + list(self.tf):
-            seen.setdefault(parent)
-            seen.setdefault(child)
-        return list(seen)
-
-    def root_frame(self) -> str | None:
-        """The frame the 3D view is drawn in: the robot's root, else a frame that is nobody's child."""
-        if self.robot is not None:
-            return self.frame_prefix + self.robot.root
-        children = {child for _, child in list(self.static) + list(self.tf)}
-        return next((frame for frame in self.frames() if frame not in children), None)
-
-    def report_damage(self) -> None:
-        """Warn once, for a damaged file, where reading stopped and how far the replay went."""
-        if self.read_error is None or self._damage_reported:
-            return
-        self._damage_reported = True
-        upto = "" if self.end_ns is None else f"; replayed up to t={self.seconds(self.end_ns):.3f} s"
-        warnings.warn(self.read_error + upto, stacklevel=2)
-
-
-def detect_frame_prefix(robot: Robot, frames: Iterable[str]) -> str:
-    """The prefix the recording's frame ids put in front of the robot's link names.
-
-    robot_state_publisher's ``frame_prefix`` (``left/``), or ROS 1's leading ``/``: the prefix that
-    turns the most frames into link names; no prefix when the frames are the link names.
-    """
-    links = {link.name for link in robot.links}
-    counts: dict[str, int] = {}
-    for frame in set(frames):
-        if frame in links:
-            counts[""] = counts.get("", 0) + 1
-        for link in links:
-            if len(frame) > len(link) and frame.endswith(link):
-                prefix = frame[: -len(link)]
-                counts[prefix] = counts.get(prefix, 0) + 1
-    if not counts:
-        return ""
-    best = max(counts.values())
-    if counts.get("", 0) == best:
-        return ""
-    return min((prefix for prefix, count in counts.items() if count == best), key=lambda p: (len(p), p))
+"""The topics tfrec replays, those it records (in every namespace); a recording's other topics are skipped."""
 
 
 def joint_positions(robot: Robot, joint_states: JointStates) -> tuple[tuple[str, ...], Array]:
@@ -232,32 +138,29 @@ def _check_window(start_s: float | None, end_s: float | None) -> None:
         raise ReplayError(f"`end_s` {end_s:g} is before `start_s` {start_s:g}")
 
 
-def _check_topics(topics: Collection[str] | None) -> frozenset[str]:
+def _check_topics(topics: Collection[str] | None) -> list[str]:
+    """The selected topics (kinds like ``/tf``, or one namespace's ``/robot1/tf``), in the order of REPLAYED_TOPICS."""
     if topics is None:
-        return frozenset(REPLAYED_TOPICS)
+        return list(REPLAYED_TOPICS)
     for topic in topics:
-        if topic not in REPLAYED_TOPICS:
-            raise ReplayError(f"topic '{topic}' cannot be replayed; tfrec replays {', '.join(REPLAYED_TOPICS)}")
-    return frozenset(topics)
+        if robot_topic_kind(topic) is None:
+            raise ReplayError(f"topic '{topic}' cannot be replayed; tfrec replays {', '.join(REPLAYED_TOPICS)} "
+                              "(of any namespace, e.g. /robot1/tf)")
+    names = {global_topic(topic) for topic in topics}
+    kinds = [topic for topic in REPLAYED_TOPICS if topic in names]
+    return kinds + sorted(names - set(kinds))
 
 
-def _robot_of(description: str | None, where: str, *, required: bool) -> Robot | None:
-    """The model of a recorded /robot_description; an unusable one warns (or raises when required)."""
-    if description is None:
-        return None
-    from tfrec.description.urdf import parse_urdf
-
-    try:
-        return parse_urdf(description, source=None, user_lines=False)
-    except DescriptionError as err:
-        if required:
-            raise DescriptionError(f"{where}: /robot_description is not a usable robot description: {err}") from err
-        warnings.warn(f"{where}: /robot_description is not a usable robot description ({err}); "
-                      "replaying without the robot model (give `robot` FILE)", stacklevel=3)
-        return None
+def _selects(selected: Collection[str], namespace: str, kind: str) -> bool:
+    """Whether one namespace's topic of a kind is replayed: its kind or its own name is selected."""
+    return kind in selected or namespace + kind in selected
 
 
 def _has(rec: Recording, topic: str) -> bool:
+    """Whether the recording has messages on ``topic``: a full name, or a kind (``/tf``) in any namespace."""
+    if topic in RECORDED_TOPICS:
+        return any(info.count > 0 and robot_topic_kind(name) is not None and robot_topic_kind(name)[1] == topic  # type: ignore[index]
+                   for name, info in rec.topics.items())
     info = rec.topics.get(topic)
     return info is not None and info.count > 0
 
@@ -276,7 +179,7 @@ def _cut_series(series: FrameSeries, lo: int, hi: int) -> FrameSeries:
 
 
 def _transforms_not_recorded(
-    robot: Robot, prefix: str, covered: set[str], joint_states: JointStates | None, where: str
+    robot: Robot, prefix: str, covered: set[str], joint_states: JointStates | None, where: str, joint_topic: str
 ) -> tuple[dict[Pair, tuple[Array, Array]], dict[Pair, FrameSeries]]:
     """What robot_state_publisher would add for the joints whose child frame is not in ``covered``.
 
@@ -294,9 +197,78 @@ def _transforms_not_recorded(
     if unplaced and (joint_states is None or len(joint_states)):
         listed = ", ".join(unplaced[:5]) + (f" and {len(unplaced) - 5} more" if len(unplaced) > 5 else "")
         plural = len(unplaced) > 1
-        warnings.warn(f"{where}: no /tf and no /joint_states position for joint{'s' if plural else ''} {listed}; "
-                      f"{'their links are' if plural else 'its link is'} not placed", stacklevel=3)
+        warnings.warn(f"{where}: no /tf and no {joint_topic} position for joint{'s' if plural else ''} {listed}; "
+                      f"{'their links are' if plural else 'its link is'} not placed", stacklevel=4)
     return latched, computed
+
+
+def _model_of(found: RecordedRobot, where: str, *, required: bool, only: bool) -> Robot | None:
+    """The model of a recorded description; an unusable one warns (or raises when required of the only robot)."""
+    if found.problem is None:
+        return found.model
+    topic = found.namespace + ROBOT_DESCRIPTION
+    who = "" if only else f"{found.label}: "
+    if required and only:
+        raise DescriptionError(f"{where}: {topic} is not a usable robot description: {found.problem}")
+    warnings.warn(f"{where}: {who}{topic} is not a usable robot description ({found.problem}); "
+                  "replaying without the robot model (give `robot` FILE)", stacklevel=4)
+    return None
+
+
+def _prepare(found: RecordedRobot, model: Robot | None, override: bool, selected: Collection[str],
+             window: tuple[int, int], where: str, *, need_robot: bool, only: bool) -> RobotReplay:
+    """One robot's replay: its data within the window, and what its model adds."""
+    if not override and not found.unclaimed:
+        model = _model_of(found, where, required=need_robot, only=only)
+        if found.description is None and not need_robot:
+            what = ("TF is replayed without robot geometry" if found.tf or found.tf_static
+                    else "only the joint positions are replayed, with no robot model to move")
+            who = "" if only else f"{found.label}: "
+            warnings.warn(f"{where}: {who}no {found.namespace}{ROBOT_DESCRIPTION} in the recording and no `robot`: "
+                          f"{what} (give `robot` FILE)", stacklevel=3)
+    description = None
+    if _selects(selected, found.namespace, ROBOT_DESCRIPTION):
+        description = model.urdf if model is not None and model.urdf else found.description
+    static = dict(found.tf_static) if _selects(selected, found.tf_namespace, TF_STATIC) else {}
+    recorded_tf = dict(found.tf) if _selects(selected, found.tf_namespace, TF) else {}
+    joint_states = found.joint_states if _selects(selected, found.joint_states_namespace, JOINT_STATES) else None
+    prefix = found.frame_prefix
+    if model is not None and (override or model is not found.model):
+        prefix = detect_frame_prefix(model, [f for pair in list(static) + list(recorded_tf) for f in pair],
+                                     namespace=found.namespace)
+    lo, hi = window
+    tf = {pair: _cut_series(series, lo, hi) for pair, series in recorded_tf.items()}
+    if joint_states is not None:
+        rows = (joint_states.time_ns >= lo) & (joint_states.time_ns <= hi)
+        if not rows.all():
+            joint_states = JointStates(joint_states.time_ns[rows], joint_states.names, joint_states.positions[rows])
+    latched: dict[Pair, tuple[Array, Array]] = {}
+    computed: dict[Pair, FrameSeries] = {}
+    if model is not None:
+        covered = {child for _, child in list(static) + list(recorded_tf)}
+        latched, computed = _transforms_not_recorded(model, prefix, covered, joint_states, where,
+                                                     found.joint_states_namespace + JOINT_STATES)
+        static.update(latched)
+        tf.update(computed)
+    return RobotReplay(found.key, found.namespace, model, description, prefix, static, tf, joint_states,
+                       frozenset(latched), frozenset(computed), found.entity_root, problem=found.problem,
+                       unclaimed=found.unclaimed)
+
+
+def _display_prefixes(robots: list[RobotReplay], found: list[RecordedRobot]) -> None:
+    """Robots of several namespaces' /tf that use the same frame ids are shown apart: each
+    namespace's frames behind its name (``robot1/base_link``)."""
+    frames: dict[str, set[str]] = {}
+    for robot, origin in zip(robots, found):
+        frames.setdefault(origin.tf_namespace, set()).update(robot.frames())
+    if len(frames) < 2:
+        return
+    shared = {frame for ns, own in frames.items() for other, theirs in frames.items() if other != ns
+              for frame in own & theirs}
+    for robot, origin in zip(robots, found):
+        name = origin.tf_namespace.strip("/")
+        if shared & frames[origin.tf_namespace] and name:
+            robot.display_prefix = name + "/"
 
 
 def load_replay(
@@ -307,89 +279,78 @@ def load_replay(
     start_s: float | None = None,
     end_s: float | None = None,
     need_robot: bool = False,
+    namespace: str | None = None,
+    remap: Iterable[str] | Mapping[str, str] | None = None,
+    use_log_time: bool = False,
 ) -> Replay:
     """Read a recording and prepare it for :func:`tfrec.replay.play.play` (or for checking).
 
     Args:
         path: a recording (``.mcap``, rosbag2 folder, ROS 1 ``.bag``, ``.rrd``).
-        robot: a robot model that overrides the recording's /robot_description.
-        topics: replay only these of /robot_description, /tf_static, /joint_states and /tf.
+        robot: a robot model that overrides the recording's description (of its only robot,
+            or of the robot ``namespace`` picks).
+        topics: replay only these of /robot_description, /tf_static, /joint_states and /tf (in
+            every namespace), or of one namespace (``/robot1/tf``).
         start_s, end_s: replay the samples stamped this many seconds after the recording's
             start, its first /joint_states or /tf stamp (:func:`tfrec.resample.data_start_ns`).
-        need_robot: raise, rather than warn, when the recording's description is unusable.
+        need_robot: raise, rather than warn, when the only robot's description is unusable.
+        namespace: replay only the robots of this namespace (``/robot1``; ``/`` the root's).
+        remap: ``FROM:=TO`` topic remapping rules, applied as ROS applies them.
+        use_log_time: replay by log time instead of header stamps (stamps that are 0).
 
     Returns:
         The prepared replay; a damaged MCAP gives what was readable, with ``read_error`` set.
 
     Raises:
         ReplayError: an unknown topic, a bad time window, a path that is not a recording, a
-            recording with none of the selected topics, or ``start_s`` past its last sample.
-        DescriptionError: ``need_robot`` and a /robot_description that is not a valid URDF.
+            recording with none of the selected topics, no robot in ``namespace``, a ``robot``
+            for a recording of several robots, or ``start_s`` past its last sample.
+        DescriptionError: ``need_robot`` and a description that is not a valid URDF.
+        ReadError: a bad remapping rule, an unreadable file.
     """
     _check_window(start_s, end_s)
     selected = _check_topics(topics)
     where = os.fspath(path)
     # the time series are read whatever is selected: the recording's start counts from them
-    rec = read_recording(path, topics=selected | {JOINT_STATES, TF}
-                         | ({ROBOT_DESCRIPTION} if robot is None else set()))
-    absent = [topic for topic in REPLAYED_TOPICS if topic in selected and not _has(rec, topic)]
+    rec = read_recording(path, topics={*selected, JOINT_STATES, TF, *(() if robot is not None else (ROBOT_DESCRIPTION,))},
+                         namespace=namespace, remap=remap, use_log_time=use_log_time)
+    absent = [topic for topic in selected if not _has(rec, topic)]
     if len(absent) == len(selected):
         rec_kind = " (an .rrd not written by tfrec?)" if rec.format == "rrd" and not rec.topics else ""
         raise ReplayError(f"{where}: no {_listed(absent)} in the recording{rec_kind}; nothing to replay")
     if topics is not None and absent:
         warnings.warn(f"{where}: no {', '.join(absent)} in the recording", stacklevel=2)
+    ns = None if namespace is None else namespace_name(namespace)
+    found = find_robots(rec, namespace=ns)
+    if not found:
+        names = ", ".join(name or "/" for name in rec.namespace_names()) or "none"
+        raise ReplayError(f"{where}: no robot in `namespace` {ns or '/'} (the recording's namespaces: {names})")
+    robots_found = [r for r in found if not r.unclaimed]
+    if robot is not None and len(robots_found) > 1:
+        raise ReplayError(f"{where}: `robot` is one model, and the recording holds {len(robots_found)} robots "
+                          f"({', '.join(r.key for r in robots_found)}): pick one with `namespace`")
     origin = data_start_ns(rec) or 0
     last = data_end_ns(rec)
     if start_s is not None and origin + round(start_s * NS_PER_S) > (origin if last is None else last):
         end = 0.0 if last is None else (last - origin) / NS_PER_S
         damaged = "" if rec.read_error is None else f"; the file is damaged: {rec.read_error}"
         raise ReplayError(f"{where}: `start_s` {start_s:g} s is beyond the recording's end ({end:g} s){damaged}")
-    if robot is None:
-        robot = _robot_of(rec.robot_description, where, required=need_robot)
-        if rec.robot_description is None and not need_robot:
-            what = ("TF is replayed without robot geometry" if _has(rec, TF) or _has(rec, TF_STATIC)
-                    else "only the joint positions are replayed, with no robot model to move")
-            warnings.warn(f"{where}: no /robot_description in the recording and no `robot`: {what} "
-                          "(give `robot` FILE)", stacklevel=2)
-    description = None
-    if ROBOT_DESCRIPTION in selected:
-        description = robot.urdf if robot is not None and robot.urdf else rec.robot_description
-    recorded_static = dict(rec.tf_static) if TF_STATIC in selected else {}
-    recorded_tf = dict(rec.tf) if TF in selected else {}
-    joint_states = rec.joint_states if JOINT_STATES in selected else None
-    prefix = ""
-    if robot is not None:
-        prefix = detect_frame_prefix(robot, [f for pair in list(recorded_static) + list(recorded_tf) for f in pair])
-
     lo = origin + (0 if start_s is None else round(start_s * NS_PER_S))
     hi = int(np.iinfo(np.int64).max) if end_s is None else origin + round(end_s * NS_PER_S)
-
-    had_samples = any(len(s) for s in recorded_tf.values()) or (joint_states is not None and len(joint_states) > 0)
-    static = recorded_static
-    tf = {pair: _cut_series(series, lo, hi) for pair, series in recorded_tf.items()}
-    if joint_states is not None:
-        rows = (joint_states.time_ns >= lo) & (joint_states.time_ns <= hi)
-        if not rows.all():
-            joint_states = JointStates(joint_states.time_ns[rows], joint_states.names, joint_states.positions[rows])
-    latched: dict[Pair, tuple[Array, Array]] = {}
-    computed: dict[Pair, FrameSeries] = {}
-    if robot is not None:
-        covered = {child for _, child in list(recorded_static) + list(recorded_tf)}
-        latched, computed = _transforms_not_recorded(robot, prefix, covered, joint_states, where)
-        static.update(latched)
-        tf.update(computed)
-    stamps = [s.time_ns for s in tf.values() if len(s)]
-    if joint_states is not None and len(joint_states):
-        stamps.append(joint_states.time_ns)
+    had_samples = any(len(s) for r in found for s in r.tf.values()) or any(
+        r.joint_states is not None and len(r.joint_states) > 0 for r in found)
+    only = len(found) == 1
+    robots = [_prepare(r, robot if robot is not None and not r.unclaimed else r.model,
+                       robot is not None and not r.unclaimed, selected, (lo, hi), where,
+                       need_robot=need_robot, only=only) for r in found]
+    _display_prefixes(robots, found)
+    stamps = [s.time_ns for r in robots for s in r.tf.values() if len(s)]
+    stamps += [r.joint_states.time_ns for r in robots if r.joint_states is not None and len(r.joint_states)]
     start_ns = min(int(s[0]) for s in stamps) if stamps else None
     end_ns = max(int(s[-1]) for s in stamps) if stamps else None
     if start_ns is None and had_samples:
         window = f"from {start_s or 0:g} s to " + ("the end" if end_s is None else f"{end_s:g} s")
         warnings.warn(f"{where}: no /joint_states or /tf sample {window}; only latched data is replayed",
                       stacklevel=2)
-    return Replay(
-        path=where, format=rec.format, robot=robot, robot_description=description, frame_prefix=prefix,
-        static=static, tf=tf, joint_states=joint_states, derived_static=frozenset(latched),
-        derived_dynamic=frozenset(computed), origin_ns=origin, start_ns=start_ns, end_ns=end_ns,
-        read_error=rec.read_error,
-    )
+    return Replay(path=where, format=rec.format, robots=robots, origin_ns=origin, start_ns=start_ns, end_ns=end_ns,
+                  read_error=rec.read_error, time_base=rec.time_base)

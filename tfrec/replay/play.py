@@ -22,8 +22,8 @@ from numpy.typing import NDArray
 from tfrec._atomic import AtomicOutputs, check_target
 from tfrec.errors import ReplayError
 from tfrec.recording import FrameSeries, JointStates
-from tfrec.replay.load import Replay
 from tfrec.replay.pacing import BATCH_WALL_S, Clock, MonotonicClock, Pacer, batches
+from tfrec.replay.prepared import Replay, RobotReplay
 
 __all__ = ["PlayResult", "ReplaySink", "check_play_options", "play", "replay_to_rerun"]
 
@@ -34,16 +34,21 @@ Pair = tuple[str, str]
 
 
 class ReplaySink(Protocol):
-    """Where a replay goes (:class:`tfrec.formats.rrd.viewer.RerunReplaySink`, or a test double)."""
+    """Where a replay goes (:class:`tfrec.formats.rrd.viewer.RerunReplaySink`, or a test double).
+
+    ``begin`` is called once per robot of the replay (``robot``: its index, in order); the samples
+    of each robot go with its index.
+    """
 
     def begin(self, *, start_time_ns: int, name: str, robot_description: str | None,
               static: dict[Pair, tuple[Array, Array]], frames: Sequence[str], root: str | None,
-              first_pose: dict[Pair, tuple[Array, Array]]) -> None: ...
+              first_pose: dict[Pair, tuple[Array, Array]], robot: int = 0) -> None: ...
 
     def write_transforms(self, parent: str, child: str, time_ns: NDArray[np.int64], translation: Array,
-                         rotation: Array) -> None: ...
+                         rotation: Array, *, robot: int = 0) -> None: ...
 
-    def write_joint_positions(self, time_ns: NDArray[np.int64], names: Sequence[str], positions: Array) -> None: ...
+    def write_joint_positions(self, time_ns: NDArray[np.int64], names: Sequence[str], positions: Array, *,
+                              robot: int = 0) -> None: ...
 
     def finish(self) -> None: ...
 
@@ -62,9 +67,8 @@ class PlayResult:
 def _pass_length_ns(replay: Replay, span_ns: int) -> int:
     """The time between the starts of two passes of a loop: the replayed span plus one sample period."""
     assert replay.start_ns is not None and replay.end_ns is not None
-    stamps = [s.time_ns for s in replay.tf.values()]
-    if replay.joint_states is not None:
-        stamps.append(replay.joint_states.time_ns)
+    stamps = [s.time_ns for robot in replay.robots for s in robot.tf.values()]
+    stamps += [robot.joint_states.time_ns for robot in replay.robots if robot.joint_states is not None]
     steps = np.concatenate([np.diff(s) for s in stamps if len(s) > 1] or [np.zeros(0, dtype=np.int64)])
     steps = steps[steps > 0]
     period = int(np.median(steps)) if len(steps) else span_ns
@@ -100,32 +104,35 @@ def play(
     if span_ns is None:
         span_ns = round(BATCH_WALL_S * pacer.rate * 1e9) if pacer is not None else 1 << 62
     span_ns = max(span_ns, 1)
-    name = replay.robot.name if replay.robot is not None else Path(replay.path).name
+    robots = [robot.displayed() for robot in replay.robots]
+    named = next((robot.robot for robot in robots if robot.robot is not None), None)
+    name = named.name if named is not None and len(robots) == 1 else Path(replay.path).name
     passes = sent = 0
     slept = 0.0
     try:
-        sink.begin(start_time_ns=replay.start_ns if replay.start_ns is not None else replay.origin_ns, name=name,
-                   robot_description=replay.robot_description, static=replay.static, frames=replay.frames(),
-                   root=replay.root_frame(),
-                   first_pose={pair: (s.translation[0], s.rotation[0]) for pair, s in replay.tf.items() if len(s)})
-        series = [(pair, s) for pair, s in replay.tf.items() if len(s)]
-        joints = replay.joint_states if replay.joint_states is not None and len(replay.joint_states) else None
+        for index, robot in enumerate(robots):
+            sink.begin(start_time_ns=replay.start_ns if replay.start_ns is not None else replay.origin_ns,
+                       name=name, robot_description=robot.robot_description, static=robot.static,
+                       frames=robot.frames(), root=robot.root_frame(), robot=index,
+                       first_pose={pair: (s.translation[0], s.rotation[0]) for pair, s in robot.tf.items() if len(s)})
+        streams = [_Streams(index, robot) for index, robot in enumerate(robots)]
         if replay.start_ns is None:
             sink.finish()
             replay.report_damage()
             return PlayResult(1, 0, 0.0)
-        stamps = [s.time_ns for _, s in series] + ([joints.time_ns] if joints is not None else [])
+        stamps = [time_ns for stream in streams for time_ns in stream.stamps()]
         windows = batches(stamps, start_ns=replay.start_ns, span_ns=span_ns)
         edges = np.array([w.start_ns for w in windows] + [windows[-1].stop_ns], dtype=np.int64)
-        tf_index = [np.searchsorted(s.time_ns, edges) for _, s in series]
-        joint_index = np.searchsorted(joints.time_ns, edges) if joints is not None else None
+        for stream in streams:
+            stream.index(edges)
         pass_ns = _pass_length_ns(replay, span_ns) if loop else 0
         while True:
             shift = passes * pass_ns
             for k, window in enumerate(windows):
                 if pacer is not None:
                     slept += pacer.wait(shift + window.first_ns - replay.start_ns)
-                _send_batch(sink, series, tf_index, joints, joint_index, k, shift)
+                for stream in streams:
+                    stream.send(sink, k, shift)
                 sent += 1
             passes += 1
             replay.report_damage()
@@ -144,16 +151,37 @@ def _check_loop(loop: bool, *, live: bool) -> None:
         raise ReplayError("`loop` replays forever; it needs a live viewer, not `save`")
 
 
-def _send_batch(sink: ReplaySink, series: list[tuple[Pair, FrameSeries]], tf_index: list[NDArray[np.intp]],
-                joints: JointStates | None, joint_index: NDArray[np.intp] | None, k: int, shift: int) -> None:
-    for ((parent, child), s), index in zip(series, tf_index):
-        a, b = index[k], index[k + 1]
-        if b > a:
-            sink.write_transforms(parent, child, s.time_ns[a:b] + shift, s.translation[a:b], s.rotation[a:b])
-    if joints is not None and joint_index is not None:
-        a, b = joint_index[k], joint_index[k + 1]
-        if b > a:
-            sink.write_joint_positions(joints.time_ns[a:b] + shift, joints.names, joints.positions[a:b])
+class _Streams:
+    """One robot's time series, cut into the batches of :func:`play`."""
+
+    def __init__(self, index: int, robot: RobotReplay) -> None:
+        self.robot = index
+        self.series: list[tuple[Pair, FrameSeries]] = [(pair, s) for pair, s in robot.tf.items() if len(s)]
+        joints = robot.joint_states
+        self.joints: JointStates | None = joints if joints is not None and len(joints) else None
+        self.tf_index: list[NDArray[np.intp]] = []
+        self.joint_index: NDArray[np.intp] | None = None
+
+    def stamps(self) -> list[NDArray[np.int64]]:
+        return [s.time_ns for _, s in self.series] + ([self.joints.time_ns] if self.joints is not None else [])
+
+    def index(self, edges: NDArray[np.int64]) -> None:
+        self.tf_index = [np.searchsorted(s.time_ns, edges) for _, s in self.series]
+        self.joint_index = np.searchsorted(self.joints.time_ns, edges) if self.joints is not None else None
+
+    def send(self, sink: ReplaySink, k: int, shift: int) -> None:
+        """Send batch ``k`` (its stamps moved by ``shift``, for a loop's later passes)."""
+        for ((parent, child), s), index in zip(self.series, self.tf_index):
+            a, b = index[k], index[k + 1]
+            if b > a:
+                sink.write_transforms(parent, child, s.time_ns[a:b] + shift, s.translation[a:b], s.rotation[a:b],
+                                      robot=self.robot)
+        joints = self.joints
+        if joints is not None and self.joint_index is not None:
+            a, b = self.joint_index[k], self.joint_index[k + 1]
+            if b > a:
+                sink.write_joint_positions(joints.time_ns[a:b] + shift, joints.names, joints.positions[a:b],
+                                           robot=self.robot)
 
 
 # -- into Rerun ---------------------------------------------------------------------------------
@@ -163,9 +191,12 @@ def _recording_id(replay: Replay) -> str:
     """The same replay of the same file gives the same id (and the same .rrd)."""
     digest = hashlib.sha256()
     digest.update(os.path.abspath(replay.path).encode())
-    digest.update(f"|{replay.start_ns}|{replay.end_ns}|{sorted(replay.tf)}|{replay.robot_description is None}".encode())
-    if replay.robot is not None:
-        digest.update(replay.robot.urdf.encode())
+    for robot in replay.robots:
+        key = f"{robot.key}|" if len(replay.robots) > 1 else ""
+        digest.update(f"{key}|{replay.start_ns}|{replay.end_ns}|{sorted(robot.tf)}|"
+                      f"{robot.robot_description is None}".encode())
+        if robot.robot is not None:
+            digest.update(robot.robot.urdf.encode())
     return str(uuid.UUID(bytes=digest.digest()[:16], version=5))
 
 
@@ -233,13 +264,15 @@ def replay_to_rerun(
 
     if not checked:
         check_play_options(save=save, connect=connect, rate=rate, loop=loop, force=force)
+    shown = [robot.displayed() for robot in replay.robots]
+    robots = [(robot.robot, robot.frame_prefix, robot.entity_root) for robot in shown]
+    names = [robot.key for robot in shown] if len(shown) > 1 else []
     if save is None:
-        sink = open_rerun_sink(connect=connect, robot=replay.robot, frame_prefix=replay.frame_prefix,
-                               package_paths=package_paths)
+        sink = open_rerun_sink(connect=connect, robots=robots, names=names, package_paths=package_paths)
         return play(replay, sink, pacer=Pacer(clock or MonotonicClock(), rate=rate), loop=loop, max_loops=max_loops)
     with AtomicOutputs(replace=force) as outputs:
-        sink = open_rerun_sink(save=outputs.path(Path(save)), recording_id=_recording_id(replay), robot=replay.robot,
-                               frame_prefix=replay.frame_prefix, package_paths=package_paths)
+        sink = open_rerun_sink(save=outputs.path(Path(save)), recording_id=_recording_id(replay), robots=robots,
+                               names=names, package_paths=package_paths)
         result = play(replay, sink)  # aborts the sink (closing its file) on any error
         outputs.commit()
     return result

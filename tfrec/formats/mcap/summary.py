@@ -1,45 +1,30 @@
 """MCAP records besides messages — header, schemas, channels, chunk headers — and the summary section.
 
-Shared by the sequential reader (:mod:`tfrec.formats.mcap.reader`) and ``tfrec info``
-(:mod:`tfrec.info`), which summarizes an intact file from its summary section: the
-Statistics record (message counts), the chunk indexes (compressions) and the message index
-records they point to (first and last log time of each channel), reading only the few
-messages it decodes (:func:`iter_messages`) — a one-hour file is summarized without
-decompressing it.
+Used by the sequential reader (:mod:`tfrec.formats.mcap.reader`): the records of the data section
+that are not messages, and the summary section, which tells a damaged file's schemas, channels and
+true start, and an intact file's message counts (its Statistics record), against which the
+messages read are checked.
 
-A summary section is only trusted when its CRC holds (:func:`read_summary_section`); the
-chunks read through the chunk indexes are not checked against their CRCs. The parsers raise
-``struct.error``, ``ValueError`` (``UnicodeDecodeError`` included) or ``KeyError`` on damaged records.
+A summary section is only trusted when its CRC holds (:func:`read_summary_section`). The parsers
+raise ``struct.error``, ``ValueError`` (``UnicodeDecodeError`` included) or ``KeyError`` on
+damaged records.
 """
 
 from __future__ import annotations
 
-import heapq
-import os
 import struct
 import zlib
-from collections.abc import Collection, Iterator
 from dataclasses import dataclass, field
 from typing import IO, NamedTuple
 
-import numpy as np
-
-from tfrec.formats._compression import decompress
 from tfrec.formats.mcap.records import (
     CHUNK_HEAD,
     COMPRESSIONS,
     FOOTER,
     MCAP_MAGIC,
-    MESSAGE,
-    MESSAGE_HEAD_SIZE,
     OP_CHANNEL,
-    OP_CHUNK,
     OP_CHUNK_INDEX,
-    OP_DATA_END,
     OP_FOOTER,
-    OP_HEADER,
-    OP_MESSAGE,
-    OP_MESSAGE_INDEX,
     OP_SCHEMA,
     OP_STATISTICS,
     RECORD,
@@ -53,15 +38,14 @@ __all__ = [
     "ChunkIndex",
     "McapSummary",
     "Statistics",
-    "channel_spans",
     "chunk_fields",
-    "iter_messages",
+    "id_map",
     "parse_channel",
     "parse_header",
     "parse_schema",
-    "read_header",
     "read_summary",
     "read_summary_section",
+    "statistics_of",
     "summary_records",
 ]
 
@@ -161,7 +145,7 @@ def _metadata(view: memoryview, pos: int, end: int) -> dict[str, str]:
     return out
 
 
-def _id_map(view: memoryview, pos: int) -> tuple[dict[int, int], int]:
+def id_map(view: memoryview, pos: int) -> tuple[dict[int, int], int]:
     """A uint16 → uint64 map at ``pos``, and the position after it."""
     (size,) = struct.unpack_from("<I", view, pos)
     pos += 4
@@ -184,18 +168,6 @@ def _record_at(stream: IO[bytes], size: int, offset: int, opcode: int, what: str
     if found != opcode or offset + RECORD.size + length > size:
         raise ValueError(f"no {what} at offset {offset}")
     return stream.read(length)
-
-
-def read_header(stream: IO[bytes], size: int) -> tuple[str, str]:
-    """The profile and library of the Header record that follows the magic.
-
-    Raises:
-        ValueError: the file does not start with the magic and a Header record.
-    """
-    stream.seek(0)
-    if stream.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
-        raise ValueError("no MCAP magic")
-    return parse_header(_record_at(stream, size, len(MCAP_MAGIC), OP_HEADER, "header"))
 
 
 # -- the summary section ------------------------------------------------------------------------
@@ -264,6 +236,20 @@ class McapSummary:
     chunk_indexes: list[ChunkIndex] = field(default_factory=list)
 
 
+def statistics_of(view: memoryview, records: list[tuple[int, int, int]]) -> Statistics | None:
+    """A summary section's Statistics record (see :func:`summary_records`), or None.
+
+    Raises:
+        struct.error, ValueError: a damaged record.
+    """
+    for opcode, pos, length in records:
+        if opcode == OP_STATISTICS and length >= STATISTICS.size:
+            count, *_, start, end = STATISTICS.unpack_from(view, pos)
+            counts, _ = id_map(view, pos + STATISTICS.size)
+            return Statistics(count, start, end, counts)
+    return None
+
+
 def read_summary(stream: IO[bytes], size: int) -> McapSummary | None:
     """The summary section of an MCAP file (see :func:`read_summary_section`), or None.
 
@@ -283,125 +269,12 @@ def read_summary(stream: IO[bytes], size: int) -> McapSummary | None:
             summary.channels[channel.id] = channel
         elif opcode == OP_STATISTICS:
             count, *_, start, end = STATISTICS.unpack_from(view, pos)
-            counts, _ = _id_map(view, pos + STATISTICS.size)
+            counts, _ = id_map(view, pos + STATISTICS.size)
             summary.statistics = Statistics(count, start, end, counts)
         elif opcode == OP_CHUNK_INDEX:
             start, end, offset, _ = _CHUNK_INDEX.unpack_from(view, pos)
-            indexes, at = _id_map(view, pos + _CHUNK_INDEX.size)
+            indexes, at = id_map(view, pos + _CHUNK_INDEX.size)
             (name_len,) = struct.unpack_from("<I", view, at + 8)  # after the message index length
             compression = bytes(view[at + 12 : at + 12 + name_len]).decode()
             summary.chunk_indexes.append(ChunkIndex(start, end, offset, indexes, compression))
     return summary
-
-
-def channel_spans(stream: IO[bytes], size: int, summary: McapSummary) -> Iterator[tuple[int | None, int, int]]:
-    """(channel id, first log time, last log time) of each channel in each chunk, from the
-    message index records; channel None for a chunk without them (its span stands for each channel).
-
-    Raises:
-        ValueError: a chunk index points to no message index record of a known channel.
-    """
-    for chunk in summary.chunk_indexes:
-        if not chunk.message_indexes:
-            yield None, chunk.start, chunk.end
-            continue
-        for channel_id, offset in chunk.message_indexes.items():
-            if channel_id not in summary.channels:
-                raise ValueError(f"no message index for channel {channel_id} at offset {offset}")
-            body = _record_at(stream, size, offset, OP_MESSAGE_INDEX, f"message index for channel {channel_id}")
-            _, length = struct.unpack_from("<HI", body)
-            pairs = np.frombuffer(body, dtype="<u8", count=length // 8, offset=6).reshape(-1, 2)
-            if len(pairs):
-                yield channel_id, int(pairs[:, 0].min()), int(pairs[:, 0].max())
-
-
-# -- messages through the summary ---------------------------------------------------------------
-
-
-def iter_messages(
-    stream: IO[bytes], size: int, summary: McapSummary, topics: Collection[str]
-) -> Iterator[tuple[int, int, bytes]]:
-    """(channel id, log time, data) of the messages on ``topics``, in log time order (ties in
-    file order), as mcap's reader gives them: the chunks are read through the chunk indexes,
-    each when its first log time comes up, so taking the first few messages reads few chunks.
-    A file without chunk indexes is read from the start.
-
-    Raises:
-        struct.error, ValueError, KeyError: a damaged chunk, or a message on a channel the
-            summary does not list.
-    """
-    if not summary.chunk_indexes:
-        yield from sorted(_sequential_messages(stream, size, topics), key=lambda message: message[1])
-        return
-    channels = summary.channels
-    wanted = {channel_id for channel_id, channel in channels.items() if channel.topic in topics}
-    queue: list[tuple[int, int, int, int, ChunkIndex | tuple[int, int, bytes]]] = []
-    for chunk in summary.chunk_indexes:
-        if not chunk.message_indexes or any(channels[channel_id].topic in topics for channel_id in chunk.message_indexes):
-            queue.append((chunk.start, chunk.offset, -1, len(queue), chunk))
-    heapq.heapify(queue)
-    pushed = len(queue)
-    while queue:
-        *_, item = heapq.heappop(queue)
-        if not isinstance(item, ChunkIndex):
-            yield item
-            continue
-        head = chunk_fields(_record_at(stream, size, item.offset, OP_CHUNK, "chunk"))
-        if len(head.records) != head.length:
-            raise ValueError("a chunk's records run past its end")
-        records = decompress(head.compression, head.records, head.size, supported=COMPRESSIONS)
-        for index, (channel_id, log_time, data) in enumerate(_chunk_messages(memoryview(records))):
-            if channel_id not in channels:
-                raise ValueError(f"a message on unknown channel {channel_id}")
-            if channel_id in wanted:
-                heapq.heappush(queue, (log_time, item.offset, index, pushed, (channel_id, log_time, bytes(data))))
-                pushed += 1
-
-
-def _chunk_messages(view: memoryview) -> Iterator[tuple[int, int, memoryview]]:
-    """(channel id, log time, data) of the Message records of a chunk's records."""
-    for opcode, pos, length in iter_records(view):
-        if opcode == OP_MESSAGE:
-            channel_id, _, log_time = MESSAGE.unpack_from(view, pos)
-            yield channel_id, log_time, view[pos + MESSAGE_HEAD_SIZE : pos + length]
-
-
-def _sequential_messages(stream: IO[bytes], size: int, topics: Collection[str]) -> Iterator[tuple[int, int, bytes]]:
-    """(channel id, log time, data) of the messages on ``topics``, in file order, from the data section."""
-    schemas: set[int] = set()
-    channels: dict[int, str] = {}
-
-    def take(opcode: int, view: memoryview, pos: int, length: int) -> Iterator[tuple[int, int, bytes]]:
-        if opcode == OP_SCHEMA:
-            schemas.add(parse_schema(view, pos)[0])
-        elif opcode == OP_CHANNEL:
-            channel = parse_channel(view, pos, length)
-            if channel.schema_id and channel.schema_id not in schemas:
-                raise ValueError(f"no schema record with id {channel.schema_id}")
-            channels[channel.id] = channel.topic
-        elif opcode == OP_MESSAGE:
-            channel_id, _, log_time = MESSAGE.unpack_from(view, pos)
-            if channels[channel_id] in topics:
-                yield channel_id, log_time, bytes(view[pos + MESSAGE_HEAD_SIZE : pos + length])
-
-    stream.seek(len(MCAP_MAGIC))
-    offset = len(MCAP_MAGIC)
-    while offset + RECORD.size <= size:
-        opcode, length = RECORD.unpack(stream.read(RECORD.size))
-        if opcode in (OP_DATA_END, OP_FOOTER):
-            return
-        if offset + RECORD.size + length > size:
-            raise ValueError("a record runs past the end of the file")
-        if opcode in (OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK):
-            view = memoryview(stream.read(length))
-            if opcode != OP_CHUNK:
-                yield from take(opcode, view, 0, length)
-            else:
-                head = chunk_fields(bytes(view))
-                records = memoryview(decompress(head.compression, head.records, head.size, supported=COMPRESSIONS))
-                for inner, pos, inner_length in iter_records(records):
-                    yield from take(inner, records, pos, inner_length)
-        else:
-            stream.seek(length, os.SEEK_CUR)
-        offset += RECORD.size + length
-    raise ValueError("the file ends without a footer")

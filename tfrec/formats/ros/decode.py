@@ -225,31 +225,37 @@ class _Accumulator:
     def _check(self, layout: MessageLayout, data: bytes | memoryview) -> bool:
         raise NotImplementedError
 
-    def add(self, datas: Sequence[bytes | memoryview]) -> None:
-        """Decode a batch of raw messages (in order)."""
+    def add(self, datas: Sequence[bytes | memoryview], log_times: NDArray[np.int64] | None = None) -> None:
+        """Decode a batch of raw messages (in order).
+
+        Args:
+            datas: the serialized messages.
+            log_times: when given, the messages' log times stand for their header stamps
+                (a recording whose stamps are unusable, replayed by log time).
+        """
         if not datas:
             return
         self.messages += len(datas)
         if not self._tried:
             self._learn(datas[0])
-        rows, _, rest = _split(self.layout, datas)
+        rows, good, rest = _split(self.layout, datas)
         if rows is not None and len(rows):
-            self._add_rows(rows)
+            self._add_rows(rows, None if log_times is None else log_times[good])
         if len(rest) * 2 > len(datas):  # most messages have another layout (or the first was odd): learn it
             previous = self.layout
             self._learn(datas[rest[len(rest) // 2]])
             if self.layout is not previous:
-                rows, _, still = _split(self.layout, [datas[i] for i in rest])
+                rows, good, still = _split(self.layout, [datas[i] for i in rest])
                 if rows is not None and len(rows):
-                    self._add_rows(rows)
+                    self._add_rows(rows, None if log_times is None else log_times[np.asarray(rest)[good]])
                 rest = [rest[i] for i in still]
         for i in rest:
-            self._add_message(self.deserialize(bytes(datas[i])))
+            self._add_message(self.deserialize(bytes(datas[i])), None if log_times is None else int(log_times[i]))
 
-    def _add_rows(self, rows: NDArray[np.uint8]) -> None:
+    def _add_rows(self, rows: NDArray[np.uint8], times: NDArray[np.int64] | None) -> None:
         raise NotImplementedError
 
-    def _add_message(self, msg: Any) -> None:
+    def _add_message(self, msg: Any, time_ns: int | None) -> None:
         raise NotImplementedError
 
 
@@ -292,13 +298,13 @@ class JointStateAccumulator(_Accumulator):
         self._pending = []
         self._pending_names = None
 
-    def _add_rows(self, rows: NDArray[np.uint8]) -> None:
+    def _add_rows(self, rows: NDArray[np.uint8], times: NDArray[np.int64] | None) -> None:
         assert self.layout is not None
         self._flush_pending()
         time, names, positions = self._decode(self.layout, rows)
-        self._segments.append((names, time, positions))
+        self._segments.append((names, time if times is None else times, positions))
 
-    def _add_message(self, msg: Any) -> None:
+    def _add_message(self, msg: Any, time_ns: int | None) -> None:
         names = tuple(msg.name)
         position = np.full(len(names), np.nan)
         given = np.asarray(msg.position, dtype=np.float64)[: len(names)]
@@ -306,7 +312,7 @@ class JointStateAccumulator(_Accumulator):
         if names != self._pending_names:
             self._flush_pending()
             self._pending_names = names
-        self._pending.append((stamp_ns(msg.header.stamp), position))
+        self._pending.append((stamp_ns(msg.header.stamp) if time_ns is None else time_ns, position))
 
     def result(self) -> tuple[NDArray[np.int64], tuple[str, ...], Array]:
         """(time_ns (N,), names, positions (N, J)): the union of all names, NaN where a message lacks one."""
@@ -363,14 +369,14 @@ class TFAccumulator(_Accumulator):
         for pair, stamp, floats in zip(layout.names, layout.stamps, layout.floats):
             yield pair, _stamps(rows, stamp, layout.ros1), _float_block(rows, floats, 7)
 
-    def _add_rows(self, rows: NDArray[np.uint8]) -> None:
+    def _add_rows(self, rows: NDArray[np.uint8], times: NDArray[np.int64] | None) -> None:
         assert self.layout is not None
         for pair, time, values in self._decode(self.layout, rows):
-            self._blocks.setdefault(pair, []).append((time, values))
+            self._blocks.setdefault(pair, []).append((time if times is None else times, values))
 
-    def _add_message(self, msg: Any) -> None:
+    def _add_message(self, msg: Any, time_ns: int | None) -> None:
         for pair, time, values in transforms_of(msg):
-            self._singles.setdefault(pair, []).append((time, values))
+            self._singles.setdefault(pair, []).append((time if time_ns is None else time_ns, values))
 
     def result(self) -> dict[tuple[str, str], tuple[NDArray[np.int64], Array]]:
         """(parent, child) → (time_ns (M,), values (M, 7): translation xyz, rotation xyzw), in time order."""

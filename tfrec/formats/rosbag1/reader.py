@@ -1,8 +1,9 @@
-"""Reading a ROS 1 bag record by record, as far as it is readable, when rosbags refuses it.
+"""Reading a ROS 1 bag record by record, as far as it is readable, when its index cannot be used.
 
-rosbags reads a ROS 1 bag through its index at the end of the file, which a recorder killed
-mid-write never wrote (or wrote only in part), and stops at a chunk that does not decompress.
-:mod:`tfrec.formats` falls back to this reader then: the bag (format 2.0) is walked from the
+A ROS 1 bag is read through its index at the end of the file (:mod:`tfrec.formats.rosbag1.index`),
+which a recorder killed mid-write never wrote (or wrote only in part); a chunk that does not
+decompress, or an index that does not describe the chunks, stops that reader too. This reader
+is the fallback then: the bag (format 2.0) is walked from the
 start — connection records, chunks (uncompressed, bz2 or lz4) and the message records inside
 them. The complete records of a chunk the file ends inside are kept; a chunk whose data does
 not decompress is skipped and reading goes on after it. The index is not needed: its chunk info
@@ -18,21 +19,36 @@ from pathlib import Path
 from typing import IO
 
 from tfrec.errors import ReadError, one_line
-from tfrec.formats._collect import Collector, ReadStopped, read_error_line, with_article
+from tfrec.formats._collect import Collector, ReadOptions, ReadStopped, read_error_line, with_article
 from tfrec.formats._compression import decompress, salvage
 from tfrec.formats.ros.cdr import ns_from_stamps
 from tfrec.formats.ros.types import ros1_typestore, topic_deserializer
 from tfrec.recording import Recording, TopicStats
 
-__all__ = ["ROS1_MAGIC", "read_rosbag1_records", "ros1_compression"]
+__all__ = [
+    "COMPRESSIONS",
+    "OP_BAG_HEADER",
+    "OP_CHUNK",
+    "OP_CHUNK_INFO",
+    "OP_CONNECTION",
+    "OP_INDEX",
+    "OP_MESSAGE",
+    "ROS1_MAGIC",
+    "connection_of",
+    "header_fields",
+    "read_rosbag1_records",
+    "time_field",
+    "uint32_field",
+]
 
 ROS1_MAGIC = b"#ROSBAG V2.0\n"
-_OP_MESSAGE, _OP_BAG_HEADER, _OP_INDEX, _OP_CHUNK, _OP_CHUNK_INFO, _OP_CONNECTION = 2, 3, 4, 5, 6, 7
+OP_MESSAGE, OP_BAG_HEADER, OP_INDEX, OP_CHUNK, OP_CHUNK_INFO, OP_CONNECTION = 2, 3, 4, 5, 6, 7
 _RECORD_NAMES = {2: "message data", 3: "bag header", 4: "index data", 5: "chunk", 6: "chunk info", 7: "connection"}
-_COMPRESSIONS = ("none", "bz2", "lz4")
+COMPRESSIONS = ("none", "bz2", "lz4")
+"""The chunk compressions of a ROS 1 bag."""
 
 
-def _fields(header: bytes | memoryview) -> dict[str, bytes]:
+def header_fields(header: bytes | memoryview) -> dict[str, bytes]:
     """A record header's ``name=value`` fields.
 
     Raises:
@@ -55,14 +71,24 @@ def _fields(header: bytes | memoryview) -> dict[str, bytes]:
     return out
 
 
-def _uint32(fields: dict[str, bytes], name: str) -> int:
+def uint32_field(fields: dict[str, bytes], name: str) -> int:
+    """A record header's uint32 field.
+
+    Raises:
+        ValueError: the field is missing or not 4 bytes long.
+    """
     value = fields.get(name, b"")
     if len(value) != 4:
         raise ValueError(f"no 4-byte '{name}' field")
     return int(struct.unpack("<I", value)[0])
 
 
-def _time(fields: dict[str, bytes], name: str) -> int:
+def time_field(fields: dict[str, bytes], name: str) -> int:
+    """A record header's time field, in ns.
+
+    Raises:
+        ValueError: the field is missing or not 8 bytes long.
+    """
     value = fields.get(name, b"")
     if len(value) != 8:
         raise ValueError(f"no 8-byte '{name}' field")
@@ -70,9 +96,22 @@ def _time(fields: dict[str, bytes], name: str) -> int:
     return ns_from_stamps(int(sec), int(nsec))
 
 
-def _normalize(topic: str) -> str:
-    """A topic name as rosbags gives it: one leading slash kept, repeated slashes collapsed."""
-    return "/" * topic.startswith("/") + "/".join(part for part in topic.split("/") if part)
+def connection_of(fields: dict[str, bytes], info: dict[str, bytes]) -> tuple[str, str, str, bool]:
+    """A connection record's topic (as recorded), message type (``pkg/msg/Type``), message
+    definition and whether it latches, from its header ``fields`` and its data's fields ``info``.
+
+    Raises:
+        ValueError: a connection without a message type.
+    """
+    from rosbags.typesys.msg import normalize_msgtype
+
+    topic = fields.get("topic", info.get("topic", b"")).decode("utf-8", "replace")
+    if "type" not in info:
+        raise ValueError("a connection without a message type")
+    msgtype = normalize_msgtype(info["type"].decode("utf-8", "replace"))
+    msgdef = info.get("message_definition", b"").decode("utf-8", "replace")
+    latched = info.get("latching", b"0") not in (b"", b"0")
+    return topic, msgtype, msgdef, latched
 
 
 class _Connection(TopicStats):
@@ -134,19 +173,19 @@ class _Ros1Reader:
             if start + 4 + header_len + 4 > self.size:
                 raise ReadStopped(start, "the file ends inside a record")
             try:
-                fields = _fields(self._read(header_len))
+                fields = header_fields(self._read(header_len))
                 op = fields["op"][0]
             except (ValueError, KeyError, IndexError) as err:
                 raise ReadStopped(start, f"a damaged record header ({err})") from err
             what = _RECORD_NAMES.get(op, f"op 0x{op:02x}")
             (data_len,) = struct.unpack("<I", self._read(4))
             if self.offset + data_len > self.size:
-                if op == _OP_CHUNK:
+                if op == OP_CHUNK:
                     recovered = self._chunk(fields, self._read(data_len), start, cut=True)
                     reason = f"the file ends inside a chunk record (recovered {recovered:,} messages of it)"
                     raise ReadStopped(self.size, reason)
                 raise ReadStopped(start, f"the file ends inside {with_article(what)} record")
-            if op == _OP_CHUNK:
+            if op == OP_CHUNK:
                 self._chunk(fields, self._read(data_len), start, cut=False)
                 continue
             if op not in _RECORD_NAMES:
@@ -163,34 +202,28 @@ class _Ros1Reader:
         Raises:
             ValueError: a damaged record, or a message on an unknown connection.
         """
-        if op == _OP_MESSAGE:
-            connection = self.connections.get(_uint32(fields, "conn"))
+        if op == OP_MESSAGE:
+            connection = self.connections.get(uint32_field(fields, "conn"))
             if connection is None:
-                raise ValueError(f"a message on unknown connection {_uint32(fields, 'conn')}")
-            time_ns = _time(fields, "time")
+                raise ValueError(f"a message on unknown connection {uint32_field(fields, 'conn')}")
+            time_ns = time_field(fields, "time")
             connection.add(time_ns)
             if connection.decoded:
                 connection.messages.append((time_ns, bytes(data)))
-        elif op == _OP_CONNECTION:
-            conn = _uint32(fields, "conn")
+        elif op == OP_CONNECTION:
+            conn = uint32_field(fields, "conn")
             if conn not in self.connections:
-                self._connection(conn, fields, _fields(data))
-        elif op == _OP_CHUNK_INFO:
+                self._connection(conn, fields, header_fields(data))
+        elif op == OP_CHUNK_INFO:
             self.indexed = True
-            count = _uint32(fields, "count")
+            count = uint32_field(fields, "count")
             if count:
-                start, end = _time(fields, "start_time"), _time(fields, "end_time")
+                start, end = time_field(fields, "start_time"), time_field(fields, "end_time")
                 self.span = (start, end) if self.span is None else (min(self.span[0], start), max(self.span[1], end))
 
     def _connection(self, conn: int, fields: dict[str, bytes], info: dict[str, bytes]) -> None:
-        from rosbags.typesys.msg import normalize_msgtype
-
-        topic = _normalize(fields.get("topic", info.get("topic", b"")).decode("utf-8", "replace"))
-        if "type" not in info:
-            raise ValueError(f"connection {conn} has no message type")
-        msgtype = normalize_msgtype(info["type"].decode("utf-8", "replace"))
-        msgdef = info.get("message_definition", b"").decode("utf-8", "replace")
-        latched = info.get("latching", b"0") not in (b"", b"0")
+        recorded, msgtype, msgdef, latched = connection_of(fields, info)
+        topic = self.collector.resolve(recorded)
         decoded = self.collector.decodes(topic, msgtype)
         self.connections[conn] = _Connection(topic, msgtype, msgdef, decoded, latched)
 
@@ -199,17 +232,17 @@ class _Ros1Reader:
         before = self.messages
         try:
             compression = fields["compression"].decode("ascii")
-            size = _uint32(fields, "size")
+            size = uint32_field(fields, "size")
         except (KeyError, UnicodeDecodeError, ValueError):
             if not cut:
                 self.damaged.append((start, "its header is damaged"))
             return 0
         self.compressions.add(compression)
         if cut:
-            self._chunk_records(salvage(compression, data, supported=_COMPRESSIONS)[:size])
+            self._chunk_records(salvage(compression, data, supported=COMPRESSIONS)[:size])
             return self.messages - before
         try:
-            records = decompress(compression, data, size, supported=_COMPRESSIONS)
+            records = decompress(compression, data, size, supported=COMPRESSIONS)
         except ValueError as err:
             self.damaged.append((start, str(err)))
             return 0
@@ -233,9 +266,9 @@ class _Ros1Reader:
             if body + data_len > end:
                 return "a record runs past the end of the chunk"
             try:
-                fields = _fields(view[pos + 4 : pos + 4 + header_len])
+                fields = header_fields(view[pos + 4 : pos + 4 + header_len])
                 op = fields["op"][0]
-                if op not in (_OP_MESSAGE, _OP_CONNECTION):
+                if op not in (OP_MESSAGE, OP_CONNECTION):
                     return f"{with_article(_RECORD_NAMES.get(op, f'op 0x{op:02x}'))} record inside the chunk"
                 self._record(op, fields, view[body : body + data_len])
             except (ValueError, KeyError, IndexError) as err:
@@ -251,6 +284,8 @@ class _Ros1Reader:
         for connection in self.connections.values():
             if connection.count:
                 self.collector.count(connection.topic, connection)
+            else:
+                self.collector.topic(connection.topic, connection.type, connection.durability)
             if connection.decoded and connection.messages:
                 if connection.topic not in topics:
                     self.collector.set_deserializer(connection.topic, topic_deserializer(
@@ -266,20 +301,20 @@ class _Ros1Reader:
         return f"{len(self.damaged)} damaged chunk records, the first at byte {byte:,} ({problem}), were skipped"
 
 
-def read_rosbag1_records(path: Path, wanted: frozenset[str], *, refused: str) -> Recording:
+def read_rosbag1_records(path: Path, options: ReadOptions, *, refused: str) -> Recording:
     """Read a ROS 1 bag record by record, as far as it is readable.
 
     Args:
         path: the bag.
-        wanted: the topics to decode.
-        refused: why rosbags refused the bag, for the error when nothing is readable either.
+        options: what to decode.
+        refused: why its index could not be used, for the error when nothing is readable either.
 
     Raises:
         ReadError: the file cannot be opened, or no connection record is readable.
     """
     where = os.fspath(path)
     recording = Recording(path=where, format="rosbag1")
-    collector = Collector(recording, wanted, ros1=True)
+    collector = Collector(recording, options, ros1=True)
     try:
         with open(path, "rb") as stream:
             size = os.fstat(stream.fileno()).st_size
@@ -305,21 +340,3 @@ def read_rosbag1_records(path: Path, wanted: frozenset[str], *, refused: str) ->
     if problems and reader.span is not None and recording.start_ns is not None and reader.span[0] < recording.start_ns:
         recording.start_ns = reader.span[0]  # from the index: messages before the first one read were lost
     return recording
-
-
-def ros1_compression(path: Path) -> str:
-    """The compression of a ROS 1 bag's first chunk (``none``, ``bz2``, ``lz4``), or ``""``
-    when it has none or its first records cannot be read."""
-    try:
-        with open(path, "rb") as stream:
-            stream.seek(len(ROS1_MAGIC))
-            for _ in range(4):  # the bag header record, then (after connection records, if any) a chunk
-                header_len, = struct.unpack("<I", stream.read(4))
-                fields = _fields(stream.read(header_len))
-                if fields.get("op") == bytes([_OP_CHUNK]):
-                    return fields["compression"].decode("ascii")
-                data_len, = struct.unpack("<I", stream.read(4))
-                stream.seek(data_len, os.SEEK_CUR)
-    except (OSError, struct.error, ValueError, KeyError, UnicodeDecodeError):
-        return ""
-    return ""

@@ -25,6 +25,7 @@ __all__ = [
     "ROS_DISTRO",
     "BagMetadata",
     "bag_info",
+    "bag_without_metadata",
     "one_line",
     "qos_durability",
     "qos_yaml",
@@ -158,11 +159,17 @@ class BagMetadata:
         storage: the storage plugin, ``mcap`` or ``sqlite3``.
         files: the bag's files, in order.
         compression: ``compression_format`` (``zstd`` for a compressed bag), or ``""``.
+        compression_mode: ``file`` (each file compressed whole: ``bag_0.db3.zstd``) or
+            ``message`` (each message compressed), when ``compression`` is set.
+        topic_counts: messages per topic as ``topics_with_message_count`` says (names as
+            recorded), or None without a metadata.yaml (:func:`bag_without_metadata`).
     """
 
     storage: str
     files: tuple[Path, ...]
     compression: str
+    compression_mode: str = ""
+    topic_counts: dict[str, int] | None = None
 
 
 def read_bag_metadata(folder: Path) -> BagMetadata:
@@ -198,7 +205,43 @@ def read_bag_metadata(folder: Path) -> BagMetadata:
     for file in files:
         if not file.is_file():
             raise ReadError(f"{folder}: metadata.yaml lists {file.name}, which is missing")
-    return BagMetadata(str(info.get("storage_identifier") or ""), files, str(info.get("compression_format") or ""))
+    compression = str(info.get("compression_format") or "")
+    mode = str(info.get("compression_mode") or "").lower() if compression else ""
+    return BagMetadata(str(info.get("storage_identifier") or ""), files, compression, mode, _topic_counts(info))
+
+
+def _topic_counts(info: dict[str, Any]) -> dict[str, int] | None:
+    """``topics_with_message_count`` as topic → messages (summed over entries of one topic); None when
+    missing or malformed."""
+    entries = info.get("topics_with_message_count")
+    if not isinstance(entries, list):
+        return None
+    counts: dict[str, int] = {}
+    for entry in entries:
+        try:
+            name, count = str(entry["topic_metadata"]["name"]), int(entry["message_count"])
+        except (KeyError, TypeError, ValueError):
+            return None
+        counts[name] = counts.get(name, 0) + count
+    return counts
+
+
+_STORAGES = {".mcap": "mcap", ".db3": "sqlite3"}
+
+
+def bag_without_metadata(folder: Path) -> BagMetadata | None:
+    """A rosbag2 folder whose metadata.yaml is missing (what ``ros2 bag reindex`` rebuilds): its
+    ``.mcap`` (or ``.db3``) files, in the order of their split index (``bag_0``, ``bag_1``…), as
+    one bag; None when the folder holds neither."""
+    for suffix, storage in _STORAGES.items():
+        files = [file for file in folder.iterdir() if file.suffix == suffix and file.is_file()]
+        if files:
+            def split_index(file: Path) -> tuple[int, str]:
+                number = file.stem.rpartition("_")[2]
+                return (int(number) if number.isdigit() else -1, file.name)
+
+            return BagMetadata(storage, tuple(sorted(files, key=split_index)), "")
+    return None
 
 
 def one_line(text: str) -> str:

@@ -34,7 +34,16 @@ from tfrec.kinematics.fk import Transforms
 from tfrec.kinematics.rotations import quaternion_from_rpy, quaternion_rotate
 from tfrec.model import Box, Cylinder, Material, Mesh, Robot, Sphere, Visual
 
-__all__ = ["MeshAsset", "MeshLoader", "default_axis_length", "fit_eye", "rgba8", "visual_columns", "visual_radius"]
+__all__ = [
+    "MeshAsset",
+    "MeshLoader",
+    "default_axis_length",
+    "fit_eye",
+    "missing_meshes",
+    "rgba8",
+    "visual_columns",
+    "visual_radius",
+]
 
 _NATIVE_MEDIA_TYPES = {
     ".stl": "model/stl",
@@ -287,3 +296,17 @@ def fit_eye(
     return rrb.EyeControls3D(
         position=(centre + distance * direction).tolist(), look_target=centre.tolist(), eye_up=[0.0, 0.0, 1.0]
     )
+
+
+MESHES_LISTED = 3
+"""Meshes named in :func:`missing_meshes`' one warning; the others are counted."""
+
+
+def missing_meshes(missing: Mapping[tuple[str, str], str]) -> str:
+    """One warning for the meshes of a robot that cannot be shown: (file, link) → why, as
+    :meth:`MeshLoader.load` says it; the first few named, the others counted."""
+    shown = [f"{uri}: mesh for link '{link}' {why}" for (uri, link), why in list(missing.items())[:MESHES_LISTED]]
+    if len(missing) == 1:
+        return f"{shown[0]}; link logged without it"
+    more = f"; and {len(missing) - MESHES_LISTED} more" if len(missing) > MESHES_LISTED else ""
+    return f"{len(missing)} meshes cannot be shown (their links are logged without them): {'; '.join(shown)}{more}"

@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 
 from tfrec.conventions import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC
 from tfrec.errors import ReadError
+from tfrec.formats._collect import DECODED_TOPICS, ReadOptions
 from tfrec.recording import FrameSeries, JointStates, Recording, TopicInfo
 
 __all__ = ["RRD_MAGIC", "read_rrd"]
@@ -28,12 +29,15 @@ Array = NDArray[np.float64]
 RRD_MAGIC = b"RRF2"
 
 
-def read_rrd(path: Path, wanted: frozenset[str]) -> Recording:
-    """Read an ``.rrd`` written by :class:`tfrec.formats.rrd.sink.RerunSink`, decoding the topics in ``wanted``.
+def read_rrd(path: Path, options: ReadOptions) -> Recording:
+    """Read an ``.rrd`` written by :class:`tfrec.formats.rrd.sink.RerunSink`, decoding the kinds of
+    topics ``options`` select (an ``.rrd`` has no topic names: remapping and namespaces do not apply).
 
     Raises:
-        ReadError: Rerun cannot read the file (damaged or not an RRD).
+        ReadError: Rerun cannot read the file (damaged or not an RRD), or it was not written by
+            tfrec (another application id): what it holds has no ROS meaning tfrec knows.
     """
+    wanted = DECODED_TOPICS if options.topics is None else options.topics
     import pyarrow as pa
     import rerun as rr
     from rerun.chunk import RrdReader
@@ -50,7 +54,13 @@ def read_rrd(path: Path, wanted: frozenset[str]) -> Recording:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", getattr(rr, "RerunWarning", UserWarning))
-            chunks = list(RrdReader(path).stream())
+            reader = RrdReader(path)
+            applications = sorted({entry.application_id for entry in reader.recordings()})
+            if applications and rerun_paths.APPLICATION_ID not in applications:
+                raise ReadError(f"{where}: a Rerun recording of {', '.join(repr(a) for a in applications)}, not "
+                                f"written by tfrec: tfrec reads back only its own .rrd files (their entities "
+                                "stand for ROS topics)")
+            chunks = list(reader.stream())
     except (RuntimeError, ValueError, OSError) as err:
         raise ReadError(f"{where}: unreadable Rerun recording: {err}") from err
     for chunk in chunks:

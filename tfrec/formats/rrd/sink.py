@@ -27,14 +27,19 @@ from numpy.typing import NDArray
 
 from tfrec.errors import KinematicsError, WriteError
 from tfrec.formats.rrd.columns import check_stamps, repeated_strings, time_column
-from tfrec.formats.rrd.geometry import MeshLoader, default_axis_length, fit_eye, visual_columns, visual_radius
+from tfrec.formats.rrd.geometry import (
+    MeshLoader,
+    default_axis_length,
+    fit_eye,
+    missing_meshes,
+    visual_columns,
+    visual_radius,
+)
+from tfrec.formats.rrd.layout import blueprint_of, robot_views
 from tfrec.formats.rrd.paths import (
     APPLICATION_ID,
     DESCRIPTION_ROOT,
-    JOINTS_ROOT,
     ROBOT_ROOT,
-    TIMELINE,
-    VELOCITIES_ROOT,
     joint_entity,
     link_entity,
     pair_entity,
@@ -84,6 +89,7 @@ class RerunSink:
         frame_prefix: put in front of every TF frame id (as in the transforms given).
         axis_length_m: length of the links' TF axes; default: a tenth of the robot's reach,
             between 2 cm and 25 cm.
+        entity_root: put in front of every entity path (``/robot1``: one robot of several).
 
     Raises:
         WriteError: the file cannot be created.
@@ -98,6 +104,7 @@ class RerunSink:
         package_paths: Sequence[str | os.PathLike[str]] = (),
         frame_prefix: str = "",
         axis_length_m: float | None = None,
+        entity_root: str = "",
     ) -> None:
         file = Path(path)
         stream = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id, send_properties=False)
@@ -110,7 +117,7 @@ class RerunSink:
         except RuntimeError as err:  # Rerun could not write the file's header
             raise WriteError(f"{file}: cannot write: {err}") from err
         self._setup(stream, target=os.fspath(file), file=file, robot=robot, package_paths=package_paths,
-                    frame_prefix=frame_prefix, axis_length_m=axis_length_m)
+                    frame_prefix=frame_prefix, axis_length_m=axis_length_m, entity_root=entity_root)
 
     @classmethod
     def from_stream(
@@ -122,17 +129,19 @@ class RerunSink:
         package_paths: Sequence[str | os.PathLike[str]] = (),
         frame_prefix: str = "",
         axis_length_m: float | None = None,
+        entity_root: str = "",
     ) -> RerunSink:
-        """A sink logging to a stream already pointed at its target (a spawned viewer, a connection).
+        """A sink logging to a stream already pointed at its target (a spawned viewer, a connection,
+        another sink's stream: :attr:`stream`).
 
         Args:
             stream: the recording stream, of application id :data:`APPLICATION_ID`.
             target: what the stream goes to, for error messages (a URL, "the Rerun viewer on port 9876").
-            robot, package_paths, frame_prefix, axis_length_m: as for the constructor.
+            robot, package_paths, frame_prefix, axis_length_m, entity_root: as for the constructor.
         """
         sink = cls.__new__(cls)
         sink._setup(stream, target=target, file=None, robot=robot, package_paths=package_paths,
-                    frame_prefix=frame_prefix, axis_length_m=axis_length_m)
+                    frame_prefix=frame_prefix, axis_length_m=axis_length_m, entity_root=entity_root)
         return sink
 
     def _setup(
@@ -145,8 +154,10 @@ class RerunSink:
         package_paths: Sequence[str | os.PathLike[str]],
         frame_prefix: str,
         axis_length_m: float | None,
+        entity_root: str = "",
     ) -> None:
         self._rec = stream
+        self._root = entity_root.rstrip("/")
         self._target = target
         self._file = file
         self._robot = robot
@@ -174,6 +185,11 @@ class RerunSink:
         """The file written, or None for a sink made with :meth:`from_stream`."""
         return self._file
 
+    @property
+    def stream(self) -> rr.RecordingStream:
+        """The recording stream, for more sinks into the same recording (:meth:`from_stream`)."""
+        return self._rec
+
     # -- what does not change --------------------------------------------------------------
 
     def begin(
@@ -184,6 +200,7 @@ class RerunSink:
         robot_description: str | None = None,
         name: str | None = None,
         root: str | None = None,
+        properties: bool = True,
     ) -> None:
         """Log what does not change: name and start time, geometry, frames and TF axes, fixed joints, the URDF.
 
@@ -195,6 +212,8 @@ class RerunSink:
             robot_description: the URDF text, kept at ``/robot_description``.
             name: the recording's name in the viewer (default: the robot's).
             root: the frame the 3D view is drawn in when there is no robot (with one: its root link).
+            properties: log the recording's name, start time and view coordinates (not for the
+                second robot of a replay).
 
         A mesh that cannot be found or read gives one warning naming the file and the link;
         the rest of the robot is logged.
@@ -205,10 +224,11 @@ class RerunSink:
             name = robot.name
         # The recording's name and start time, in one chunk (the SDK's own calls go through its
         # batcher, whose time-based flushes split them differently from run to run).
-        info = rr.archetypes.RecordingInfo.columns(start_time=[int(start_time_ns)],
-                                                   name=None if name is None else [name])
-        self._send_static("/__properties", info)
-        self._send_static("/", rr.ViewCoordinates.columns(xyz=[rr.ViewCoordinates.RIGHT_HAND_Z_UP]))
+        if properties:
+            info = rr.archetypes.RecordingInfo.columns(start_time=[int(start_time_ns)],
+                                                       name=None if name is None else [name])
+            self._send_static("/__properties", info, rooted=False)
+            self._send_static("/", rr.ViewCoordinates.columns(xyz=[rr.ViewCoordinates.RIGHT_HAND_Z_UP]), rooted=False)
         if robot is not None:
             root = self._prefix + robot.root
         if root is not None:
@@ -233,39 +253,33 @@ class RerunSink:
     def log_robot(self) -> None:
         """Log every link's frame and TF axes and its visuals' geometry (:meth:`begin` does).
 
-        A mesh that cannot be found or read gives one warning per file and link; the visual's
-        entity is logged without it.
+        Meshes that cannot be found or read give one warning: how many, and the first few
+        (file, link and why); the visuals' entities are logged without them.
         """
         robot = self._robot
         if robot is None:
             return
         meshes = MeshLoader(self._package_paths, source=robot.source)
-        warned: set[tuple[str, str]] = set()
+        missing: dict[tuple[str, str], str] = {}
         for link in robot.links:
             frame = [self._prefix + link.name]
-            self._send_static(
-                link_entity(link.name),
-                [
-                    *rr.CoordinateFrame.columns(frame=frame),
-                    *rr.TransformAxes3D.columns(axis_length=[self._axis_length_m], show_frame=[True]),
-                ],
-            )
+            self._send_static(link_entity(link.name), [
+                *rr.CoordinateFrame.columns(frame=frame),
+                *rr.TransformAxes3D.columns(axis_length=[self._axis_length_m], show_frame=[True])])
             for index, visual in enumerate(link.visuals):
                 asset = None
                 if isinstance(visual.geometry, Mesh):
                     uri = visual.geometry.filename
                     found = meshes.load(uri)
                     if isinstance(found, str):
-                        if (uri, link.name) not in warned:
-                            warned.add((uri, link.name))
-                            warnings.warn(
-                                f"{uri}: mesh for link '{link.name}' {found}; link logged without it", stacklevel=3
-                            )
+                        missing.setdefault((uri, link.name), found)
                     else:
                         asset = found
                 self._visual_radii[(link.name, index)] = visual_radius(visual, asset)
                 columns = [*rr.CoordinateFrame.columns(frame=frame), *visual_columns(visual, asset)]
                 self._send_static(visual_entity(link.name, index), columns)
+        if missing:
+            warnings.warn(missing_meshes(missing), stacklevel=3)
 
     def log_frames(self, frames: Iterable[str]) -> None:
         """Log TF axes at ``/robot/<frame>`` for each frame that is no link of the robot, once."""
@@ -391,23 +405,18 @@ class RerunSink:
         self._eye = fit_eye(self._robot, world, frame_prefix=self._prefix, radii=self._visual_radii)
 
     def blueprint(self) -> rrb.Blueprint:
-        """The layout: a 3D view of ``/robot`` (camera from :meth:`fit_camera`) beside a plot of the
-        joint positions, and in a second tab of the joint velocities when some were logged."""
-        view3d = rrb.Spatial3DView(name="robot", origin=f"/{ROBOT_ROOT}", eye_controls=self._eye)
-        plots: rrb.Container | rrb.View = rrb.TimeSeriesView(name="joint positions", origin=f"/{JOINTS_ROOT}")
-        if self._has_velocities:
-            velocities = rrb.TimeSeriesView(name="joint velocities", origin=f"/{VELOCITIES_ROOT}")
-            plots = rrb.Tabs(plots, velocities)
-        return rrb.Blueprint(
-            rrb.Horizontal(view3d, plots, column_shares=[3, 2]),
-            rrb.BlueprintPanel(state="collapsed"),
-            rrb.SelectionPanel(state="collapsed"),
-            rrb.TimePanel(state="collapsed", timeline=TIMELINE),
-        )
+        """The layout (:mod:`tfrec.formats.rrd.layout`) of :meth:`views`."""
+        return blueprint_of([self.views()])
 
-    def send_blueprint(self) -> None:
-        """Send :meth:`blueprint` now; :meth:`finish` then sends none (that would reset a live viewer's layout)."""
-        self._rec.send_blueprint(self.blueprint())
+    def views(self, name: str | None = None) -> rrb.Container:
+        """A 3D view of ``/robot`` (camera from :meth:`fit_camera`) beside a plot of the joint positions,
+        and in a second tab of the joint velocities when some were logged (``name``: a tab's title)."""
+        return robot_views(self._root, eye=self._eye, velocities=self._has_velocities, name=name)
+
+    def send_blueprint(self, blueprint: rrb.Blueprint | None = None) -> None:
+        """Send :meth:`blueprint` (or several sinks' :func:`blueprint_of`) now; :meth:`finish` then sends
+        none (that would reset a live viewer's layout)."""
+        self._rec.send_blueprint(self.blueprint() if blueprint is None else blueprint)
         self._blueprint_sent = True
 
     # -- the end ---------------------------------------------------------------------------
@@ -447,14 +456,17 @@ class RerunSink:
 
     # -- helpers ---------------------------------------------------------------------------
 
-    def _send(self, entity: str, index: list[rr.TimeColumn], columns: Any, *, nbytes: int = 0) -> None:
+    def _send(self, entity: str, index: list[rr.TimeColumn], columns: Any, *, nbytes: int = 0,
+              rooted: bool = True) -> None:
+        if rooted and self._root:
+            entity = self._root + entity
         rr.send_columns(entity, indexes=index, columns=columns, recording=self._rec, strict=True)
         self._unflushed_bytes += nbytes
         if self._unflushed_bytes >= _FLUSH_BYTES:
             self.flush()
 
-    def _send_static(self, entity: str, columns: Any) -> None:
-        self._send(entity, [], columns)
+    def _send_static(self, entity: str, columns: Any, *, rooted: bool = True) -> None:
+        self._send(entity, [], columns, rooted=rooted)
 
     def _write_scalars(self, entity: str, index: list[rr.TimeColumn], stamps: NDArray[np.int64],
                        values: Array) -> None:
@@ -477,12 +489,9 @@ class RerunSink:
         self._send(
             tf_entity(joint) if joint is not None else pair_entity(parent, child),
             index,
-            rr.Transform3D.columns(
-                translation=translation,
-                quaternion=rotation,
-                parent_frame=repeated_strings(parent, n),
-                child_frame=repeated_strings(child, n),
-            ),
+            rr.Transform3D.columns(translation=translation, quaternion=rotation,
+                                   parent_frame=repeated_strings(parent, n), child_frame=repeated_strings(child, n)),
             nbytes=stamps.nbytes + translation.nbytes + rotation.nbytes + n * (len(parent) + len(child)),
         )
+
 

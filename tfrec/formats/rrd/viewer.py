@@ -13,6 +13,10 @@ name keeps its own entities, so nothing recorded is dropped:
 ``/robot/<frame>``                ``CoordinateFrame`` + ``TransformAxes3D`` of such a frame
 ================================  =========================================================
 
+A recording of several robots (namespaces, or several descriptions on one topic) is replayed
+into one Rerun recording, each robot under its own entity root (``/robot1/robot/<link>``,
+``/robot1/tf/<joint>``…), each in a tab of the blueprint.
+
 :class:`RerunReplaySink` adapts the sink to :class:`tfrec.replay.play.ReplaySink`;
 :func:`open_rerun_sink` points it at its target.
 """
@@ -31,6 +35,7 @@ import rerun as rr
 from numpy.typing import NDArray
 
 from tfrec.errors import WriteError
+from tfrec.formats.rrd.layout import blueprint_of
 from tfrec.formats.rrd.paths import APPLICATION_ID
 from tfrec.formats.rrd.sink import RerunSink
 from tfrec.kinematics.fk import Transforms
@@ -48,19 +53,21 @@ Pair = tuple[str, str]
 
 
 class RerunReplaySink:
-    """Logs a recording being replayed to one Rerun target, through a :class:`RerunSink`.
+    """Logs a recording being replayed to one Rerun target, through one :class:`RerunSink` per robot.
 
-    Make one with :func:`open_rerun_sink`; call :meth:`begin` once,
+    Make one with :func:`open_rerun_sink`; call :meth:`begin` once per robot (in order),
     :meth:`write_transforms` and :meth:`write_joint_positions` for each batch, then
     :meth:`finish` (or :meth:`abort` after an error).
 
     Args:
-        sink: the Rerun sink, to a file or to a viewer.
+        sinks: the Rerun sinks, one per robot, all on one recording stream.
+        names: each robot's name in the blueprint's tabs (when there are several).
         live: True for a viewer: the static data is flushed at once, to fail early.
     """
 
-    def __init__(self, sink: RerunSink, *, live: bool) -> None:
-        self._sink = sink
+    def __init__(self, sinks: Sequence[RerunSink], *, names: Sequence[str] = (), live: bool) -> None:
+        self._sinks = list(sinks)
+        self._names = list(names) or [""] * len(self._sinks)
         self._live = live
 
     def begin(
@@ -73,41 +80,47 @@ class RerunReplaySink:
         frames: Sequence[str] = (),
         root: str | None = None,
         first_pose: Mapping[Pair, tuple[Array, Array]] | None = None,
+        robot: int = 0,
     ) -> None:
-        """Log what does not change: geometry, frames, latched transforms, the URDF and the blueprint.
+        """Log what does not change of one robot: geometry, frames, latched transforms, the URDF; after
+        the last robot, the blueprint.
 
         Args:
             start_time_ns: the stamp the replay starts at.
             name: the recording's name in the viewer.
-            robot_description: the URDF text for ``/robot_description``, or None.
+            robot_description: the URDF text for ``robot_description``, or None.
             static: /tf_static, (parent, child) → (translation (3,), rotation (4,)).
-            frames: every frame id of the replay; those that are not links get TF axes.
+            frames: every frame id of the robot; those that are not links get TF axes.
             root: the frame the 3D view is drawn in when there is no robot model.
             first_pose: the first /tf transform of each pair, like ``static``; the 3D view's
                 camera is fitted to the robot there.
+            robot: which robot (the order of :func:`open_rerun_sink`'s ``robots``).
 
         Raises:
             WriteError: a live viewer cannot be reached.
         """
-        sink = self._sink
+        sink = self._sinks[robot]
         sink.begin(static=Transforms.from_poses(static), start_time_ns=start_time_ns,
-                   robot_description=robot_description, name=name, root=root)
+                   robot_description=robot_description, name=name, root=root, properties=robot == 0)
         sink.log_frames([*frames, *(frame for pair in static for frame in pair)])
         latched = {child for _, child in static}
         sink.fit_camera(Transforms.from_poses({pair: pose for pair, pose in (first_pose or {}).items()
                                                if pair[1] not in latched}))
-        sink.send_blueprint()
-        if self._live:
-            sink.flush()
+        if robot == len(self._sinks) - 1:  # the first sink sends and finishes for all: they share a stream
+            views = [s.views(name or None) for s, name in zip(self._sinks, self._names)]
+            self._sinks[0].send_blueprint(blueprint_of(views) if len(views) > 1 else None)
+            if self._live:
+                sink.flush()
 
     def write_transforms(self, parent: str, child: str, time_ns: NDArray[np.int64], translation: Array,
-                         rotation: Array) -> None:
+                         rotation: Array, *, robot: int = 0) -> None:
         """Log one frame pair's transforms: int64 stamps (n,), translations (n, 3), quaternions (n, 4)."""
-        self._sink.write_transforms(parent, child, time_ns, translation, rotation)
+        self._sinks[robot].write_transforms(parent, child, time_ns, translation, rotation)
 
-    def write_joint_positions(self, time_ns: NDArray[np.int64], names: Sequence[str], positions: Array) -> None:
+    def write_joint_positions(self, time_ns: NDArray[np.int64], names: Sequence[str], positions: Array, *,
+                              robot: int = 0) -> None:
         """Log joint positions (n, J) at stamps (n,); NaN (no position in that message) is skipped."""
-        self._sink.write_joint_positions(time_ns, names, positions)
+        self._sinks[robot].write_joint_positions(time_ns, names, positions)
 
     def finish(self) -> None:
         """Flush everything and close the target.
@@ -115,11 +128,11 @@ class RerunReplaySink:
         Raises:
             WriteError: the data could not be written out or sent.
         """
-        self._sink.finish()
+        self._sinks[0].finish()  # one stream: flushed and closed once
 
     def abort(self) -> None:
         """Stop logging; a file target is deleted."""
-        self._sink.abort()
+        self._sinks[0].abort()
 
 
 def open_rerun_sink(
@@ -127,8 +140,10 @@ def open_rerun_sink(
     save: str | os.PathLike[str] | None = None,
     connect: str | None = None,
     recording_id: str | None = None,
-    robot: Robot | None,
+    robot: Robot | None = None,
     frame_prefix: str = "",
+    robots: Sequence[tuple[Robot | None, str, str]] | None = None,
+    names: Sequence[str] = (),
     package_paths: Sequence[str | os.PathLike[str]] = (),
     port: int = 9876,
 ) -> RerunReplaySink:
@@ -142,16 +157,24 @@ def open_rerun_sink(
         save: write this file (``recording_id`` names the recording in it).
         connect: stream to the viewer (or server) at this URL, ``rerun+http://host:port/proxy``.
         recording_id: the recording id (default: a new one).
-        robot, frame_prefix, package_paths: as for :class:`tfrec.formats.rrd.sink.RerunSink`.
+        robot, frame_prefix: the model and frame prefix of a replay of one robot, as for
+            :class:`tfrec.formats.rrd.sink.RerunSink`.
+        robots: (model, frame prefix, entity root) of each robot of a replay of several (instead
+            of ``robot`` and ``frame_prefix``).
+        names: each robot's name in the blueprint's tabs.
+        package_paths: folders searched first for ``package://`` meshes.
         port: where a spawned viewer listens; a viewer already listening there is reused.
 
     Raises:
         WriteError: the file cannot be created, the URL is malformed, or the viewer cannot
             be spawned.
     """
+    parts = list(robots) if robots is not None else [(robot, frame_prefix, "")]
     if save is not None:
-        return RerunReplaySink(RerunSink(save, robot=robot, recording_id=recording_id, frame_prefix=frame_prefix,
-                                         package_paths=package_paths), live=False)
+        model, prefix, root = parts[0]
+        first = RerunSink(save, robot=model, recording_id=recording_id, frame_prefix=prefix, entity_root=root,
+                          package_paths=package_paths)
+        return RerunReplaySink([first, *_more_sinks(first, parts[1:], package_paths)], names=names, live=False)
     stream = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id)
     if connect is not None:
         try:
@@ -168,9 +191,18 @@ def open_rerun_sink(
                 f"cannot spawn the Rerun viewer ({err}); use `save` OUT.rrd or `connect` URL"
             ) from err
         target = f"the Rerun viewer on port {port}"
-    sink = RerunSink.from_stream(stream, target=target, robot=robot, frame_prefix=frame_prefix,
-                                 package_paths=package_paths)
-    return RerunReplaySink(sink, live=True)
+    model, prefix, root = parts[0]
+    first = RerunSink.from_stream(stream, target=target, robot=model, frame_prefix=prefix, entity_root=root,
+                                  package_paths=package_paths)
+    return RerunReplaySink([first, *_more_sinks(first, parts[1:], package_paths)], names=names, live=True)
+
+
+def _more_sinks(first: RerunSink, parts: Sequence[tuple[Robot | None, str, str]],
+                package_paths: Sequence[str | os.PathLike[str]]) -> list[RerunSink]:
+    """Sinks of the other robots of a replay, on the first one's recording stream."""
+    target = str(first.path) if first.path is not None else "the Rerun viewer"
+    return [RerunSink.from_stream(first.stream, target=target, robot=model, frame_prefix=prefix, entity_root=root,
+                                  package_paths=package_paths) for model, prefix, root in parts]
 
 
 def check_can_connect(url: str) -> None:

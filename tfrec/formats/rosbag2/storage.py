@@ -1,0 +1,92 @@
+"""A rosbag2 bag's files as the readers take them: decompressed, and checked against ``metadata.yaml``.
+
+A bag compressed file by file (``compression_mode: file``, ``bag_0.mcap.zstd``) has each file
+decompressed to a temporary copy first, streamed (:func:`plain_files`); one compressed message by
+message has each decoded message decompressed (:func:`message_decompressor`). The messages read
+are checked against ``metadata.yaml``'s ``topics_with_message_count``: a topic whose count differs
+warns with both numbers (:func:`check_metadata_counts`) — a bag whose recorder was killed, a
+metadata file edited by hand, files added or removed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import tempfile
+import warnings
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+from tfrec.errors import ReadError
+from tfrec.formats._collect import ReadOptions, count_differences
+from tfrec.formats.rosbag2.metadata import BagMetadata
+from tfrec.recording import Recording
+
+__all__ = ["check_metadata_counts", "message_decompressor", "plain_files"]
+
+
+@contextlib.contextmanager
+def plain_files(meta: BagMetadata, where: str) -> Iterator[list[Path]]:
+    """The bag's files, decompressed to a temporary folder when the bag is compressed file by file.
+
+    Raises:
+        ReadError: an unknown compression, or a file that does not decompress.
+    """
+    if meta.compression_mode != "file":
+        yield list(meta.files)
+        return
+    if meta.compression != "zstd":
+        raise ReadError(f"{where}: files compressed with '{meta.compression}' (tfrec reads zstd)")
+    import zstandard
+
+    with tempfile.TemporaryDirectory(prefix="tfrec-") as scratch:
+        plain = []
+        for file in meta.files:
+            target = Path(scratch) / file.name.removesuffix(".zstd")
+            try:
+                with open(file, "rb") as source, open(target, "wb") as out:
+                    zstandard.ZstdDecompressor().copy_stream(source, out)
+            except zstandard.ZstdError as err:
+                raise ReadError(f"{where}: {file.name} does not decompress (zstd: {err})") from err
+            except OSError as err:
+                raise ReadError(f"{where}: cannot read {file.name}: {err.strerror or err}") from err
+            plain.append(target)
+        yield plain
+
+
+def message_decompressor(meta: BagMetadata, where: str) -> Callable[[bytes], bytes] | None:
+    """What decompresses one message of a bag compressed message by message; None otherwise.
+
+    Raises:
+        ReadError: an unknown compression.
+    """
+    if meta.compression_mode != "message":
+        return None
+    if meta.compression != "zstd":
+        raise ReadError(f"{where}: messages compressed with '{meta.compression}' (tfrec reads zstd)")
+    import zstandard
+
+    decompressor = zstandard.ZstdDecompressor()
+
+    def decompress(data: bytes) -> bytes:
+        try:
+            return bytes(decompressor.decompress(data))
+        except zstandard.ZstdError as err:
+            raise ReadError(f"{where}: a message does not decompress (zstd: {err})") from err
+
+    return decompress
+
+
+def check_metadata_counts(recording: Recording, meta: BagMetadata, options: ReadOptions, where: str) -> None:
+    """Warn when the messages read per topic differ from ``metadata.yaml``'s counts."""
+    assert meta.topic_counts is not None
+    expected: dict[str, int] = {}
+    for topic, count in meta.topic_counts.items():
+        name = options.resolve(topic)
+        expected[name] = expected.get(name, 0) + count
+    read = {topic: info.count for topic, info in recording.topics.items()}
+    for topic, count in read.items():
+        if count:
+            expected.setdefault(topic, 0)  # a topic metadata.yaml does not list
+    differ = count_differences(read, expected, index="metadata.yaml")
+    if differ is not None:
+        warnings.warn(f"{where}: {differ}", stacklevel=4)

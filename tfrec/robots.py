@@ -1,0 +1,255 @@
+"""The robots of a recording: who published which robot topics, as ``info``, ``replay`` and ``diff`` see them.
+
+A multi-robot system records each robot under a namespace (``/robot1/robot_description``,
+``/robot1/joint_states``, ``/robot1/tf``), or several robots on shared topics with prefixed
+frames (two robot_state_publishers with ``frame_prefix`` on one /tf, each publishing its own
+description on /robot_description). :func:`find_robots` turns a :class:`~tfrec.recording.Recording`
+into its robots, one :class:`RecordedRobot` each:
+
+- every robot description of a namespace is a robot (several robots may publish on one
+  /robot_description: each description is one);
+- a namespace with joint states or TF but no description is a robot without a model;
+- a robot's TF is its namespace's /tf and /tf_static, or, when its namespace has none, the root
+  namespace's (robots sharing /tf); its joint states likewise. A TF shared by several robots is
+  split by frame: each robot takes the pairs whose child frame is one of its links (with the
+  frame prefix detected for it, :func:`detect_frame_prefix`); what no robot takes stays together
+  as ``other_frames`` of that namespace, so that nothing recorded is lost.
+
+``info`` lists the robots, ``replay`` plays each under its key and checks each (``--check``),
+``diff`` compares them robot by robot, all through this one function, so they agree.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from xml.etree import ElementTree
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tfrec.errors import DescriptionError
+from tfrec.model import Robot
+from tfrec.recording import FrameSeries, JointStates, Recording, RobotTopics
+
+__all__ = ["OTHER_FRAMES", "RecordedRobot", "detect_frame_prefix", "find_robots", "parse_description", "robot_name"]
+
+Array = NDArray[np.float64]
+Pair = tuple[str, str]
+
+OTHER_FRAMES = "other_frames"
+"""The key's last part for a shared TF's pairs that no robot of it claims."""
+
+
+@dataclass(frozen=True)
+class RecordedRobot:
+    """One robot of a recording.
+
+    Attributes:
+        key: unique within the recording: ``""`` for the only robot of the root namespace,
+            else its namespace (``/robot1``), or with several robots in one namespace the
+            namespace and the robot's name (``left_arm``, ``/fleet/left_arm``); also the
+            entity path under which ``replay`` shows it.
+        namespace: the namespace of its description (or of its topics, without one).
+        name: the ``<robot name>`` of its description, or None.
+        description: the URDF text, or None.
+        model: the description parsed, or None (none, or unusable: ``problem`` says why).
+        problem: why the description is not a usable robot model, or None.
+        frame_prefix: what its frame ids put in front of its link names.
+        joint_states: the joint states it reads (its namespace's, else the root's), or None.
+        joint_states_namespace: the namespace they come from.
+        tf, tf_static: its TF pairs.
+        tf_namespace: the namespace of the /tf and /tf_static they come from.
+        unclaimed: not a robot: the pairs of a TF shared by several robots that none of them
+            claims (key ``…/other_frames``).
+    """
+
+    key: str
+    namespace: str
+    name: str | None
+    description: str | None
+    model: Robot | None
+    problem: str | None
+    frame_prefix: str
+    joint_states: JointStates | None
+    joint_states_namespace: str
+    tf: dict[Pair, FrameSeries] = field(default_factory=dict)
+    tf_static: dict[Pair, tuple[Array, Array]] = field(default_factory=dict)
+    tf_namespace: str = ""
+    unclaimed: bool = False
+
+    @property
+    def label(self) -> str:
+        """``robot /robot1``, ``robot left_arm``, ``robot /`` (the root namespace's, beside
+        others); ``the robot`` for the only one."""
+        return f"robot {self.key}" if self.key else "the robot"
+
+    @property
+    def entity_root(self) -> str:
+        """Where ``replay`` logs it in Rerun: ``/robot1``; ``""`` (the top) for the root namespace's robot."""
+        return "" if self.key in ("", "/") else ("" if self.key.startswith("/") else "/") + self.key
+
+    def frames(self) -> list[str]:
+        """Every frame id of its TF, in order of appearance."""
+        seen: dict[str, None] = {}
+        for parent, child in list(self.tf_static) + list(self.tf):
+            seen.setdefault(parent)
+            seen.setdefault(child)
+        return list(seen)
+
+
+def robot_name(urdf: str) -> str | None:
+    """The ``name`` of a URDF's ``<robot>`` element; None when it has none or is not XML."""
+    try:
+        for _, element in ElementTree.iterparse(io.BytesIO(urdf.encode("utf-8")), events=("start",)):
+            return element.get("name") if element.tag == "robot" else None
+    except ElementTree.ParseError:
+        return None
+    return None
+
+
+def parse_description(text: str, where: str) -> tuple[Robot | None, str | None]:
+    """A recorded robot description as a model, or why it is none: (model, None) or (None, problem)."""
+    from tfrec.description.urdf import parse_urdf
+
+    try:
+        return parse_urdf(text, source=None, user_lines=False), None
+    except DescriptionError as err:
+        return None, str(err)
+
+
+def detect_frame_prefix(robot: Robot, frames: Iterable[str], *, namespace: str = "") -> str:
+    """The prefix the recording's frame ids put in front of the robot's link names.
+
+    robot_state_publisher's ``frame_prefix`` (``left/``), or ROS 1's leading ``/``: the prefix that
+    turns the most frames into link names; no prefix when the frames are the link names. The
+    namespace's own name (``robot1/`` for ``/robot1``) wins when some frames carry it: robots of
+    one model in several namespaces share every other prefix's count.
+    """
+    links = {link.name for link in robot.links}
+    counts: dict[str, int] = {}
+    for frame in set(frames):
+        if frame in links:
+            counts[""] = counts.get("", 0) + 1
+        for link in links:
+            if len(frame) > len(link) and frame.endswith(link):
+                prefix = frame[: -len(link)]
+                counts[prefix] = counts.get(prefix, 0) + 1
+    own = namespace.strip("/") + "/" if namespace else None
+    if own is not None and counts.get(own):
+        return own
+    if not counts:
+        return ""
+    best = max(counts.values())
+    if counts.get("", 0) == best:
+        return ""
+    return min((prefix for prefix, count in counts.items() if count == best), key=lambda p: (len(p), p))
+
+
+_UNSAFE = re.compile(r"[^A-Za-z0-9_]")
+
+
+def _part(name: str | None, index: int) -> str:
+    """A robot's name as a key part (``left_arm``): its name, made a ROS name."""
+    return _UNSAFE.sub("_", name) if name else f"robot_{index}"
+
+
+def _joined(namespace: str, part: str) -> str:
+    return f"{namespace}/{part}" if namespace else part
+
+
+@dataclass
+class _Candidate:
+    namespace: str
+    name: str | None
+    description: str | None
+    model: Robot | None
+    problem: str | None
+    pool: str = ""  # the namespace of the TF it reads
+    leftover: bool = False  # the pairs of a shared TF that no robot claims
+    prefix: str = ""
+    tf: dict[Pair, FrameSeries] = field(default_factory=dict)
+    tf_static: dict[Pair, tuple[Array, Array]] = field(default_factory=dict)
+
+
+def find_robots(rec: Recording, *, namespace: str | None = None) -> list[RecordedRobot]:
+    """The robots of a recording (see the module docstring), in namespace order.
+
+    Args:
+        rec: the recording.
+        namespace: only the robots of this namespace (``/robot1``; ``""`` the root's); they
+            may still read the root namespace's TF and joint states.
+
+    Returns:
+        One entry per robot, and one per shared TF's unclaimed pairs; empty when the recording
+        has no robot topics.
+    """
+    names = rec.namespace_names()
+    topics = {ns: rec.robot_topics(ns) for ns in names}
+    has_tf = {ns for ns, t in topics.items() if t.tf or t.tf_static}
+    has_js = {ns for ns, t in topics.items() if t.joint_states is not None}
+    candidates: list[_Candidate] = []
+    for ns in names:
+        for text in topics[ns].descriptions:
+            model, problem = parse_description(text, rec.path)
+            candidates.append(_Candidate(ns, model.name if model else robot_name(text), text, model, problem))
+    for candidate in candidates:
+        candidate.pool = candidate.namespace if candidate.namespace in has_tf or "" not in has_tf else ""
+    used_pools = {c.pool for c in candidates}
+    used_js = {c.namespace if c.namespace in has_js else "" for c in candidates}
+    for ns in names:  # a namespace without a description whose data no robot reads: a robot without a model
+        if not topics[ns].descriptions and ((ns in has_tf and ns not in used_pools)
+                                             or (ns in has_js and ns not in used_js and ns not in used_pools)):
+            candidates.append(_Candidate(ns, None, None, None, None, pool=ns))
+    leftovers: dict[str, _Candidate] = {}
+    for pool in sorted({c.pool for c in candidates}):
+        users = [c for c in candidates if c.pool == pool]
+        _split_pool(topics.get(pool, RobotTopics()), pool, users, leftovers)
+    candidates += leftovers.values()
+    if namespace is not None:
+        candidates = [c for c in candidates if c.namespace == namespace]
+    return _keyed(candidates, topics, has_js)
+
+
+def _split_pool(pool_topics: RobotTopics, pool: str, users: list[_Candidate], leftovers: dict[str, _Candidate]) -> None:
+    """Share one namespace's TF among the robots that read it."""
+    frames = [frame for pair in list(pool_topics.tf_static) + list(pool_topics.tf) for frame in pair]
+    for user in users:
+        if user.model is not None:
+            user.prefix = detect_frame_prefix(user.model, frames, namespace=user.namespace)
+    if len(users) == 1:
+        users[0].tf, users[0].tf_static = dict(pool_topics.tf), dict(pool_topics.tf_static)
+        return
+    owner: dict[str, _Candidate] = {}
+    for user in users:
+        if user.model is not None:
+            for link in user.model.links:
+                owner.setdefault(user.prefix + link.name, user)
+    rest = _Candidate(pool, None, None, None, None, pool=pool, leftover=True)
+    for pair, series in pool_topics.tf.items():
+        (owner.get(pair[1], rest)).tf[pair] = series
+    for pair, pose in pool_topics.tf_static.items():
+        (owner.get(pair[1], rest)).tf_static[pair] = pose
+    if rest.tf or rest.tf_static:
+        leftovers[pool] = rest
+
+
+def _keyed(candidates: Sequence[_Candidate], topics: dict[str, RobotTopics], has_js: set[str]) -> list[RecordedRobot]:
+    per_namespace: dict[str, int] = {}
+    for c in candidates:
+        per_namespace[c.namespace] = per_namespace.get(c.namespace, 0) + 1
+    robots = []
+    for index, c in enumerate(sorted(candidates, key=lambda c: (c.namespace, c.leftover, c.description is None))):
+        if per_namespace[c.namespace] == 1:
+            key = c.namespace or ("/" if len(candidates) > 1 else "")
+        elif c.leftover:
+            key = _joined(c.namespace, OTHER_FRAMES)
+        else:
+            key = _joined(c.namespace, _part(c.name, index))
+        js_ns = c.namespace if c.namespace in has_js else ""
+        js = None if c.leftover or js_ns not in topics else topics[js_ns].joint_states
+        robots.append(RecordedRobot(key, c.namespace, c.name, c.description, c.model, c.problem, c.prefix, js, js_ns,
+                                    c.tf, c.tf_static, c.pool, c.leftover))
+    return robots
