@@ -145,7 +145,7 @@ def _modules_after(argv: list[str]) -> set[str]:
         "print(' '.join(sorted(sys.modules)))\n"
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, check=True)
-    return set(result.stdout.split())
+    return set(result.stdout.splitlines()[-1].split())  # the last line: the help text comes before it
 
 
 @pytest.mark.parametrize("argv", [["--help"], ["inspect", "robots/marm.xacro"]])
