@@ -136,6 +136,8 @@ def _stamps(rec: Recording) -> dict[str, Any] | None:
                 logged.append(info.first_ns)
     if rec.time_base != "header" or not stamps or not logged or abs(min(stamps) - min(logged)) <= CLOCK_GAP_NS:
         return None
+    if max(stamps) == 0:
+        return {"first_ns": 0, "clock": "stamped 0"}
     return {"first_ns": min(stamps), "clock": "another clock than the log times (sim time?)"}
 
 
@@ -194,7 +196,10 @@ def format_summary(summary: dict[str, Any]) -> str:
         lines.append(f"Start:       {summary['start_time']} ({summary['start_time_ns']} ns)")
         lines.append(f"End:         {summary['end_time']} ({summary['end_time_ns']} ns)")
     stamps = summary["stamps"]
-    if stamps is not None:
+    if stamps is not None and stamps["clock"] == "stamped 0":
+        lines.append("Stamps:      /joint_states and /tf are stamped 0: no time of their own (replay them with "
+                     "--use-log-time)")
+    elif stamps is not None:
         lines.append(f"Stamps:      header stamps of /joint_states and /tf from {stamps['first_ns'] / NS_PER_S:.3f} s: "
                      f"{stamps['clock']}; replay, diff and --check use the header stamps (--use-log-time: the log times)")
     lines.append(f"Messages:    {summary['message_count']}")

@@ -24,7 +24,7 @@ from __future__ import annotations
 import io
 import re
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from xml.etree import ElementTree
 
 import numpy as np
@@ -120,14 +120,8 @@ def parse_description(text: str, where: str) -> tuple[Robot | None, str | None]:
         return None, str(err)
 
 
-def detect_frame_prefix(robot: Robot, frames: Iterable[str], *, namespace: str = "") -> str:
-    """The prefix the recording's frame ids put in front of the robot's link names.
-
-    robot_state_publisher's ``frame_prefix`` (``left/``), or ROS 1's leading ``/``: the prefix that
-    turns the most frames into link names; no prefix when the frames are the link names. The
-    namespace's own name (``robot1/`` for ``/robot1``) wins when some frames carry it: robots of
-    one model in several namespaces share every other prefix's count.
-    """
+def _prefix_counts(robot: Robot, frames: Iterable[str]) -> dict[str, int]:
+    """Prefix → how many of the robot's links the frames name with it (``""``: the link names themselves)."""
     links = {link.name for link in robot.links}
     counts: dict[str, int] = {}
     for frame in set(frames):
@@ -137,6 +131,18 @@ def detect_frame_prefix(robot: Robot, frames: Iterable[str], *, namespace: str =
             if len(frame) > len(link) and frame.endswith(link):
                 prefix = frame[: -len(link)]
                 counts[prefix] = counts.get(prefix, 0) + 1
+    return counts
+
+
+def detect_frame_prefix(robot: Robot, frames: Iterable[str], *, namespace: str = "") -> str:
+    """The prefix the recording's frame ids put in front of the robot's link names.
+
+    robot_state_publisher's ``frame_prefix`` (``left/``), or ROS 1's leading ``/``: the prefix that
+    turns the most frames into link names; no prefix when the frames are the link names. The
+    namespace's own name (``robot1/`` for ``/robot1``) wins when some frames carry it: robots of
+    one model in several namespaces share every other prefix's count.
+    """
+    counts = _prefix_counts(robot, frames)
     own = namespace.strip("/") + "/" if namespace else None
     if own is not None and counts.get(own):
         return own
@@ -146,6 +152,19 @@ def detect_frame_prefix(robot: Robot, frames: Iterable[str], *, namespace: str =
     if counts.get("", 0) == best:
         return ""
     return min((prefix for prefix, count in counts.items() if count == best), key=lambda p: (len(p), p))
+
+
+def _instances(robot: Robot, frames: Sequence[str], namespace: str) -> list[str]:
+    """The frame prefixes under which one description's robot appears several times in one TF (two
+    arms of one model, ``left/`` and ``right/``): each prefix that names half its links or more; else
+    the one prefix :func:`detect_frame_prefix` finds."""
+    counts = _prefix_counts(robot, frames)
+    own = namespace.strip("/") + "/" if namespace else None
+    enough = max(1, len(robot.links) // 2)
+    many = sorted(prefix for prefix, count in counts.items() if count >= enough)
+    if len(many) > 1 and not (own is not None and counts.get(own)):
+        return many
+    return [detect_frame_prefix(robot, frames, namespace=namespace)]
 
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9_]")
@@ -169,7 +188,8 @@ class _Candidate:
     problem: str | None
     pool: str = ""  # the namespace of the TF it reads
     leftover: bool = False  # the pairs of a shared TF that no robot claims
-    prefix: str = ""
+    prefix: str | None = None
+    instance: str = ""  # one of several robots of one description (its frame prefix, ``left``)
     tf: dict[Pair, FrameSeries] = field(default_factory=dict)
     tf_static: dict[Pair, tuple[Array, Array]] = field(default_factory=dict)
 
@@ -205,20 +225,46 @@ def find_robots(rec: Recording, *, namespace: str | None = None) -> list[Recorde
             candidates.append(_Candidate(ns, None, None, None, None, pool=ns))
     leftovers: dict[str, _Candidate] = {}
     for pool in sorted({c.pool for c in candidates}):
-        users = [c for c in candidates if c.pool == pool]
-        _split_pool(topics.get(pool, RobotTopics()), pool, users, leftovers)
+        pool_topics = topics.get(pool, RobotTopics())
+        frames = [frame for pair in list(pool_topics.tf_static) + list(pool_topics.tf) for frame in pair]
+        users = []
+        for c, prefixes in _assign([c for c in candidates if c.pool == pool], frames):
+            users += [replace(c, prefix=prefix, instance=prefix.strip("/") if len(prefixes) > 1 else "",
+                              tf={}, tf_static={}) for prefix in prefixes]
+        candidates = [c for c in candidates if c.pool != pool] + users
+        _split_pool(pool_topics, pool, users, leftovers)
     candidates += leftovers.values()
     if namespace is not None:
         candidates = [c for c in candidates if c.namespace == namespace]
     return _keyed(candidates, topics, has_js)
 
 
+def _assign(users: list[_Candidate], frames: Sequence[str]) -> list[tuple[_Candidate, list[str]]]:
+    """The frame prefix(es) of each robot reading one TF. Descriptions of one model (the same link
+    names) claim the same prefixes: a prefix goes first to the robot whose name holds it (``left/``
+    to ``left_arm``), then to the robots in the order of their descriptions, one each; a
+    description left alone with several prefixes is that many robots (two arms of one model)."""
+    claims = [(_instances(u.model, frames, u.namespace) if u.model is not None else [""]) for u in users]
+    assigned: dict[int, list[str]] = {}
+    taken: set[str] = set()
+    for i, (user, prefixes) in enumerate(zip(users, claims)):
+        name = (user.name or "").lower()
+        named = [p for p in prefixes if p.strip("/") and p.strip("/").lower() in name and p not in taken]
+        if named and len(prefixes) > 1:
+            assigned[i] = named[:1]
+            taken.add(named[0])
+    for i, prefixes in enumerate(claims):
+        if i in assigned:
+            continue
+        free = [p for p in prefixes if p not in taken] or prefixes[:1]
+        later = any(set(claims[j]) & set(free) for j in range(i + 1, len(users)) if j not in assigned)
+        assigned[i] = free[:1] if later else free
+        taken.update(assigned[i])
+    return [(user, assigned[i]) for i, user in enumerate(users)]
+
+
 def _split_pool(pool_topics: RobotTopics, pool: str, users: list[_Candidate], leftovers: dict[str, _Candidate]) -> None:
-    """Share one namespace's TF among the robots that read it."""
-    frames = [frame for pair in list(pool_topics.tf_static) + list(pool_topics.tf) for frame in pair]
-    for user in users:
-        if user.model is not None:
-            user.prefix = detect_frame_prefix(user.model, frames, namespace=user.namespace)
+    """Share one namespace's TF among the robots that read it (their prefixes found)."""
     if len(users) == 1:
         users[0].tf, users[0].tf_static = dict(pool_topics.tf), dict(pool_topics.tf_static)
         return
@@ -226,7 +272,7 @@ def _split_pool(pool_topics: RobotTopics, pool: str, users: list[_Candidate], le
     for user in users:
         if user.model is not None:
             for link in user.model.links:
-                owner.setdefault(user.prefix + link.name, user)
+                owner.setdefault((user.prefix or "") + link.name, user)
     rest = _Candidate(pool, None, None, None, None, pool=pool, leftover=True)
     for pair, series in pool_topics.tf.items():
         (owner.get(pair[1], rest)).tf[pair] = series
@@ -247,9 +293,9 @@ def _keyed(candidates: Sequence[_Candidate], topics: dict[str, RobotTopics], has
         elif c.leftover:
             key = _joined(c.namespace, OTHER_FRAMES)
         else:
-            key = _joined(c.namespace, _part(c.name, index))
+            key = _joined(c.namespace, _part(c.instance or c.name, index))
         js_ns = c.namespace if c.namespace in has_js else ""
         js = None if c.leftover or js_ns not in topics else topics[js_ns].joint_states
-        robots.append(RecordedRobot(key, c.namespace, c.name, c.description, c.model, c.problem, c.prefix, js, js_ns,
+        robots.append(RecordedRobot(key, c.namespace, c.name, c.description, c.model, c.problem, c.prefix or "", js, js_ns,
                                     c.tf, c.tf_static, c.pool, c.leftover))
     return robots

@@ -360,11 +360,15 @@ class Collector:
         if self.options.use_log_time or not len(time_ns):
             return
         zero = int(np.count_nonzero(time_ns == 0))
-        if zero > 1:  # one sample at t=0 is a clock that starts at 0
-            what = "messages" if topic.endswith(JOINT_STATES) else "transforms"
-            warnings.warn(f"{self.recording.path}: {zero:,} of {len(time_ns):,} {topic} {what} are stamped 0 "
-                          "(a driver that does not stamp them; robot_state_publisher ignores them): their times "
-                          "are meaningless; `use_log_time` replays by log time", stacklevel=4)
+        if zero <= 1:  # one sample at t=0 is a clock that starts at 0
+            return
+        if topic.endswith(JOINT_STATES):
+            what = ("messages are stamped 0 (a driver that does not stamp them: robot_state_publisher publishes "
+                    "nothing for them)")
+        else:
+            what = "transforms are stamped 0 (tf2's \"latest\": they have no time of their own)"
+        warnings.warn(f"{self.recording.path}: {zero:,} of {len(time_ns):,} {topic} {what}; their times are "
+                      "meaningless: `use_log_time` replays by log time", stacklevel=4)
 
 
 def _descriptions(decoded: _Decoded) -> list[str]:
