@@ -9,6 +9,7 @@ from typing import Any
 
 from tfrec.cli._common import (
     add_naming_arguments,
+    as_flags,
     number,
     tolerance,
 )
@@ -111,7 +112,7 @@ def _cmd_replay(ns: argparse.Namespace) -> int:
             json.dump(report.to_dict(), sys.stdout, indent=2)
             sys.stdout.write("\n")
         else:
-            sys.stdout.write(format_check(report))
+            sys.stdout.write(as_flags(format_check(report)))
         status = 0 if report.passed else 1
         if ns.plot is not None:
             from tfrec.plots import plot_check

@@ -48,7 +48,16 @@ from numpy.typing import NDArray
 from tfrec.conventions import DIFF_JOINT_TOL as DEFAULT_JOINT_TOL
 from tfrec.conventions import DIFF_POS_TOL as DEFAULT_POS_TOL
 from tfrec.conventions import DIFF_ROT_TOL as DEFAULT_ROT_TOL
-from tfrec.conventions import FLOAT32_TOL, JOINT_STATES, NS_PER_S, ROBOT_DESCRIPTION, TF, TF_STATIC, namespace_name
+from tfrec.conventions import (
+    FLOAT32_TOL,
+    JOINT_STATES,
+    NS_PER_S,
+    ROBOT_DESCRIPTION,
+    TF,
+    TF_STATIC,
+    namespace_name,
+    split_topic,
+)
 from tfrec.diff.report import Difference, DiffReport, Largest, at_time, format_time
 from tfrec.errors import DiffError
 from tfrec.formats._collect import decodes_type
@@ -86,8 +95,9 @@ def _rate(time_ns: NDArray[np.int64]) -> str:
 
 class _Comparison:
     def __init__(self, a: Recording, b: Recording, report: DiffReport, topics: Collection[str] | None,
-                 absolute: bool) -> None:
+                 absolute: bool, namespace: str | None = None) -> None:
         self.a, self.b, self.report = a, b, report
+        self.namespace = namespace  # only this namespace's topics and robots
         self.topics = topics
         self.absolute = absolute
         self.pos_tol = report.tolerances["pos_tol"]
@@ -174,7 +184,7 @@ class _Comparison:
         names = sorted(set(a.topics) | set(b.topics))
         ros_types = "rrd" not in (a.format, b.format)
         for name in names:
-            if not self.wants(name):
+            if not self.wants(name) or (self.namespace is not None and split_topic(name)[0] != self.namespace):
                 continue
             ia, ib = a.topics.get(name), b.topics.get(name)
             if ia is None or ib is None:
@@ -418,11 +428,12 @@ def compare(
         if rec.read_error is not None:
             warnings.warn(rec.read_error, stacklevel=2)
             report.notes.append(f"damaged file, compared as far as readable: {rec.read_error}")
-    cmp = _Comparison(rec_a, rec_b, report, wanted, absolute)
+    ns = None if namespace is None else namespace_name(namespace)
+    cmp = _Comparison(rec_a, rec_b, report, wanted, absolute, ns)
     if not absolute:
         report.origins = (cmp.origin_a, cmp.origin_b)
     cmp.topic_table()
-    cmp.robots(None if namespace is None else namespace_name(namespace))
+    cmp.robots(ns)
     if cmp.interpolated:
         groups = []
         for rates, whats in cmp.interpolated.items():

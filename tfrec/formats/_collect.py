@@ -288,7 +288,8 @@ class Collector:
 
     # -- messages -------------------------------------------------------------------------
 
-    def add(self, topic: str, datas: Sequence[bytes | memoryview], log_times: Sequence[int] | None = None) -> None:
+    def add(self, topic: str, datas: Sequence[bytes | memoryview],
+            log_times: Sequence[int] | NDArray[np.int64] | None = None) -> None:
         """Decode raw messages of a decoded topic, with their log times (needed for
         /tf_static, /robot_description and ``use_log_time``; else in any order)."""
         decoded = self.decoded[topic]
@@ -308,7 +309,7 @@ class Collector:
                 times = np.asarray(log_times, dtype=np.int64)
             decoded.accumulator.add(datas, times)
             return
-        times_list = list(log_times) if log_times is not None else [0] * len(datas)
+        times_list = [int(t) for t in log_times] if log_times is not None else [0] * len(datas)
         for time_ns, data in zip(times_list, datas):
             decoded.latched.append((int(time_ns), self._arrivals, bytes(data)))
             self._arrivals += 1

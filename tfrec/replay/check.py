@@ -330,7 +330,7 @@ def _time(value: float | None) -> str:
 def format_check(report: CheckReport) -> str:
     """The report as a table, one row per frame (naming its robot when there are several), then the
     verdict naming the failing frames — per robot, with the robots that could not be checked."""
-    several = report.robots != [""] or bool(report.unchecked)
+    several = len(report.robots) + len(report.unchecked) > 1
     header: tuple[str, ...] = ("frame", "parent", "topic", "samples", "max transl. (m)", "at t (s)",
                                "max rot. (rad)", "at t (s)", "")
     if several:

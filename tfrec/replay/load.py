@@ -159,7 +159,7 @@ def _selects(selected: Collection[str], namespace: str, kind: str) -> bool:
 def _has(rec: Recording, topic: str) -> bool:
     """Whether the recording has messages on ``topic``: a full name, or a kind (``/tf``) in any namespace."""
     if topic in RECORDED_TOPICS:
-        return any(info.count > 0 and robot_topic_kind(name) is not None and robot_topic_kind(name)[1] == topic  # type: ignore[index]
+        return any(info.count > 0 and (kind := robot_topic_kind(name)) is not None and kind[1] == topic
                    for name, info in rec.topics.items())
     info = rec.topics.get(topic)
     return info is not None and info.count > 0
@@ -323,7 +323,8 @@ def load_replay(
     ns = None if namespace is None else namespace_name(namespace)
     found = find_robots(rec, namespace=ns)
     if not found:
-        names = ", ".join(name or "/" for name in rec.namespace_names()) or "none"
+        spaces = sorted({kind[0] for topic in rec.topics if (kind := robot_topic_kind(topic)) is not None})
+        names = ", ".join(name or "/" for name in spaces) or "none"
         raise ReplayError(f"{where}: no robot in `namespace` {ns or '/'} (the recording's namespaces: {names})")
     robots_found = [r for r in found if not r.unclaimed]
     if robot is not None and len(robots_found) > 1:
@@ -339,6 +340,9 @@ def load_replay(
     hi = int(np.iinfo(np.int64).max) if end_s is None else origin + round(end_s * NS_PER_S)
     had_samples = any(len(s) for r in found for s in r.tf.values()) or any(
         r.joint_states is not None and len(r.joint_states) > 0 for r in found)
+    found = [r for r in found if any(_selects(selected, ns, kind) for ns, kind in (
+        (r.namespace, ROBOT_DESCRIPTION), (r.tf_namespace, TF), (r.tf_namespace, TF_STATIC),
+        (r.joint_states_namespace, JOINT_STATES)))] or found[:1]  # robots of which nothing is selected are left out
     only = len(found) == 1
     robots = [_prepare(r, robot if robot is not None and not r.unclaimed else r.model,
                        robot is not None and not r.unclaimed, selected, (lo, hi), where,

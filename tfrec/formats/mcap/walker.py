@@ -51,6 +51,7 @@ from tfrec.formats.mcap.summary import (
     statistics_of,
     summary_records,
 )
+from tfrec.formats.ros.decode import RawMessages
 from tfrec.formats.ros.types import topic_deserializer
 from tfrec.formats.rosbag2.metadata import qos_durability
 from tfrec.recording import TopicStats
@@ -271,10 +272,8 @@ class McapWalker:
             rows = np.flatnonzero(found.channel == channel_id)
             times = found.log_time[rows]
             channel.add_span(len(rows), int(times.min()), int(times.max()))
-            if channel.decoded:
-                starts, stops = found.start[rows].tolist(), found.stop[rows].tolist()
-                channel.datas.extend([view[a:b] for a, b in zip(starts, stops)])
-                channel.times.extend(times.tolist())
+            if channel.decoded:  # decoded from the chunk's records, not a Python object per message
+                self.collector.add(channel.topic, RawMessages(records, found.start[rows], found.stop[rows]), times)
         return None
 
     def _cut_chunk(self, body: bytes) -> int:

@@ -26,6 +26,7 @@ from tfrec.formats.ros.cdr import CDR_HEADER, align, ns_from_stamps
 __all__ = [
     "JointStateAccumulator",
     "MessageLayout",
+    "RawMessages",
     "TFAccumulator",
     "message_layout",
     "stamp_ns",
@@ -163,8 +164,51 @@ def stamp_ns(stamp: Any) -> int:
     return ns_from_stamps(int(stamp.sec), int(stamp.nanosec))
 
 
-def _rows(datas: Sequence[bytes | memoryview], size: int) -> NDArray[np.uint8]:
-    return np.frombuffer(b"".join(datas), dtype=np.uint8).reshape(len(datas), size)
+class RawMessages(Sequence[memoryview]):
+    """Serialized messages that lie in one buffer (a chunk's records): message ``i`` is
+    ``buffer[starts[i]:stops[i]]``. A reader that found them with numpy (through a chunk's index)
+    hands them over like this, so that no Python object is made per message: messages of one size
+    that lie evenly spaced — a recorder's fixed-layout messages, interleaved — are taken as one
+    strided (N, size) view of the buffer, without a copy.
+    """
+
+    def __init__(self, buffer: bytes | memoryview | NDArray[np.uint8], starts: NDArray[np.int64],
+                 stops: NDArray[np.int64]) -> None:
+        self.buffer = buffer if isinstance(buffer, np.ndarray) else np.frombuffer(buffer, dtype=np.uint8)
+        self.starts = starts
+        self.stops = stops
+
+    def __len__(self) -> int:
+        return len(self.starts)
+
+    def __getitem__(self, index: Any) -> Any:
+        if isinstance(index, slice):
+            return RawMessages(self.buffer, self.starts[index], self.stops[index])
+        return self.buffer[int(self.starts[index]) : int(self.stops[index])].data
+
+    def sizes(self) -> NDArray[np.int64]:
+        return self.stops - self.starts
+
+    def rows(self, index: NDArray[np.intp], size: int) -> NDArray[np.uint8]:
+        """The messages ``index`` (each ``size`` bytes long) as an (n, size) array: a view when evenly spaced."""
+        starts = self.starts[index]
+        if len(starts) == 0:
+            return np.zeros((0, size), dtype=np.uint8)
+        steps = np.diff(starts)
+        if len(starts) == 1 or (steps[0] >= size and bool((steps == steps[0]).all())):
+            step = int(steps[0]) if len(steps) else size
+            rows: NDArray[np.uint8] = np.lib.stride_tricks.as_strided(
+                self.buffer[int(starts[0]):], shape=(len(starts), size), strides=(step, 1), writeable=False)
+            return rows
+        gathered: NDArray[np.uint8] = self.buffer[starts[:, np.newaxis] + np.arange(size)]
+        return gathered
+
+
+def _rows(datas: Sequence[bytes | memoryview], index: NDArray[np.intp], size: int) -> NDArray[np.uint8]:
+    if isinstance(datas, RawMessages):
+        return datas.rows(index, size)
+    chosen = datas if len(index) == len(datas) else [datas[i] for i in index.tolist()]
+    return np.frombuffer(b"".join(chosen), dtype=np.uint8).reshape(len(chosen), size)
 
 
 def _split(
@@ -173,12 +217,12 @@ def _split(
     """Rows of the messages that match ``layout``, their indices, and the indices of the rest."""
     if layout is None or not datas:
         return None, np.zeros(0, dtype=np.intp), list(range(len(datas)))
-    lengths = np.fromiter(map(len, datas), dtype=np.int64, count=len(datas))
-    same = np.flatnonzero(lengths == layout.size)
-    if len(same) == len(datas):
-        rows = _rows(datas, layout.size)
+    if isinstance(datas, RawMessages):
+        lengths = datas.sizes()
     else:
-        rows = _rows([datas[i] for i in same.tolist()], layout.size)
+        lengths = np.fromiter(map(len, datas), dtype=np.int64, count=len(datas))
+    same = np.flatnonzero(lengths == layout.size)
+    rows = _rows(datas, same, layout.size)
     ok = np.ones(len(rows), dtype=bool)
     for start, stop in layout.fixed:
         ok &= (rows[:, start:stop] == layout.template[start:stop]).all(axis=1)

@@ -31,6 +31,7 @@ from tfrec.errors import ReadError
 from tfrec.formats._collect import Collector, ReadOptions, count_differences
 from tfrec.formats._compression import decompress
 from tfrec.formats.ros.cdr import ns_from_stamps
+from tfrec.formats.ros.decode import RawMessages
 from tfrec.formats.ros.types import ros1_typestore, topic_deserializer
 from tfrec.formats.rosbag1.reader import (
     COMPRESSIONS,
@@ -230,7 +231,6 @@ class _IndexedBag:
         except ValueError as err:
             raise _Unusable(f"a damaged chunk at byte {chunk.pos:,} ({err})") from err
         buffer = np.frombuffer(records, dtype=np.uint8)
-        view = memoryview(records)
         found: dict[str, list[tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]]] = {}
         for conn in wanted:  # a topic's publishers (connections) merged in time order
             offsets = np.sort(chunk.entries[conn]["offset"].astype(np.int64))
@@ -240,7 +240,7 @@ class _IndexedBag:
             if len(parts) > 1:
                 order = np.argsort(times, kind="stable")
                 times, starts, stops = times[order], starts[order], stops[order]
-            self.collector.add(topic, [view[a:b] for a, b in zip(starts.tolist(), stops.tolist())], times.tolist())
+            self.collector.add(topic, RawMessages(records, starts, stops), times)
 
 
 def _gather(buffer: NDArray[np.uint8], offsets: NDArray[np.int64], width: int) -> NDArray[np.uint8]:

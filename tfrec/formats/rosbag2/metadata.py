@@ -185,7 +185,7 @@ def read_bag_metadata(folder: Path) -> BagMetadata:
     if not meta.is_file():
         raise ReadError(f"{folder}: a folder without metadata.yaml is not a rosbag2 bag")
     try:
-        document = yaml.safe_load(meta.read_text(encoding="utf-8"))
+        document = yaml.safe_load(meta.read_text(encoding="utf-8"))  # PyYAML's own parser: its errors say more
     except OSError as err:
         raise ReadError(f"{meta}: cannot read: {err.strerror or err}") from err
     except UnicodeDecodeError as err:
@@ -249,6 +249,17 @@ def one_line(text: str) -> str:
     return " ".join(text.split())
 
 
+def _load_yaml(text: str) -> Any:
+    """``yaml.safe_load``, with libyaml's parser where PyYAML has it (ten times faster, for a bag's QoS texts).
+
+    Raises:
+        yaml.YAMLError: not YAML.
+    """
+    import yaml
+
+    return yaml.load(text, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+
+
 _DURABILITY = {0: "system_default", 1: "transient_local", 2: "volatile", 3: "unknown", 4: "best_available"}
 
 
@@ -260,7 +271,7 @@ def qos_durability(offered_qos_profiles: str) -> str | None:
     import yaml
 
     try:
-        value = yaml.safe_load(offered_qos_profiles)[0]["durability"]
+        value = _load_yaml(offered_qos_profiles)[0]["durability"]
     except (yaml.YAMLError, TypeError, KeyError, IndexError):
         return None
     return _DURABILITY.get(value, "unknown") if isinstance(value, int) else str(value)

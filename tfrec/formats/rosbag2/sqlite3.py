@@ -1,9 +1,10 @@
 """Reading a rosbag2 bag's sqlite3 databases (``.db3``) directly, with SQL.
 
 Every message the database holds is read: the ``topics`` table names the topics, and the
-``messages`` table is read by ``topic_id``, in timestamp order, for the topics that are decoded;
-the others are counted (``COUNT``, ``MIN`` and ``MAX`` of the timestamps per topic) without
-reading their data. (rosbags' reader matches each of ``metadata.yaml``'s topics to a database row
+``messages`` table is read in one pass — every topic counted (messages, first and last
+timestamp), the data of the decoded topics' messages taken, the others' not read. A summary
+(``tfrec info``) counts with ``COUNT``, ``MIN`` and ``MAX`` per ``topic_id`` and reads only the
+first messages of the decoded topics, by ``topic_id`` in timestamp order. (rosbags' reader matches each of ``metadata.yaml``'s topics to a database row
 by its QoS text, and yields nothing for a topic whose QoS differs — rosbag2's own talker bag, or
 a QoS edited in ``metadata.yaml`` to make a bag play.)
 
@@ -23,6 +24,8 @@ import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from tfrec.errors import ReadError, one_line
 from tfrec.formats._collect import DECODE_BATCH, Collector, read_error_line
@@ -94,28 +97,62 @@ def read_sqlite3_into(files: Sequence[Path], collector: Collector, *, where: str
         except sqlite3.Error as err:
             raise Damaged(f"{file.name}: {err}") from err
         try:
+            db.execute("PRAGMA mmap_size = 1073741824")  # pages mapped, not copied (no effect where unsupported)
             topics = _topics(db)
             names = _register(topics, collector, where)
-            counted = db.execute("SELECT topic_id, COUNT(*), MIN(timestamp), MAX(timestamp) FROM messages "
-                                 "GROUP BY topic_id").fetchall()
             stats = {topic_id: _stats(row) for topic_id, row in topics.items()}
-            for topic_id, count, first, last in counted:
-                if topic_id in stats:
-                    stats[topic_id].count = int(count)
-                    stats[topic_id].add_times(int(first), int(last))
+            decoded = [topic_id for topic_id, name in names.items() if name in collector.decoded]
+            if decoded and not collector.options.summary:
+                _scan(db, decoded, names, stats, collector)
+            else:
+                _count(db, stats)
             for topic_id in topics:
                 collector.count(names[topic_id], stats[topic_id])
-            for topic_id, name in names.items():
-                if name in collector.decoded and stats[topic_id].count:
-                    _decode(db, topic_id, name, collector)
+            if collector.options.summary:
+                for topic_id in decoded:
+                    if stats[topic_id].count:
+                        _decode(db, topic_id, names[topic_id], collector)
         except (sqlite3.DatabaseError, ValueError) as err:
             raise Damaged(f"{file.name}: {one_line(str(err))}") from err
         finally:
             db.close()
 
 
+def _count(db: sqlite3.Connection, stats: dict[int, TopicStats]) -> None:
+    """Count every topic's messages, first and last timestamps, without reading their data."""
+    for topic_id, count, first, last in db.execute("SELECT topic_id, COUNT(*), MIN(timestamp), MAX(timestamp) "
+                                                   "FROM messages GROUP BY topic_id"):
+        if topic_id in stats:
+            stats[topic_id].count += int(count)
+            stats[topic_id].add_times(int(first), int(last))
+
+
+def _scan(db: sqlite3.Connection, decoded: list[int], names: dict[int, str], stats: dict[int, TopicStats],
+          collector: Collector) -> None:
+    """One pass over the messages table: every topic counted, the decoded topics' messages handed to the
+    collector a batch at a time (the others' data is not read: SQLite leaves a column it is not asked for)."""
+    wanted = ", ".join(str(int(topic_id)) for topic_id in decoded)
+    cursor = db.execute(f"SELECT topic_id, timestamp, CASE WHEN topic_id IN ({wanted}) THEN data END "
+                        "FROM messages")
+    while True:
+        rows = cursor.fetchmany(DECODE_BATCH)
+        if not rows:
+            return
+        id_column, time_column, datas = zip(*rows)  # columns, transposed in C
+        ids, times = np.array(id_column, dtype=np.int64), np.array(time_column, dtype=np.int64)
+        for topic_id in np.unique(ids).tolist():
+            if topic_id not in stats:
+                continue
+            index = np.flatnonzero(ids == topic_id)
+            chosen = times[index]
+            stats[topic_id].count += len(index)
+            stats[topic_id].add_times(int(chosen.min()), int(chosen.max()))
+            if topic_id in decoded:
+                collector.add(names[topic_id], [datas[i] for i in index.tolist()], chosen)
+
+
 def _decode(db: sqlite3.Connection, topic_id: int, name: str, collector: Collector) -> None:
-    """Hand a decoded topic's messages to the collector, in timestamp order, a batch at a time."""
+    """Hand a decoded topic's first messages to the collector, in timestamp order (a summary's)."""
     remaining = collector.remaining(name)
     if remaining == 0:
         return

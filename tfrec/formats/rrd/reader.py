@@ -3,8 +3,10 @@
 Through Rerun's own reader (``rerun.chunk.RrdReader``), with the entity paths and the timeline
 of :mod:`tfrec.formats.rrd.paths`: ``/tf/<joint>`` and ``/tf_static/<joint>`` (Transform3D with
 parent and child frames), ``/joints/<joint>`` (Scalars) and ``/robot_description``
-(TextDocument). Rerun stores transforms as float32, joint positions as float64. An ``.rrd``
-has no topics: its entities are listed under the topics they stand for.
+(TextDocument); a replay of several robots has each robot's under its root (``/robot1/tf/…``),
+read as that namespace's. Rerun stores transforms as float32, joint positions as float64. An
+``.rrd`` has no topics: its entities are listed under the topics they stand for. An ``.rrd`` of
+another application (not ``tfrec``) is refused: its entities mean nothing tfrec knows.
 """
 
 from __future__ import annotations
@@ -17,10 +19,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.conventions import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC
+from tfrec.conventions import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC, robot_topic_kind
 from tfrec.errors import ReadError
 from tfrec.formats._collect import DECODED_TOPICS, ReadOptions
-from tfrec.recording import FrameSeries, JointStates, Recording, TopicInfo
+from tfrec.recording import FrameSeries, JointStates, Recording, RobotTopics, TopicInfo
 
 __all__ = ["RRD_MAGIC", "read_rrd"]
 
@@ -37,7 +39,6 @@ def read_rrd(path: Path, options: ReadOptions) -> Recording:
         ReadError: Rerun cannot read the file (damaged or not an RRD), or it was not written by
             tfrec (another application id): what it holds has no ROS meaning tfrec knows.
     """
-    wanted = DECODED_TOPICS if options.topics is None else options.topics
     import pyarrow as pa
     import rerun as rr
     from rerun.chunk import RrdReader
@@ -45,11 +46,9 @@ def read_rrd(path: Path, options: ReadOptions) -> Recording:
     from tfrec.formats.rrd import paths as rerun_paths
 
     where = os.fspath(path)
+    wanted = DECODED_TOPICS if options.topics is None else frozenset(
+        kind[1] for topic in options.topics if (kind := robot_topic_kind(topic)) is not None)
     recording = Recording(path=where, format="rrd", float32=True)
-    tf_parts: dict[tuple[str, ...], list[tuple[NDArray[np.int64], Array, Array, tuple[str, str]]]] = {}
-    joint_parts: dict[str, list[tuple[NDArray[np.int64], Array]]] = {}
-    static: dict[tuple[str, str], tuple[Array, Array]] = {}
-    description: str | None = None
     timeline = rerun_paths.TIMELINE
     try:
         with warnings.catch_warnings():
@@ -63,11 +62,13 @@ def read_rrd(path: Path, options: ReadOptions) -> Recording:
             chunks = list(reader.stream())
     except (RuntimeError, ValueError, OSError) as err:
         raise ReadError(f"{where}: unreadable Rerun recording: {err}") from err
+    parts: dict[str, _Entities] = {}
     for chunk in chunks:
-        top, names = rerun_paths.parse_entity(str(chunk.entity_path))
-        if top not in (rerun_paths.TF_ROOT, rerun_paths.TF_STATIC_ROOT, rerun_paths.JOINTS_ROOT,
-                       rerun_paths.DESCRIPTION_ROOT):
+        found = _rooted(str(chunk.entity_path))
+        if found is None:
             continue
+        namespace, top, names = found
+        entities = parts.setdefault(namespace, _Entities())
         batch = chunk.to_record_batch()
         columns = {name: batch.column(i) for i, name in enumerate(batch.schema.names)}
         if top == rerun_paths.DESCRIPTION_ROOT:
@@ -75,7 +76,7 @@ def read_rrd(path: Path, options: ReadOptions) -> Recording:
             if text is not None and len(text):
                 values = text.flatten()
                 if len(values):
-                    description = str(values[len(values) - 1].as_py())
+                    entities.description = str(values[len(values) - 1].as_py())
             continue
         time = None
         if timeline in columns:
@@ -85,7 +86,7 @@ def read_rrd(path: Path, options: ReadOptions) -> Recording:
             if scalars is None or time is None:
                 continue
             values, keep = _one_per_row(scalars, 1)
-            joint_parts.setdefault("/".join(names), []).append((time[keep], values[keep, 0]))
+            entities.joints.setdefault("/".join(names), []).append((time[keep], values[keep, 0]))
             continue
         translation = columns.get("Transform3D:translation")
         quaternion = columns.get("Transform3D:quaternion")
@@ -100,49 +101,89 @@ def read_rrd(path: Path, options: ReadOptions) -> Recording:
             continue
         pair = (str(parent.flatten()[0].as_py()), str(child.flatten()[0].as_py()))
         if top == rerun_paths.TF_STATIC_ROOT or time is None:
-            static[pair] = (t_values[keep][-1], q_values[keep][-1])
+            entities.static[pair] = (t_values[keep][-1], q_values[keep][-1])
         else:
-            tf_parts.setdefault(names, []).append((time[keep], t_values[keep], q_values[keep], pair))
-    if ROBOT_DESCRIPTION in wanted:
-        recording.robot_description = description
-    topics: dict[str, TopicInfo] = {}
-    if description is not None:
-        topics[ROBOT_DESCRIPTION] = TopicInfo("TextDocument", 1, None, None)
-    if static:
-        topics[TF_STATIC] = TopicInfo("Transform3D", 1, None, None)
-    if TF_STATIC in wanted:
-        recording.tf_static = static
+            entities.tf.setdefault(names, []).append((time[keep], t_values[keep], q_values[keep], pair))
     times: list[NDArray[np.int64]] = []
-    if joint_parts:
-        names = tuple(joint_parts)
-        series = {name: _concat_series(parts) for name, parts in joint_parts.items()}
-        all_times = np.unique(np.concatenate([time for time, _ in series.values()]))
-        positions = np.full((len(all_times), len(names)), np.nan)
-        for j, name in enumerate(names):
-            time, value = series[name]
-            positions[np.searchsorted(all_times, time), j] = value
-        topics[JOINT_STATES] = TopicInfo("Scalars", len(all_times), int(all_times[0]), int(all_times[-1]))
-        times.append(all_times)
-        if JOINT_STATES in wanted:
-            recording.joint_states = JointStates(all_times, names, positions)
-    if tf_parts:
-        tf_times = []
-        for parts in tf_parts.values():
-            time = np.concatenate([p[0] for p in parts])
-            translation = np.concatenate([p[1] for p in parts])
-            rotation = np.concatenate([p[2] for p in parts])
-            order = np.argsort(time, kind="stable")
-            tf_times.append(time)
-            if TF in wanted:
-                recording.tf[parts[0][3]] = FrameSeries(time[order], translation[order], rotation[order])
-        all_times = np.unique(np.concatenate(tf_times))
-        topics[TF] = TopicInfo("Transform3D", len(all_times), int(all_times[0]), int(all_times[-1]))
-        times.append(all_times)
-    recording.topics = dict(sorted(topics.items()))
+    for namespace, entities in sorted(parts.items()):
+        topics, data = entities.robot_topics(namespace, wanted, times)
+        recording.topics.update(topics)
+        if namespace:
+            recording.namespaces[namespace] = data
+        else:
+            recording.robot_description = data.robot_description
+            recording.joint_states, recording.tf, recording.tf_static = data.joint_states, data.tf, data.tf_static
+    recording.topics = dict(sorted(recording.topics.items()))
     if times:
         recording.start_ns = int(min(t[0] for t in times))
         recording.end_ns = int(max(t[-1] for t in times))
     return recording
+
+
+def _rooted(path: str) -> tuple[str, str, tuple[str, ...]] | None:
+    """(namespace, top, names) of an entity that stands for a topic: ``/tf/joint1`` → ``("", "tf",
+    ("joint1",))``; one robot of a multi-robot replay, ``/robot1/tf/joint1`` → ``("/robot1", "tf", …)``;
+    None for anything else (geometry, properties)."""
+    from tfrec.formats.rrd import paths as rerun_paths
+
+    top, names = rerun_paths.parse_entity(path)
+    parts = (top, *names)
+    roots = (rerun_paths.TF_ROOT, rerun_paths.TF_STATIC_ROOT, rerun_paths.JOINTS_ROOT, rerun_paths.DESCRIPTION_ROOT)
+    for i, part in enumerate(parts):
+        if part in roots and (part == rerun_paths.DESCRIPTION_ROOT or i + 1 < len(parts)):
+            return ("/" + "/".join(parts[:i]) if i else ""), part, tuple(parts[i + 1 :])
+        if part == rerun_paths.ROBOT_ROOT:
+            return None
+    return None
+
+
+class _Entities:
+    """What one robot's entities hold (the top's, or one robot's of a multi-robot replay)."""
+
+    def __init__(self) -> None:
+        self.tf: dict[tuple[str, ...], list[tuple[NDArray[np.int64], Array, Array, tuple[str, str]]]] = {}
+        self.joints: dict[str, list[tuple[NDArray[np.int64], Array]]] = {}
+        self.static: dict[tuple[str, str], tuple[Array, Array]] = {}
+        self.description: str | None = None
+
+    def robot_topics(self, namespace: str, wanted: frozenset[str],
+                     times: list[NDArray[np.int64]]) -> tuple[dict[str, TopicInfo], RobotTopics]:
+        """The topics these entities stand for, and their data (of the kinds ``wanted``); appends the
+        stamps of their time series to ``times``."""
+        topics: dict[str, TopicInfo] = {}
+        if self.description is not None:
+            topics[namespace + ROBOT_DESCRIPTION] = TopicInfo("TextDocument", 1, None, None)
+        if self.static:
+            topics[namespace + TF_STATIC] = TopicInfo("Transform3D", 1, None, None)
+        joint_states = None
+        if self.joints:
+            names = tuple(self.joints)
+            series = {name: _concat_series(parts) for name, parts in self.joints.items()}
+            all_times = np.unique(np.concatenate([time for time, _ in series.values()]))
+            positions = np.full((len(all_times), len(names)), np.nan)
+            for j, name in enumerate(names):
+                time, value = series[name]
+                positions[np.searchsorted(all_times, time), j] = value
+            topics[namespace + JOINT_STATES] = TopicInfo("Scalars", len(all_times), int(all_times[0]),
+                                                         int(all_times[-1]))
+            times.append(all_times)
+            joint_states = JointStates(all_times, names, positions)
+        tf: dict[tuple[str, str], FrameSeries] = {}
+        if self.tf:
+            tf_times = []
+            for parts in self.tf.values():
+                time = np.concatenate([p[0] for p in parts])
+                order = np.argsort(time, kind="stable")
+                tf_times.append(time)
+                tf[parts[0][3]] = FrameSeries(time[order], np.concatenate([p[1] for p in parts])[order],
+                                              np.concatenate([p[2] for p in parts])[order])
+            all_times = np.unique(np.concatenate(tf_times))
+            topics[namespace + TF] = TopicInfo("Transform3D", len(all_times), int(all_times[0]), int(all_times[-1]))
+            times.append(all_times)
+        description = self.description if ROBOT_DESCRIPTION in wanted else None
+        return topics, RobotTopics((description,) if description is not None else (),
+                                   joint_states if JOINT_STATES in wanted else None,
+                                   tf if TF in wanted else {}, self.static if TF_STATIC in wanted else {})
 
 
 def _one_per_row(column: Any, width: int) -> tuple[Array, NDArray[np.bool_]]:
