@@ -30,6 +30,7 @@ NOTES = {
     "tfrec.info": "summaries",
     "tfrec.formats": "MCAP · rosbag2 · ROS 1 · .rrd\nread_recording(): one door",
     "tfrec.resample": "alignment, interpolation",
+    "tfrec.robots": "robots by namespace\nand description",
     "tfrec.kinematics": "rotations, mimic joints,\nbatched FK",
     "tfrec.trajectory": "center · random · sine ·\nsweep · CSV",
     "tfrec.description": "packages, xacro (sandboxed),\nURDF → Robot, launch files",

@@ -25,6 +25,7 @@ __all__ = [
     "KinematicsError",
     "Link",
     "ReadError",
+    "RecordedRobot",
     "Recording",
     "RecordingError",
     "ReplayError",
@@ -37,6 +38,7 @@ __all__ = [
     "assert_recordings_match",
     "check_replay",
     "compare",
+    "find_robots",
     "load_description",
     "load_replay",
     "make_trajectory",
@@ -69,6 +71,7 @@ if TYPE_CHECKING:
     from tfrec.recorder import plan_outputs, record
     from tfrec.recording import Recording
     from tfrec.replay import check_replay, load_replay
+    from tfrec.robots import RecordedRobot, find_robots
     from tfrec.trajectory import JointTrajectory, make_trajectory
 
 _LAZY = {
@@ -85,6 +88,8 @@ _LAZY = {
     "assert_recordings_match": "tfrec.diff",
     "load_replay": "tfrec.replay",
     "check_replay": "tfrec.replay",
+    "find_robots": "tfrec.robots",
+    "RecordedRobot": "tfrec.robots",
 }
 
 
