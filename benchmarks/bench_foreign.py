@@ -10,7 +10,8 @@ from tfrec's MCAP (CDR), converted to ROS 1 serialization with rosbags' ``cdr_to
 - a rosbag2 folder with MCAP storage (``rosbags.rosbag2.Writer``: 1 MiB uncompressed chunks).
 
 They are made once and kept in a temporary folder (``--cache``). Timed, each as the command runs
-(a fresh ``python -m tfrec`` process, start-up included) and in-process (reading and checking):
+(a fresh ``python -m tfrec`` process, start-up included; the fastest of three runs, wall clock and CPU
+time) and in-process (reading and checking):
 
 - ``tfrec info FILE``: from the file's index, without reading the messages;
 - ``tfrec replay FILE --check``: every /joint_states and /tf message read, decoded and
@@ -28,6 +29,7 @@ Run from the repository root:
 from __future__ import annotations
 
 import argparse
+import resource
 import shutil
 import subprocess
 import sys
@@ -124,15 +126,22 @@ def _size(path: Path) -> int:
     return sum(p.stat().st_size for p in path.iterdir()) if path.is_dir() else path.stat().st_size
 
 
-def _command(*args: str) -> float:
-    """Wall seconds of ``python -m tfrec ARGS`` in a fresh process (start-up included)."""
-    start = time.perf_counter()
-    result = subprocess.run([sys.executable, "-m", "tfrec", *args], capture_output=True, text=True, cwd=REPO,
-                            check=False)
-    elapsed = time.perf_counter() - start
-    if result.returncode != 0:
-        raise SystemExit(f"tfrec {' '.join(args)} exited {result.returncode}: {result.stderr.strip()}")
-    return elapsed
+def _command(*args: str, repeat: int = 3) -> tuple[float, float]:
+    """Seconds of ``python -m tfrec ARGS`` in a fresh process (start-up included), the fastest of ``repeat``
+    runs: (wall clock, CPU time of the process). The CPU time does not depend on what else the machine runs."""
+    best = (float("inf"), float("inf"))
+    for _ in range(repeat):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        start = time.perf_counter()
+        result = subprocess.run([sys.executable, "-m", "tfrec", *args], capture_output=True, text=True, cwd=REPO,
+                                check=False)
+        elapsed = time.perf_counter() - start
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        if result.returncode != 0:
+            raise SystemExit(f"tfrec {' '.join(args)} exited {result.returncode}: {result.stderr.strip()}")
+        cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
+        best = (min(best[0], elapsed), min(best[1], cpu))
+    return best
 
 
 def _baseline(path: Path) -> float:
@@ -171,8 +180,8 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for label, path in files.items():
         messages = sum(info.count for info in read_recording(path, summary=True).topics.values())
-        info_s = _command("info", str(path))
-        check_s = _command("replay", str(path), "--check")
+        info_s, _ = _command("info", str(path))
+        check_s, check_cpu = _command("replay", str(path), "--check")
         start = time.perf_counter()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -182,19 +191,21 @@ def main(argv: list[str] | None = None) -> int:
         rate = messages / check_s
         met = rate >= TARGET_MSGS_PER_S
         failed |= not met and label != "tfrec MCAP (reference)"
-        rows.append((label, path, messages, info_s, check_s, inside_s, rate, baseline))
+        rows.append((label, path, info_s, check_s, check_cpu, rate, baseline))
         print(f"{label}: {path.name}, {_size(path) / 1e6:.0f} MB, {messages:,} messages")
-        print(f"  tfrec info: {info_s:.2f} s (command)")
-        print(f"  tfrec replay --check: {check_s:.2f} s (command) = {rate:,.0f} msg/s; {inside_s:.2f} s in-process "
-              f"({messages / inside_s:,.0f} msg/s); {'PASS' if report.passed else 'FAIL'}")
+        print(f"  tfrec info: {info_s:.2f} s (command, best of 3)")
+        print(f"  tfrec replay --check: {check_s:.2f} s (command, best of 3; {check_cpu:.2f} s CPU) = {rate:,.0f} msg/s "
+              f"({messages / check_cpu:,.0f} per CPU second); {inside_s:.2f} s in-process; "
+              f"{'PASS' if report.passed else 'FAIL'}")
         print(f"  baseline rosbags AnyReader + deserialize: {baseline:,.0f} msg/s; ratio {rate / baseline:.0f}x; "
               f"target >= {TARGET_MSGS_PER_S:,} msg/s: {'met' if met else 'NOT met'}")
     print()
-    print("| file | size | info (s) | replay --check (s) | msg/s | rosbags AnyReader msg/s | ratio |")
-    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: |")
-    for label, path, messages, info_s, check_s, _, rate, baseline in rows:
-        print(f"| {label} | {_size(path) / 1e6:.0f} MB | {info_s:.2f} | {check_s:.2f} | {rate:,.0f} | {baseline:,.0f} | "
-              f"{rate / baseline:.0f}× |")
+    print("| file | size | info (s) | replay --check (s) | msg/s | msg per CPU s | rosbags AnyReader msg/s | ratio |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for label, path, info_s, check_s, check_cpu, rate, baseline in rows:
+        messages = rate * check_s
+        print(f"| {label} | {_size(path) / 1e6:.0f} MB | {info_s:.2f} | {check_s:.2f} | {rate:,.0f} | "
+              f"{messages / check_cpu:,.0f} | {baseline:,.0f} | {rate / baseline:.0f}× |")
     return 1 if failed else 0
 
 

@@ -489,3 +489,44 @@ def test_an_rrd_of_a_multi_robot_replay_is_read_back_robot_by_robot(namespaced: 
                                                                     "/robot2").tf}
     code, text, _ = run(capsys, "info", str(out))
     assert code == 0 and "Robots (2):\n  /robot1: marm\n" in text
+
+
+def test_info_and_replay_agree_on_an_unusable_description(tmp_path: Path, marm_rec: Recording,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    broken = (marm_rec.robot_description or "").replace('<joint name="joint2"', '<joint name="joint1"', 1)
+    bag = write_bag(tmp_path / "broken", [Robot(marm_rec, description=broken)], kind="mcap")
+    problem = read_recording(bag)
+    (robot,) = find_robots(problem)
+    assert robot.model is None and robot.problem is not None and robot.name == "marm"
+    code, out, _ = run(capsys, "info", str(bag))
+    assert code == 0 and f"Robot:       marm (its description is not usable: {robot.problem})" in out
+    code, _, err = run(capsys, "replay", str(bag), "--check")
+    assert code == 2 and err == (f"tfrec: error: {bag}: /robot_description is not a usable robot description: "
+                                 f"{robot.problem}\n")
+    code, _, err = run(capsys, "replay", str(bag), "--save", str(tmp_path / "x.rrd"))
+    assert code == 0 and f"/robot_description is not a usable robot description ({robot.problem})" in err
+
+
+# -- names ------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name, namespace, base", [
+    ("/tf", "", "/tf"), ("joint_states", "", "/joint_states"), ("/robot1/tf", "/robot1", "/tf"),
+    ("robot1//joint_states/", "/robot1", "/joint_states"), ("/fleet/arm/tf_static", "/fleet/arm", "/tf_static"),
+])
+def test_topic_names_split_into_namespace_and_base(name: str, namespace: str, base: str) -> None:
+    from tfrec.conventions import robot_topic_kind, split_topic
+
+    assert split_topic(name) == (namespace, base) and robot_topic_kind(name) == (namespace, base)
+
+
+def test_remapping_rules_apply_as_ros_applies_them() -> None:
+    from tfrec.formats._collect import ReadOptions
+
+    options = ReadOptions.of(remap=["joint_states:=/robot1/joint_states", "/tf:=/robot1/tf", "/tf:=/never"])
+    assert options.resolve("joint_states") == "/robot1/joint_states"  # relative names are global first
+    assert options.resolve("/tf") == "/robot1/tf" and options.resolve("/tf_static") == "/tf_static"
+    assert ReadOptions.of(namespace="robot1/").namespace == "/robot1" and ReadOptions.of(namespace="/").namespace == ""
+    for rule in ("/tf", ":=/tf", "/tf:=", "/tf=/x"):
+        with pytest.raises(ReadError, match=rf"^`remap` '{re.escape(rule)}' is not a remapping rule FROM:=TO"):
+            ReadOptions.of(remap=[rule])
