@@ -7,7 +7,7 @@ The readers (:mod:`tfrec.formats.mcap.reader`, :mod:`tfrec.formats.rosbag1`,
 /tf), with topic names resolved as a player publishes them (:meth:`ReadOptions.resolve`: relative
 names are global, ``remap`` rules apply) and frame ids as tf2 sees them (no leading slash). The
 readers of damaged files say what was lost in one line (:func:`read_error_line`); counts that
-disagree with a file's own index warn (:meth:`Collector.check_counts`).
+disagree with a file's own index warn, with both numbers (:func:`count_differences`).
 """
 
 from __future__ import annotations
@@ -245,11 +245,6 @@ class Collector:
         """Whether messages of this (resolved) topic are decoded (else only counted)."""
         return self.options.decodes(topic, msgtype)
 
-    @property
-    def deserializers(self) -> dict[str, Callable[[bytes], Any]]:
-        """The decoded topics' deserializers."""
-        return {topic: decoded.deserialize for topic, decoded in self.decoded.items()}
-
     def set_deserializer(self, topic: str, deserialize: Callable[[bytes], Any]) -> None:
         """Decode the messages of ``topic`` (resolved, :meth:`decodes`) with ``deserialize`` as a
         fallback of the bulk decoder; the first deserializer given for a topic is kept."""
@@ -278,13 +273,6 @@ class Collector:
         if entry is None:
             entry = self.topics[topic] = TopicStats(stats.type, stats.durability)
         entry.merge(stats)
-
-    def check_counts(self, indexed: Mapping[str, int], *, where: str, index: str) -> None:
-        """Warn when the messages counted per (resolved) topic disagree with what a file's own
-        index (``index``: ``metadata.yaml``, ``the bag's index``…) says, with both numbers."""
-        differ = count_differences({topic: stats.count for topic, stats in self.topics.items()}, indexed, index=index)
-        if differ is not None:
-            warnings.warn(f"{where}: {differ}", stacklevel=4)
 
     # -- messages -------------------------------------------------------------------------
 

@@ -1,5 +1,7 @@
-"""rosbag2 folders: ``metadata.yaml`` and the offered QoS profiles (:mod:`.metadata`)."""
+"""rosbag2 folders: ``metadata.yaml`` and the offered QoS profiles (:mod:`.metadata`), sqlite3 databases read
+with SQL (:mod:`.sqlite3`), and compressed bags and the counts of ``metadata.yaml`` (:mod:`.storage`). A
+bag's MCAP files are read by :mod:`tfrec.formats.mcap`."""
 
 from __future__ import annotations
 
-__all__ = ["metadata"]
+__all__ = ["metadata", "sqlite3", "storage"]
