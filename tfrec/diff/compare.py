@@ -19,6 +19,12 @@ positions and translations, by slerp for rotations — and the report says so (n
 has more samples or a longer span, its samples at A's times where both have data). A's samples
 outside B's time span have no counterpart and are reported as such.
 
+Float32: when either recording stores transforms as float32 (an ``.rrd``), a transform compares
+within what float32 can tell apart at its magnitude — ``max(pos_tol, 4·eps32·|t|)`` for a
+translation ``t`` (m) and ``max(rot_tol, 4·eps32)`` for a rotation (rad), eps32 = 2⁻²³ — so a
+recording equals its own ``.rrd``; the report's notes say when and by how much this widened a
+tolerance.
+
 Errors: a translation error is the distance between the two translations (m); a rotation error
 is the angle of the relative rotation ``q_a⁻¹ q_b``, ``2·atan2(|v|, |w|)``
 (:func:`tfrec.kinematics.rotations.rotation_error`, rad); a joint error is the absolute difference of the
@@ -53,11 +59,13 @@ __all__ = [
     "DEFAULT_POS_TOL",
     "DEFAULT_ROT_TOL",
     "FLOAT32_TOL",
+    "FLOAT32_ULPS",
     "DiffReport",
     "Difference",
     "assert_recordings_match",
     "compare",
     "data_start_ns",
+    "float32_tolerance",
     "rotation_error",
 ]
 
@@ -84,6 +92,8 @@ class _Comparison:
         self.rot_tol = report.tolerances["rot_tol"]
         self.joint_tol = report.tolerances["joint_tol"]
         self.interpolated: dict[str, list[str]] = {}  # "(A 50 Hz, B 100 Hz)" → what
+        self.float32 = a.float32 or b.float32
+        self.widened: dict[str, float] = {}  # quantity → the largest float32 tolerance used above the user's
         self.origin_a = 0 if absolute else data_start_ns(a) or 0
         self.origin_b = 0 if absolute else data_start_ns(b) or 0
 
@@ -176,9 +186,9 @@ class _Comparison:
             self.diff(kind, what,
                       f"{what}: {alignment.outside} sample(s) of B lie outside A's time span (no data in A)")
 
-    def errors(self, kind: str, what: str, quantity: str, unit: str, tol: float, error: Array,
+    def errors(self, kind: str, what: str, quantity: str, unit: str, tol: float | Array, error: Array,
                times: NDArray[np.int64]) -> None:
-        """Report the largest error and when it first exceeds ``tol``."""
+        """Report the largest error and when it first exceeds ``tol`` (one per sample, or for all)."""
         if len(error) == 0:
             return
         worst = int(np.argmax(error))
@@ -201,7 +211,7 @@ class _Comparison:
         else:
             detail = (
                 f"{what}: {quantity} differs by up to {_num(value)}{unit}{at_time(int(times[worst]))}; "
-                f"first above {tol:g}{unit}{at_time(int(times[first]))}"
+                f"first above {np.broadcast_to(tol, error.shape)[first]:g}{unit}{at_time(int(times[first]))}"
                 f" ({int(over.sum())} of {len(error)} samples)"
             )
         self.diff(kind, what, detail, int(times[first]), value)
@@ -280,17 +290,42 @@ class _Comparison:
         rotation_a = sa.rotation[alignment.inside]
         trans = np.linalg.norm(translation_a - alignment.linear(sb.translation), axis=1)
         rot = rotation_error(rotation_a, alignment.rotations(sb.rotation))
-        self.errors("tf", label, "translation", "m", self.pos_tol, _nan_is_inf(trans), times)
-        self.errors("tf", label, "rotation", "rad", self.rot_tol, _nan_is_inf(rot), times)
+        pos_tol, rot_tol = self.transform_tolerances(translation_a)
+        self.errors("tf", label, "translation", "m", pos_tol, _nan_is_inf(trans), times)
+        self.errors("tf", label, "rotation", "rad", rot_tol, _nan_is_inf(rot), times)
 
     def static_pair(self, label: str, va: tuple[Array, Array], vb: tuple[Array, Array]) -> None:
         trans = float(np.linalg.norm(va[0] - vb[0]))
         rot = float(rotation_error(va[1], vb[1]))
-        for quantity, unit, tol, value in (("translation", "m", self.pos_tol, trans),
-                                           ("rotation", "rad", self.rot_tol, rot)):
+        pos_tol, rot_tol = self.transform_tolerances(va[0][np.newaxis])
+        for quantity, unit, tol, value in (("translation", "m", float(pos_tol[0]), trans),
+                                           ("rotation", "rad", float(rot_tol[0]), rot)):
             self.largest(quantity, value, label, None)
             if not value <= tol:
                 self.diff("tf_static", label, f"{label}: {quantity} differs by {_num(value)} {unit}", None, value)
+
+    def transform_tolerances(self, translation: Array) -> tuple[Array, Array]:
+        """The translation and rotation tolerances of each of n transforms (translations (n, 3)):
+        the user's, widened to what float32 tells apart when a recording holds float32."""
+        n = len(translation)
+        if not self.float32:
+            return np.full(n, self.pos_tol), np.full(n, self.rot_tol)
+        pos = float32_tolerance(self.pos_tol, np.linalg.norm(np.nan_to_num(translation), axis=1))
+        rot = float32_tolerance(self.rot_tol, np.ones(n))
+        for quantity, tol, user in (("translation", pos, self.pos_tol), ("rotation", rot, self.rot_tol)):
+            if n and float(tol.max()) > user:
+                self.widened[quantity] = max(self.widened.get(quantity, 0.0), float(tol.max()))
+        return pos, rot
+
+
+FLOAT32_ULPS = 4
+"""A float32 transform is compared within this many float32 epsilons of its magnitude."""
+
+
+def float32_tolerance(tol: float, magnitude: Array) -> Array:
+    """``max(tol, 4·eps32·|magnitude|)``: the smallest difference float32 values of that magnitude
+    tell apart (with a margin of 2 for rounding on either side), or ``tol`` when larger."""
+    return np.maximum(tol, FLOAT32_ULPS * float(np.finfo(np.float32).eps) * np.abs(magnitude))
 
 
 def _nan_is_inf(error: Array) -> Array:
@@ -381,10 +416,13 @@ def compare(
             f"positions and translations, slerp for rotations): {'; '.join(groups)}"
         )
     float32 = [rec.path for rec in (rec_a, rec_b) if rec.float32]
-    if float32 and min(tolerances["pos_tol"], tolerances["rot_tol"]) < 1e-6:
+    if float32 and cmp.widened:
+        widened = [f"{quantity}s within up to {tol:.3g} {'m' if quantity == 'translation' else 'rad'}"
+                   for quantity, tol in sorted(cmp.widened.items(), reverse=True)]
         report.notes.append(
-            f"{' and '.join(float32)} store{'s' if len(float32) == 1 else ''} transforms as float32: "
-            f"rounding alone differs by up to ~1e-7; compare with `pos_tol` {FLOAT32_TOL:g} `rot_tol` {FLOAT32_TOL:g}"
+            f"{' and '.join(float32)} store{'s' if len(float32) == 1 else ''} transforms as float32: they were "
+            f"compared at the precision float32 holds, max(`pos_tol`, 4·eps32·|t|) and max(`rot_tol`, 4·eps32) "
+            f"(eps32 = 1.19e-07): {', '.join(widened)}"
         )
     return report
 
