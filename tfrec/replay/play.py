@@ -25,7 +25,7 @@ from tfrec.recording import FrameSeries, JointStates
 from tfrec.replay.load import Replay
 from tfrec.replay.pacing import BATCH_WALL_S, Clock, MonotonicClock, Pacer, batches
 
-__all__ = ["PlayResult", "ReplaySink", "check_play_options", "play", "replay_to_rerun"]
+__all__ = ["PlayResult", "ReplaySink", "check_play_options", "play", "replay_to_rerun", "sample_poses"]
 
 Array = NDArray[np.float64]
 Pair = tuple[str, str]
@@ -38,7 +38,7 @@ class ReplaySink(Protocol):
 
     def begin(self, *, start_time_ns: int, name: str, robot_description: str | None,
               static: dict[Pair, tuple[Array, Array]], frames: Sequence[str], root: str | None,
-              first_pose: dict[Pair, tuple[Array, Array]]) -> None: ...
+              poses: dict[Pair, tuple[Array, Array]]) -> None: ...
 
     def write_transforms(self, parent: str, child: str, time_ns: NDArray[np.int64], translation: Array,
                          rotation: Array) -> None: ...
@@ -107,7 +107,7 @@ def play(
         sink.begin(start_time_ns=replay.start_ns if replay.start_ns is not None else replay.origin_ns, name=name,
                    robot_description=replay.robot_description, static=replay.static, frames=replay.frames(),
                    root=replay.root_frame(),
-                   first_pose={pair: (s.translation[0], s.rotation[0]) for pair, s in replay.tf.items() if len(s)})
+                   poses=sample_poses(replay))
         series = [(pair, s) for pair, s in replay.tf.items() if len(s)]
         joints = replay.joint_states if replay.joint_states is not None and len(replay.joint_states) else None
         if replay.start_ns is None:
@@ -136,6 +136,24 @@ def play(
         sink.abort()
         raise
     return PlayResult(passes, sent, slept)
+
+
+REACH_SAMPLES = 64
+"""Instants of a replay at which the camera's framing of the robot is computed."""
+
+
+def sample_poses(replay: Replay, count: int = REACH_SAMPLES) -> dict[Pair, tuple[Array, Array]]:
+    """Each /tf pair's transform at ``count`` instants spread evenly over the replay (its latest
+    sample at or before each; its first before it starts): (translations (K, 3), rotations (K, 4))."""
+    series = {pair: s for pair, s in replay.tf.items() if len(s)}
+    if not series or replay.start_ns is None or replay.end_ns is None:
+        return {}
+    instants = np.linspace(replay.start_ns, replay.end_ns, count).astype(np.int64)
+    out = {}
+    for pair, s in series.items():
+        index = np.clip(np.searchsorted(s.time_ns, instants, side="right") - 1, 0, len(s) - 1)
+        out[pair] = (s.translation[index], s.rotation[index])
+    return out
 
 
 def _check_loop(loop: bool, *, live: bool) -> None:

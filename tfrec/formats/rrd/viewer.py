@@ -4,7 +4,7 @@ A replay is logged through :class:`tfrec.formats.rrd.sink.RerunSink`, the sink `
 with, so a replayed recording looks like a recorded one: the robot's geometry under
 ``/robot/<link>``, a transform pair whose child frame is a link of the robot at ``/tf/<joint>``
 (``/tf_static/<joint>`` when latched), joint positions at ``/joints/<joint>``, the same
-blueprint with the camera fitted to the robot at its first pose. What the robot model does not
+blueprint with the camera framing the robot's reach over the replay. What the robot model does not
 name keeps its own entities, so nothing recorded is dropped:
 
 ================================  =========================================================
@@ -72,7 +72,7 @@ class RerunReplaySink:
         static: Mapping[Pair, tuple[Array, Array]],
         frames: Sequence[str] = (),
         root: str | None = None,
-        first_pose: Mapping[Pair, tuple[Array, Array]] | None = None,
+        poses: Mapping[Pair, tuple[Array, Array]] | None = None,
     ) -> None:
         """Log what does not change: geometry, frames, latched transforms, the URDF and the blueprint.
 
@@ -83,8 +83,9 @@ class RerunReplaySink:
             static: /tf_static, (parent, child) → (translation (3,), rotation (4,)).
             frames: every frame id of the replay; those that are not links get TF axes.
             root: the frame the 3D view is drawn in when there is no robot model.
-            first_pose: the first /tf transform of each pair, like ``static``; the 3D view's
-                camera is fitted to the robot there.
+            poses: each /tf pair's transforms at K instants spread over the replay, (parent,
+                child) → (translations (K, 3), rotations (K, 4)); the 3D view's camera frames the
+                robot's reach over them.
 
         Raises:
             WriteError: a live viewer cannot be reached.
@@ -94,8 +95,11 @@ class RerunReplaySink:
                    robot_description=robot_description, name=name, root=root)
         sink.log_frames([*frames, *(frame for pair in static for frame in pair)])
         latched = {child for _, child in static}
-        sink.fit_camera(Transforms.from_poses({pair: pose for pair, pose in (first_pose or {}).items()
-                                               if pair[1] not in latched}))
+        moving = {pair: pose for pair, pose in (poses or {}).items() if pair[1] not in latched}
+        if moving:
+            sink.fit_camera(Transforms(tuple(p for p, _ in moving), tuple(c for _, c in moving),
+                                       np.stack([t for t, _ in moving.values()], axis=1),
+                                       np.stack([r for _, r in moving.values()], axis=1)))
         sink.send_blueprint()
         if self._live:
             sink.flush()
