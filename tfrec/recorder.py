@@ -112,7 +112,8 @@ def recording_id(robot: Robot, trajectory: JointTrajectory, *, start_time_ns: in
         digest.update(name.encode() + b"\0")
     digest.update(np.ascontiguousarray(trajectory.time_ns).data.cast("B"))  # hashed in place, not copied
     for piece in trajectory.chunks(DEFAULT_CHUNK_SAMPLES):  # the positions' bytes in order, never all at once
-        digest.update(np.ascontiguousarray(piece.positions).data.cast("B"))
+        if piece.positions.size:  # a robot without moving joints has none (and memoryview refuses zero sizes)
+            digest.update(np.ascontiguousarray(piece.positions).data.cast("B"))
     digest.update(f"{start_time_ns}|{frame_prefix}".encode())
     return str(uuid.UUID(bytes=digest.digest()[:16], version=5))
 

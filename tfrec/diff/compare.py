@@ -46,6 +46,7 @@ from tfrec.conventions import DIFF_JOINT_TOL as DEFAULT_JOINT_TOL
 from tfrec.conventions import DIFF_POS_TOL as DEFAULT_POS_TOL
 from tfrec.conventions import DIFF_ROT_TOL as DEFAULT_ROT_TOL
 from tfrec.conventions import FLOAT32_TOL, JOINT_STATES, NS_PER_S, ROBOT_DESCRIPTION, TF, TF_STATIC
+from tfrec.diff.precision import FLOAT32_ULPS, float32_tolerance
 from tfrec.diff.report import Difference, DiffReport, Largest, at_time, format_time
 from tfrec.errors import DiffError
 from tfrec.formats._collect import decodes_type
@@ -318,15 +319,6 @@ class _Comparison:
         return pos, rot
 
 
-FLOAT32_ULPS = 4
-"""A float32 transform is compared within this many float32 epsilons of its magnitude."""
-
-
-def float32_tolerance(tol: float, magnitude: Array) -> Array:
-    """``max(tol, 4·eps32·|magnitude|)``: the smallest difference float32 values of that magnitude
-    tell apart (with a margin of 2 for rounding on either side), or ``tol`` when larger."""
-    return np.maximum(tol, FLOAT32_ULPS * float(np.finfo(np.float32).eps) * np.abs(magnitude))
-
 
 def _nan_is_inf(error: Array) -> Array:
     return np.where(np.isnan(error), np.inf, error)
@@ -443,8 +435,17 @@ def assert_recordings_match(
 
     Raises:
         AssertionError: the recordings differ; the message is :meth:`DiffReport.to_text`.
+
+    A or B may be a robot description too (a :class:`~tfrec.model.Robot`, or a path that is no
+    recording): then it is :func:`tfrec.diff.assert_descriptions_match`.
     """
     __tracebackhide__ = True  # pytest: show the report, not this frame
+    from tfrec.diff.inputs import is_description
+
+    if is_description(a) or is_description(b):
+        from tfrec.diff.motion import assert_descriptions_match
+
+        return assert_descriptions_match(a, b, **options)  # type: ignore[return-value]
     report = compare(a, b, **options)
     if not report.equal:
         raise AssertionError("recordings differ: " + report.to_text())

@@ -20,7 +20,6 @@ import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,7 +37,9 @@ __all__ = [
     "RECORDING_SUFFIXES",
     "DescriptionLoader",
     "DiffInput",
+    "is_description",
     "is_recording_path",
+    "joint_states_of",
     "load_input",
     "trajectory_from_joint_states",
 ]
@@ -80,6 +81,15 @@ class DiffInput:
     def title(self) -> str:
         """``new.xacro hand:=true``: the path and its arguments, as typed."""
         return " ".join([self.path, *(f"{name}:={value}" for name, value in self.args.items())])
+
+
+def is_description(source: object) -> bool:
+    """True for a :class:`Robot`, or a path that is no recording (:func:`is_recording_path`)."""
+    if isinstance(source, Robot):
+        return True
+    if isinstance(source, (str, os.PathLike)):
+        return not is_recording_path(source)
+    return False
 
 
 def is_recording_path(path: str | os.PathLike[str]) -> bool:
@@ -192,7 +202,3 @@ def joint_states_of(side: DiffInput | Recording) -> tuple[JointStates, int]:
         raise DiffError(f"{rec.path}: no /joint_states to drive the description along (`joints`)")
     return rec.joint_states, data_start_ns(rec) or 0
 
-
-def describe(value: Any) -> str:
-    """A number as the report prints joint positions: 4 significant digits."""
-    return f"{float(value):.4g}"

@@ -30,9 +30,9 @@ from numpy.typing import NDArray
 
 from tfrec.conventions import DIFF_JOINT_TOL, DIFF_POS_TOL, DIFF_ROT_TOL
 from tfrec.description import load_description
-from tfrec.diff.compare import float32_tolerance
 from tfrec.diff.inputs import DescriptionLoader, DiffInput, joint_states_of, load_input, trajectory_from_joint_states
 from tfrec.diff.motion_report import DescriptionDiffReport, LinkDelta, Side
+from tfrec.diff.precision import float32_tolerance
 from tfrec.diff.report import Difference, Largest, at_time
 from tfrec.diff.urdf import diff_robots
 from tfrec.errors import DiffError, KinematicsError
@@ -157,10 +157,8 @@ def compare_motion(
             frame has two parents.
         TrajectoryError: a bad trajectory option.
     """
-    from tfrec.diff.compare import _check_tolerance
-
-    tolerances = {"pos_tol": _check_tolerance("pos_tol", pos_tol), "rot_tol": _check_tolerance("rot_tol", rot_tol),
-                  "joint_tol": _check_tolerance("joint_tol", joint_tol)}
+    tolerances = {"pos_tol": _tolerance("pos_tol", pos_tol), "rot_tol": _tolerance("rot_tol", rot_tol),
+                  "joint_tol": _tolerance("joint_tol", joint_tol)}
     load = {"package_paths": package_paths, "strict_xacro": strict_xacro, "loader": loader}
     side_a = load_input(a, label="A", args=args_a, **load)  # type: ignore[arg-type]
     side_b = load_input(b, label="B", args=args_b, **load)  # type: ignore[arg-type]
@@ -229,6 +227,12 @@ def assert_descriptions_match(a: Source, b: Source, **options: Any) -> Descripti
 
 
 # -- the motion ---------------------------------------------------------------------------------
+
+
+def _tolerance(name: str, value: float) -> float:
+    if not (isinstance(value, (int, float)) and np.isfinite(value) and value >= 0):
+        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    return float(value)
 
 
 def _recording_times(rec: Recording) -> NDArray[np.int64]:

@@ -60,8 +60,10 @@ EYE_PITCH_DEG = 30.0
 """...and from above."""
 FIELD_OF_VIEW_DEG = 55.0
 """The vertical field of view of Rerun's 3D eye (its default)."""
-FILL = 0.85
-"""The part of the view's height the robot's reach fills."""
+FILL = 0.7
+"""The part of the view's height the ball around the robot's reach fills."""
+MAX_POINTS = 50_000
+"""Points :class:`Reach` keeps (every other one is dropped when there are more): memory stays bounded."""
 MIN_RADIUS_M = 0.05
 """A reach smaller than this (a robot of points) is framed as a ball of this radius."""
 
@@ -96,7 +98,9 @@ def view_distance(radius_m: float) -> float:
 
 @dataclass
 class Reach:
-    """The box the robot's links and visuals take up over a recording, gathered sample by sample.
+    """The space the robot's links and visuals take up over a recording, gathered sample by sample:
+    its bounding box, and a bounded sample of the points (link origins and visual centres, each
+    with the radius of its visual) for the ball around them.
 
     Args:
         robot: the robot.
@@ -109,6 +113,12 @@ class Reach:
     radii: Mapping[tuple[str, int], float] = field(default_factory=dict)
     low: Array | None = None
     high: Array | None = None
+    points: list[tuple[Array, float]] = field(default_factory=list)
+
+    def merge(self, other: Reach) -> None:
+        """Widen by another robot's reach (the two robots of an overlay)."""
+        for points, pad in other.points:
+            self._widen(points, pad)
 
     def add(self, world: Transforms) -> None:
         """Widen the box by the robot at the poses ``world`` (root_from_frame, N instants); NaN
@@ -131,13 +141,16 @@ class Reach:
         low, high = points.min(axis=0) - pad, points.max(axis=0) + pad
         self.low = low if self.low is None else np.minimum(self.low, low)
         self.high = high if self.high is None else np.maximum(self.high, high)
+        self.points.append((points, pad))
+        if sum(len(p) for p, _ in self.points) > MAX_POINTS:
+            self.points = [(p[::2], r) for p, r in self.points if len(p[::2])]
 
     def eye(self) -> rrb.EyeControls3D | None:
-        """A ¾ view of the whole box, Z up; None before anything was added."""
+        """A ¾ view of the ball around the reach (centred on its box), Z up; None before anything was added."""
         if self.low is None or self.high is None:
             return None
         centre = (self.low + self.high) / 2.0
-        radius = float(np.linalg.norm(self.high - self.low)) / 2.0
+        radius = max(float(np.max(np.linalg.norm(p - centre, axis=1))) + pad for p, pad in self.points)
         distance = view_distance(radius)
         yaw, pitch = math.radians(EYE_YAW_DEG), math.radians(EYE_PITCH_DEG)
         direction = np.array([math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch)])
@@ -155,7 +168,7 @@ def tf_tree_layout(pairs: Sequence[tuple[str, str]]) -> dict[str, tuple[float, f
         has_parent.add(child)
     roots = [frame for frame in dict.fromkeys(p for p, _ in pairs) if frame not in has_parent]
     widest = max((len(frame) for pair in pairs for frame in pair), default=8)
-    dx, dy = 7.0 * widest + 20.0, 70.0
+    dx, dy = 7.0 * widest + 10.0, 30.0
     out: dict[str, tuple[float, float]] = {}
     next_x = 0.0
 
@@ -226,13 +239,14 @@ def recording_blueprint(
                 contents=[velocity_entity(name) for name in names])))
         else:
             right.append(positions)
-    if not right:
-        right.append(rrb.TimeSeriesView(name="joint positions", origin=f"/{JOINTS_ROOT}"))
     if tf_tree:
         right.append(rrb.GraphView(name="TF tree", origin=f"/{TF_TREE_ROOT}"))
     shares = [2.0] * (len(right) - 1 if tf_tree else len(right)) + ([1.5] if tf_tree else [])
+    layout: rrb.Container | rrb.View = view3d  # a robot without joints and frames: the 3D view alone
+    if right:
+        layout = rrb.Horizontal(view3d, rrb.Vertical(*right, row_shares=shares), column_shares=[3, 2])
     return stable_ids(rrb.Blueprint(
-        rrb.Horizontal(view3d, rrb.Vertical(*right, row_shares=shares), column_shares=[3, 2]),
+        layout,
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", timeline=TIMELINE),

@@ -215,11 +215,12 @@ def _prefixed(tfs: Transforms, prefix: str) -> Transforms:
 
 
 def _merged(reaches: list[Reach]) -> Reach | None:
-    lows = [r.low for r in reaches if r.low is not None]
-    highs = [r.high for r in reaches if r.high is not None]
-    if not lows or not highs:
+    if not reaches:
         return None
-    return Reach(reaches[0].robot, low=np.min(lows, axis=0), high=np.max(highs, axis=0))
+    out = Reach(reaches[0].robot)
+    for reach in reaches:
+        out.merge(reach)
+    return out
 
 
 def _send(stream: rr.RecordingStream, entity: str, columns: Any, index: list[rr.TimeColumn] | None = None) -> None:

@@ -173,8 +173,7 @@ class RerunSink:
         self._unflushed_bytes = 0
 
     @property
-    def reach(self) -> Reach | None:
-        """The space the robot took up in what was logged so far (None without a robot)."""
+    def reach(self) -> Reach | None:  # the space the robot took up in what was logged (None without a robot)
         return self._reach
 
     @property
@@ -409,7 +408,8 @@ class RerunSink:
     def blueprint(self) -> rrb.Blueprint:
         """The layout (:func:`tfrec.formats.rrd.blueprint.recording_blueprint`): the 3D view framing the
         robot's reach beside the joint plots, one per unit, and the TF tree."""
-        return recording_blueprint(eye=self._reach.eye() if self._reach is not None else None, units=self._units,
+        units = joint_units(self._robot, [j.name for j in self._robot.moving_joints] if self._robot else []) | self._units
+        return recording_blueprint(eye=self._reach.eye() if self._reach is not None else None, units=units,
                                    velocities=self._has_velocities, tf_tree=self._tf_tree)
 
     def send_blueprint(self, blueprint: rrb.Blueprint | None = None) -> None:
