@@ -170,6 +170,9 @@ def test_usage_errors_are_one_line(capsys: pytest.CaptureFixture[str]) -> None:
     assert err == ("tfrec: error: argument --compression: invalid choice: 'foo' (choose from 'none', 'lz4', "
                    "'zstd') (see 'tfrec record --help')\n")
     code, _, err = run(capsys, "diff", "a.mcap")
+    assert code == 2 and err == ("tfrec: error: diff takes two inputs, A and B, each followed by its xacro "
+                                 "arguments; got 1 (a.mcap)\n")
+    code, _, err = run(capsys, "diff")
     assert code == 2 and err.count("\n") == 1 and err.startswith("tfrec: error: the following arguments")
 
 

@@ -64,6 +64,7 @@ GHOST_COLOUR = 0xB4C8FF66
 _GREEN, _YELLOW, _RED = np.array([40, 180, 60]), np.array([240, 200, 30]), np.array([220, 30, 30])
 _UNPLACED = 0x909090FF
 """A link the other side does not place."""
+_GREEN_RGBA = (40 << 24) | (180 << 16) | (60 << 8) | 0xFF
 
 
 @dataclass(frozen=True, slots=True)
@@ -237,7 +238,8 @@ def _log_colours(stream: rr.RecordingStream, robot: Robot | None, stamp_ns: NDAr
     column = {link: k for k, link in enumerate(errors.links)}
     for link in robot.links:
         k = column.get(link.name)
-        rgba = colours[:, k] if k is not None else np.full(len(stamp_ns), _UNPLACED, dtype=np.uint32)
+        other = _GREEN_RGBA if link.name == robot.root else _UNPLACED  # the root is where both are
+        rgba = colours[:, k] if k is not None else np.full(len(stamp_ns), other, dtype=np.uint32)
         for i, visual in enumerate(link.visuals):
             kind = colour_archetype(visual)
             columns = rr.Asset3D.columns(albedo_factor=rgba) if kind == "Asset3D" else getattr(rr, kind).columns(
