@@ -87,13 +87,13 @@ def _replay(name: str, traj: str) -> Callable[[Path], Path]:
 
 
 def _diff(folder: Path) -> Path:
-    """marm against a copy whose joint2 sits 1 cm higher: every link from link2 on moves by 1 cm."""
+    """marm against a copy whose joint2 sits 3 cm higher: every link from link2 on moves by 3 cm."""
     from tfrec.diff.motion import compare_motion
     from tfrec.diff.overlay import write_overlay
 
     text = (ROBOTS / "marm.xacro").read_text(encoding="utf-8")
     moved = text.replace('<origin xyz="${-link1_length} 0 0" rpy="0 ${-M_PI/2} 0"/>',
-                         '<origin xyz="${-link1_length} 0 0.01" rpy="0 ${-M_PI/2} 0"/>')
+                         '<origin xyz="${-link1_length} 0 0.03" rpy="0 ${-M_PI/2} 0"/>')
     assert moved != text, "robots/marm.xacro's joint2 origin changed: update scripts/screenshots.py"
     (folder / "marm-moved.xacro").write_text(moved, encoding="utf-8")
     comparison = compare_motion(ROBOTS / "marm.xacro", folder / "marm-moved.xacro", traj="random")

@@ -90,10 +90,10 @@ def joint_units(robot: Robot | None, names: Sequence[str]) -> dict[str, str]:
     return out
 
 
-def view_distance(radius_m: float) -> float:
-    """How far from its centre the eye sees a ball of ``radius_m`` fill :data:`FILL` of the view."""
+def view_distance(radius_m: float, fill: float = FILL) -> float:
+    """How far from its centre the eye sees a ball of ``radius_m`` fill ``fill`` of the view's height."""
     half = math.radians(FIELD_OF_VIEW_DEG) / 2.0
-    return max(radius_m, MIN_RADIUS_M) / (FILL * math.sin(half))
+    return max(radius_m, MIN_RADIUS_M) / (fill * math.sin(half))
 
 
 @dataclass
@@ -145,13 +145,13 @@ class Reach:
         if sum(len(p) for p, _ in self.points) > MAX_POINTS:
             self.points = [(p[::2], r) for p, r in self.points if len(p[::2])]
 
-    def eye(self) -> rrb.EyeControls3D | None:
+    def eye(self, fill: float = FILL) -> rrb.EyeControls3D | None:
         """A ¾ view of the ball around the reach (centred on its box), Z up; None before anything was added."""
         if self.low is None or self.high is None:
             return None
         centre = (self.low + self.high) / 2.0
         radius = max(float(np.max(np.linalg.norm(p - centre, axis=1))) + pad for p, pad in self.points)
-        distance = view_distance(radius)
+        distance = view_distance(radius, fill)
         yaw, pitch = math.radians(EYE_YAW_DEG), math.radians(EYE_PITCH_DEG)
         direction = np.array([math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch)])
         return rrb.EyeControls3D(position=(centre + distance * direction).tolist(), look_target=centre.tolist(),

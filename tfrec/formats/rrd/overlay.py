@@ -155,9 +155,9 @@ def write_overlay(
         raise WriteError(f"{file}: cannot write: {getattr(err, 'strerror', None) or err}") from err
     where = os.fspath(file)
     sink_a = RerunSink.from_stream(stream, target=where, robot=a.robot, package_paths=package_paths,
-                                   frame_prefix="a/", entity_prefix="/a", colour=0)
+                                   frame_prefix="a/", entity_prefix="/a", colour=0, axis_length_m=0.0)
     sink_b = RerunSink.from_stream(stream, target=where, robot=b.robot, package_paths=package_paths,
-                                   frame_prefix="b/", entity_prefix="/b", colour=GHOST_COLOUR)
+                                   frame_prefix="b/", entity_prefix="/b", colour=GHOST_COLOUR, axis_length_m=0.0)
     try:
         start = int(stamp_ns[0]) if len(stamp_ns) else 0
         for label, sink, side in (("a", sink_a, a), ("b", sink_b, b)):
@@ -187,12 +187,12 @@ def overlay_blueprint(reach: Reach | None, *, root_frame: str) -> rrb.Blueprint:
     view3d = rrb.Spatial3DView(name="A (coloured by error) and B (ghost)", origin="/",
                                contents=["/a/robot/**", "/b/robot/**"],
                                spatial_information=rrb.SpatialInformation(target_frame=root_frame),
-                               eye_controls=None if reach is None else reach.eye())
+                               eye_controls=None if reach is None else reach.eye(fill=0.9))
     position = rrb.TimeSeriesView(name="largest link position error (m)", origin=f"/{DIFF_ROOT}/position")
     rotation = rrb.TimeSeriesView(name="largest link orientation error (rad)", origin=f"/{DIFF_ROOT}/rotation")
     events = rrb.TextLogView(name="first above tolerance", origin=f"/{DIFF_ROOT}/events")
     return stable_ids(rrb.Blueprint(
-        rrb.Horizontal(view3d, rrb.Vertical(position, rotation, events, row_shares=[2, 2, 1]), column_shares=[3, 2]),
+        rrb.Horizontal(view3d, rrb.Vertical(position, rotation, events, row_shares=[2, 2, 1]), column_shares=[5, 3]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="expanded", timeline=TIMELINE),
