@@ -5,18 +5,18 @@ from __future__ import annotations
 
 import io
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tests.conftest import ROBOTS
 from tfrec.cli import main
 from tfrec.errors import RecordingError
 from tfrec.model import Robot
 from tfrec.recorder import default_stem, plan_outputs, record
 from tfrec.trajectory.generators import make_trajectory
-
-from .conftest import ROBOTS
 
 
 def load_robot(name: str) -> Robot:
@@ -233,7 +233,7 @@ def test_bad_trajectory_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixtur
 def test_option_conflicts(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     code, _, err = run(capsys, "record", MARM, "--no-rrd", "--no-mcap")
     assert code == 2 and "leave nothing to write" in err
-    code, _, err = run(capsys, "record", MARM, "-o", str(tmp_path / "x.bag"), "--no-rrd")
+    code, _, err = run(capsys, "record", MARM, "-o", str(tmp_path / "x.db3"), "--no-rrd")
     assert code == 2 and "must end in .mcap" in err
     folder = tmp_path / "x.rrd"
     folder.mkdir()
@@ -332,14 +332,14 @@ def test_start_time_is_exact_decimal(tmp_path: Path) -> None:
     assert [s for s, _ in _read_all_rosbags(out)["/joint_states"]] == [1700000000123456789, 1700000000223456789]
 
 
-def test_csv_trajectory_warns_that_duration_and_rate_do_not_apply(
+def test_csv_trajectory_warns_that_duration_does_not_apply(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     csv = tmp_path / "t.csv"
     csv.write_text("time,joint1\n0,0\n0.5,0.1\n")
     code, _, err = run(capsys, "record", MARM, "--traj", str(csv), "--duration", "5", "--no-rrd",
                        "-o", str(tmp_path / "o.mcap"))
     assert code == 0
-    assert f"tfrec: warning: --duration and --rate do not apply to the CSV trajectory {csv}" in err
+    assert f"tfrec: warning: --duration does not apply to the CSV trajectory {csv}: its own times are used" in err
 
 
 def test_sigterm_leaves_no_partial_output(tmp_path: Path) -> None:
@@ -359,3 +359,74 @@ def test_sigterm_leaves_no_partial_output(tmp_path: Path) -> None:
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 143 and err.strip().endswith("tfrec: terminated")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("with_rrd", [True, False])
+def test_a_robot_without_moving_joints_records_and_checks(tmp_path: Path, with_rrd: bool,
+                                                           capsys: pytest.CaptureFixture[str]) -> None:
+    """The course's first robot (simple_cube: one link, no joint) and a robot whose joints are all fixed:
+    /robot_description and /tf_static are recorded, /joint_states and /tf hold no (empty) messages, and
+    `replay --check` passes."""
+    from rosbags.highlevel import AnyReader
+
+    from tfrec.formats import read_recording
+
+    fixed = tmp_path / "fixed.urdf"
+    fixed.write_text('<robot name="fixed"><link name="a"/><link name="b"/>'
+                     '<joint name="j" type="fixed"><parent link="a"/><child link="b"/><origin xyz="0 0 1"/></joint>'
+                     '</robot>')
+    for robot in (str(ROBOTS / "simple_cube.xacro"), str(fixed)):
+        out = tmp_path / (Path(robot).stem + ".mcap")
+        args = ["record", robot, "-o", str(out), "--traj", "random"] + ([] if with_rrd else ["--no-rrd"])
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # simple_cube's undefined material "red"
+            assert main(args) == 0
+        assert "no moving joints" in capsys.readouterr().out
+        assert out.with_suffix(".rrd").exists() == with_rrd
+        with AnyReader([out]) as reader:
+            counts = {c.topic: c.msgcount for c in reader.connections}
+            assert sum(1 for _ in reader.messages()) == 2
+        assert counts == {"/robot_description": 1, "/tf_static": 1, "/joint_states": 0, "/tf": 0}
+        recording = read_recording(out)
+        assert recording.joint_states is None and not recording.tf
+        assert len(recording.tf_static) == (1 if robot == str(fixed) else 0)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            assert main(["replay", "--check", str(out)]) == 0
+        assert "PASS" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("compression", [None, "bz2", "lz4"])
+def test_record_a_ros1_bag(tmp_path: Path, compression: str | None, capsys: pytest.CaptureFixture[str]) -> None:
+    """`-o out.bag` writes a ROS 1 bag: read back by rosbags (latched description and static TF),
+    byte-identical for the same command, and equal to the MCAP of the same command by meaning."""
+    from rosbags.highlevel import AnyReader
+
+    from tfrec.diff import compare
+
+    extra = [] if compression is None else ["--compression", compression]
+    paths = []
+    for name in ("a.bag", "b.bag", "c.mcap"):
+        out = tmp_path / name
+        assert main(["record", str(ROBOTS / "marm.xacro"), "--traj", "random", "--duration", "2", "-o", str(out),
+                     "--no-rrd", *(extra if name.endswith(".bag") else [])]) == 0
+        paths.append(out)
+    assert "(ROS 1 bag)" in capsys.readouterr().out
+    assert paths[0].read_bytes() == paths[1].read_bytes()
+    with AnyReader([paths[0]]) as reader:
+        latched = {c.topic: c.ext.latching for c in reader.connections}
+        counts = {c.topic: c.msgcount for c in reader.connections}
+        for connection, _, raw in reader.messages():
+            reader.deserialize(raw, connection.msgtype)
+    assert latched == {"/robot_description": 1, "/tf_static": 1, "/joint_states": 0, "/tf": 0}
+    assert counts == {"/robot_description": 1, "/tf_static": 1, "/joint_states": 101, "/tf": 101}
+    report = compare(paths[2], paths[0])
+    assert report.equal, report.to_text()
+    assert main(["replay", "--check", str(paths[0])]) == 0
+
+
+def test_a_ros1_bag_refuses_an_mcap_compression(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["record", str(ROBOTS / "marm.xacro"), "-o", str(tmp_path / "x.bag"), "--compression", "zstd"]) == 2
+    assert capsys.readouterr().err == ("tfrec: error: --compression zstd: a ROS 1 bag chunk compression is one of "
+                                       "none, bz2, lz4\n")
+    assert not list(tmp_path.iterdir())

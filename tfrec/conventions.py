@@ -19,6 +19,7 @@ __all__ = [
     "NS_PER_S",
     "RECORDED_TOPICS",
     "ROBOT_DESCRIPTION",
+    "ROS1_COMPRESSIONS",
     "STAMP_LIMIT_NS",
     "STAMP_RANGE",
     "TF",
@@ -46,6 +47,8 @@ RECORDED_TOPICS = (ROBOT_DESCRIPTION, TF_STATIC, JOINT_STATES, TF)
 
 COMPRESSIONS = ("none", "lz4", "zstd")
 """MCAP chunk compressions ``--compression`` accepts."""
+ROS1_COMPRESSIONS = ("none", "bz2", "lz4")
+"""ROS 1 bag chunk compressions (``-o out.bag --compression …``), as ``rosbag record`` offers them."""
 
 DIFF_POS_TOL = 1e-9
 """``tfrec diff``'s default translation tolerance (m): two float64 recordings of one computation."""

@@ -18,6 +18,7 @@ __all__ = [
     "DiffError",
     "FleetError",
     "KinematicsError",
+    "PlotError",
     "ReadError",
     "RecordingError",
     "ReplayError",
@@ -65,6 +66,10 @@ class DiffError(TfrecError):
 
 class ConvertError(TfrecError):
     """A recording could not be converted (bad options, a message that cannot be carried over)."""
+
+
+class PlotError(TfrecError):
+    """A picture could not be made: an unknown output format, nothing to draw, an unknown frame."""
 
 
 class FleetError(TfrecError):

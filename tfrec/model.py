@@ -23,6 +23,7 @@ __all__ = [
     "Mimic",
     "Pose",
     "Robot",
+    "SafetyController",
     "Sphere",
     "Visual",
 ]
@@ -65,6 +66,15 @@ class Limit:
 
 
 @dataclass(frozen=True, slots=True)
+class SafetyController:
+    """A joint's ``<safety_controller>``: the soft limits (rad or m) joint_state_publisher narrows its
+    range to (``use_smallest_joint_limits``), None where not given."""
+
+    soft_lower_limit: float | None = None
+    soft_upper_limit: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
 class Mimic:
     """``<mimic>``: position = multiplier * position(joint) + offset."""
 
@@ -85,6 +95,7 @@ class Joint:
     axis: Vec3 = (1.0, 0.0, 0.0)
     limit: Limit | None = None
     mimic: Mimic | None = None
+    safety: SafetyController | None = None
 
     @property
     def actuated(self) -> bool:
@@ -198,11 +209,14 @@ class Robot:
     @cached_property
     def mimic_order(self) -> tuple[Joint, ...]:
         """Moving mimic joints ordered so that every joint comes after the joint it mimics."""
+        known = {joint.name for joint in self.joints}
         done: set[str] = {joint.name for joint in self.joints if joint.mimic is None}
         pending = [joint for joint in self.joints if joint.mimic is not None]
         ordered: list[Joint] = []
         while pending:
-            ready = [joint for joint in pending if joint.mimic and joint.mimic.joint in done]
+            # a mimic of an unknown joint (urdfdom accepts it) is ready at once: it stays at its offset
+            ready = [joint for joint in pending if joint.mimic and (joint.mimic.joint in done
+                                                                    or joint.mimic.joint not in known)]
             if not ready:  # description.py rejects cycles; guard against a hand-built model
                 raise ValueError("mimic joints form a cycle: " + ", ".join(j.name for j in pending))
             for joint in ready:

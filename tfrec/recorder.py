@@ -47,13 +47,20 @@ def default_stem(robot: Robot, traj: str, *, now: float | None = None) -> str:
 
 @dataclass(frozen=True, slots=True)
 class RecordingPlan:
-    """Where a recording goes. ``bag_dir`` set means a rosbag2 folder holding the MCAP."""
+    """Where a recording goes. ``bag_dir`` set means a rosbag2 folder holding the MCAP; ``ros1_bag`` a
+    ROS 1 bag (``-o out.bag``), written instead of the MCAP."""
 
     mcap: Path | None
     rrd: Path | None
     bag_dir: Path | None = None
     force: bool = False
     """Existing outputs may be replaced (``--force``)."""
+    ros1_bag: Path | None = None
+
+    @property
+    def main(self) -> Path | None:
+        """The ROS output (rosbag2 folder, ROS 1 bag or MCAP), or None when only the ``.rrd`` is written."""
+        return self.bag_dir or self.ros1_bag or self.mcap
 
 
 def plan_outputs(
@@ -81,8 +88,11 @@ def plan_outputs(
         raise WriteError("`rrd` and `no_rrd` contradict each other")
     bag_dir = Path(bag) if bag is not None else None
     mcap: Path | None = None
+    ros1_bag: Path | None = None
     if bag_dir is not None:
         mcap = bag_dir / f"{bag_dir.name}_0.mcap"
+    elif out is not None and Path(out).suffix == ".bag":
+        ros1_bag = Path(out)
     elif not no_mcap:
         mcap = Path(out) if out is not None else Path(folder) / f"{stem}.mcap"
     rrd_path: Path | None = None
@@ -91,17 +101,19 @@ def plan_outputs(
             rrd_path = Path(rrd)
         elif bag_dir is not None:
             rrd_path = bag_dir.with_name(bag_dir.name + ".rrd")
-        elif mcap is not None:
-            rrd_path = mcap.with_suffix(".rrd")
+        elif (ros1_bag or mcap) is not None:
+            rrd_path = (ros1_bag or mcap).with_suffix(".rrd")  # type: ignore[union-attr]
         else:
             rrd_path = Path(folder) / f"{stem}.rrd"
     if bag_dir is not None:
         check_target(bag_dir, suffix=None, what="rosbag2", force=force, folder=True)
+    elif ros1_bag is not None:
+        check_target(ros1_bag, suffix=".bag", what="ROS 1 bag", force=force)
     elif mcap is not None:
-        check_target(mcap, suffix=".mcap", what="MCAP", force=force)
+        check_target(mcap, suffix=".mcap", what="MCAP (or ROS 1 .bag)", force=force)
     if rrd_path is not None:
         check_target(rrd_path, suffix=".rrd", what="Rerun", force=force)
-    return RecordingPlan(mcap=mcap, rrd=rrd_path, bag_dir=bag_dir, force=force)
+    return RecordingPlan(mcap=mcap, rrd=rrd_path, bag_dir=bag_dir, force=force, ros1_bag=ros1_bag)
 
 
 def recording_id(robot: Robot, trajectory: JointTrajectory, *, start_time_ns: int, frame_prefix: str) -> str:
@@ -110,12 +122,18 @@ def recording_id(robot: Robot, trajectory: JointTrajectory, *, start_time_ns: in
     digest.update(robot.urdf.encode())
     for name in trajectory.joint_names:
         digest.update(name.encode() + b"\0")
-    digest.update(np.ascontiguousarray(trajectory.time_ns).data.cast("B"))  # hashed in place, not copied
+    digest.update(_bytes_of(trajectory.time_ns))
     for piece in trajectory.chunks(DEFAULT_CHUNK_SAMPLES):  # the positions' bytes in order, never all at once
-        if piece.positions.size:  # a robot without moving joints has none (and memoryview refuses zero sizes)
-            digest.update(np.ascontiguousarray(piece.positions).data.cast("B"))
+        digest.update(_bytes_of(piece.positions))
     digest.update(f"{start_time_ns}|{frame_prefix}".encode())
     return str(uuid.UUID(bytes=digest.digest()[:16], version=5))
+
+
+def _bytes_of(array: np.ndarray[Any, Any]) -> memoryview:
+    """The bytes of an array, hashed in place (not copied); none for an array without elements (a robot
+    without moving joints), whose memoryview cannot be cast."""
+    contiguous = np.ascontiguousarray(array)
+    return contiguous.data.cast("B") if contiguous.size else memoryview(b"")
 
 
 @dataclass(frozen=True, slots=True)
@@ -141,7 +159,7 @@ def record(
     trajectory: JointTrajectory,
     plan: RecordingPlan,
     *,
-    compression: str = "zstd",
+    compression: str | None = None,
     start_time_ns: int = DEFAULT_START_TIME_NS,
     frame_prefix: str = "",
     package_paths: Sequence[str | os.PathLike[str]] = (),
@@ -154,7 +172,9 @@ def record(
         robot: the robot (its ``urdf`` goes to /robot_description).
         trajectory: the joint trajectory, times from 0.
         plan: the outputs, from :func:`plan_outputs`.
-        compression: MCAP chunk compression, one of :data:`~tfrec.conventions.COMPRESSIONS`.
+        compression: chunk compression: for an MCAP one of :data:`~tfrec.conventions.COMPRESSIONS`
+            (default zstd), for a ROS 1 bag one of :data:`~tfrec.conventions.ROS1_COMPRESSIONS` (default
+            none, as ``rosbag record``).
         start_time_ns: the stamp of the first sample.
         frame_prefix: put in front of every TF frame id.
         package_paths: where meshes' packages are looked up (Rerun geometry).
@@ -184,8 +204,12 @@ def record(
                     mcap_temp = outputs.path(plan.mcap)
                 stream = open(mcap_temp, "wb")  # noqa: SIM115 - closed below
                 streams.append(stream)
-                mcap_sink = McapSink(stream, compression=compression, file_name=plan.mcap.name)
+                mcap_sink = McapSink(stream, compression=compression or "zstd", file_name=plan.mcap.name)
                 sinks.append(mcap_sink)
+            if plan.ros1_bag is not None:
+                from tfrec.formats.rosbag1 import Ros1BagSink
+
+                sinks.append(Ros1BagSink(outputs.path(plan.ros1_bag), compression=compression or "none"))
             if plan.rrd is not None:
                 from tfrec.formats.rrd.sink import RerunSink
 
@@ -197,7 +221,10 @@ def record(
             for sink in sinks:
                 sink.begin(robot_description=robot.urdf, static=static, start_time_ns=start_time_ns)
             done = 0
-            for chunk in iter_dynamic_chunks(robot, trajectory, chunk_samples=chunk_samples, frame_prefix=frame_prefix):
+            # joint_state_publisher publishes nothing for a robot without moving joints, and
+            # robot_state_publisher no /tf: such a recording holds /robot_description and /tf_static only
+            chunks = iter_dynamic_chunks(robot, trajectory, chunk_samples=chunk_samples, frame_prefix=frame_prefix)
+            for chunk in chunks if robot.moving_joints else ():
                 stamps = chunk.time_ns + start_time_ns
                 for sink in sinks:
                     sink.write_chunk(stamp_ns=stamps, joint_names=chunk.names, positions=chunk.positions,

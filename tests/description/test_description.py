@@ -187,7 +187,8 @@ def test_package_path_comes_first(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     (other / "urdf" / "part.xacro").write_text(
         '<robot xmlns:xacro="http://www.ros.org/wiki/xacro"><link name="from_b"/></robot>')
     monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path / "a"))
-    robot = load_description(_main_file(tmp_path, "dup_pkg"), package_paths=[tmp_path / "b"])
+    with pytest.warns(UserWarning, match=r"package 'dup_pkg' is in .*/b/dup_pkg and .*/a/dup_pkg; using .*/b/dup_pkg$"):
+        robot = load_description(_main_file(tmp_path, "dup_pkg"), package_paths=[tmp_path / "b"])
     assert robot.links[0].name == "from_b"
 
 
@@ -311,16 +312,10 @@ TWO_LINKS = '<link name="a"/>\n<link name="b"/>\n'
          r"r\.urdf:5: joint 'j' origin: malformed xyz=\"0 0\" \(expected 3 finite numbers\)"),
         (TWO_LINKS + '<joint name="j" type="fixed"><parent link="a"/><child link="b"/>\n<origin rpy="0 x 0"/></joint>\n',
          r"r\.urdf:5: joint 'j' origin: malformed rpy=\"0 x 0\""),
-        (TWO_LINKS + '<joint name="j" type="continuous"><parent link="a"/><child link="b"/>\n<mimic joint="ghost"/></joint>\n',
-         r"r\.urdf:4: joint 'j' mimics unknown joint 'ghost'"),
         (TWO_LINKS + '<link name="c"/>\n'
          '<joint name="j1" type="continuous"><parent link="a"/><child link="b"/><mimic joint="j2"/></joint>\n'
          '<joint name="j2" type="continuous"><parent link="a"/><child link="c"/><mimic joint="j1"/></joint>\n',
          r"r\.urdf:5: mimic joints form a cycle: j1 -> j2 -> j1"),
-        ('<link name="a"/>\n<wheel prefix="left"/>\n',
-         r"r\.urdf:3: <wheel> is not a URDF element \(an unexpanded macro call\?\)"),
-        ('<link name="a"><visual><geometry><xacro:thing/></geometry></visual></link>\n',
-         r"r\.urdf:2: <xacro:thing> is left over after xacro expansion"),
     ],
 )
 def test_invalid_urdf(tmp_path: Path, body: str, message: str) -> None:
@@ -339,11 +334,74 @@ def test_validation_after_xacro_names_file_and_element(tmp_path: Path) -> None:
         load_description(f)
 
 
-def test_unexpanded_unknown_element_after_xacro(tmp_path: Path) -> None:
+def test_unknown_element_after_xacro_is_ignored_with_a_warning(tmp_path: Path) -> None:
     f = _write(tmp_path, "u.xacro", '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
                '<link name="a"/><gripper side="left"/></robot>')
-    with pytest.raises(DescriptionError, match=r"u\.xacro: <gripper> is not a URDF element"):
+    with pytest.warns(UserWarning, match=r"u\.xacro: ignored 1 element that URDF does not define \(as urdfdom "
+                      r"does\): <gripper> in <robot>$"):
+        robot = load_description(f)
+    assert [link.name for link in robot.links] == ["a"]
+
+
+@pytest.mark.parametrize(
+    "body, message",
+    [
+        ('<link name="a"/>\n<wheel prefix="left"/>\n', r"r\.urdf: ignored 1 element .*: <wheel> \(line 3\)$"),
+        (('<link name="a"><visual><origin xyz="1 0 0"/><geometry><box size="1 1 1"/></geometry></visual>'
+         '<xacro:thing/></link>\n'), r"r\.urdf: ignored 1 element .*: <xacro:thing> \(line 2\)$"),
+        (TWO_LINKS + '<joint name="j" type="fixed"><parent link="a"/><child link="b"/>\n<orgin xyz="1 0 0"/></joint>\n',
+         r"r\.urdf: ignored 1 element .*: <orgin> \(line 5\)$"),
+    ],
+)
+def test_what_urdfdom_ignores_is_ignored_with_one_warning(tmp_path: Path, body: str, message: str) -> None:
+    f = tmp_path / "r.urdf"
+    f.write_text(_robot(body))
+    with pytest.warns(UserWarning, match=message) as record:
         load_description(f)
+    assert len(record) == 1
+
+
+def test_other_tools_elements_are_ignored_silently(tmp_path: Path) -> None:
+    """PR2's <controller:…>, <drake:…>, <sensor:…> inside <gazebo>, <mujoco>, <klampt> at the top: urdfdom
+    ignores them, and so does tfrec, without a word."""
+    f = tmp_path / "r.urdf"
+    f.write_text(_robot(
+        TWO_LINKS + '<joint name="j" type="fixed"><parent link="a"/><child link="b"/>'
+        '<drake:rotor_inertia value="1"/></joint>\n'
+        '<gazebo><controller:gazebo_ros_controller_manager name="m"/><sensor:camera name="c"/></gazebo>\n'
+        '<mujoco><compiler meshdir="x"/></mujoco>\n<klampt/>\n<controller:plugin name="p"/>\n'
+    ).replace("<robot ", '<robot xmlns:drake="d" xmlns:controller="c" xmlns:sensor="s" '))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        robot = load_description(f)
+    assert robot.joint_by_name["j"].parent == "a"
+
+
+def test_a_mimic_of_an_unknown_joint_warns_and_stays_at_its_offset(tmp_path: Path) -> None:
+    f = tmp_path / "r.urdf"
+    f.write_text(_robot(TWO_LINKS + '<joint name="j" type="continuous"><parent link="a"/><child link="b"/>\n'
+                        '<mimic joint="ghost" offset="0.25"/></joint>\n'))
+    with pytest.warns(UserWarning, match=r"r\.urdf:4: joint 'j' mimics unknown joint 'ghost': it stays at its mimic "
+                      "offset"):
+        robot = load_description(f)
+    from tfrec.kinematics import all_joint_states
+    from tfrec.trajectory import make_trajectory
+
+    names, positions, _ = all_joint_states(robot, make_trajectory(robot, "sine", duration_s=1.0))
+    assert names == ("j",) and (positions == 0.25).all()
+
+
+def test_huge_and_tiny_axes_are_normalized_not_zeroed(tmp_path: Path) -> None:
+    f = tmp_path / "r.urdf"
+    f.write_text(_robot(TWO_LINKS + '<link name="c"/>\n'
+                        '<joint name="j" type="continuous"><parent link="a"/><child link="b"/>'
+                        '<axis xyz="1e200 1e200 1e200"/></joint>\n'
+                        '<joint name="k" type="continuous"><parent link="a"/><child link="c"/>'
+                        '<axis xyz="1e-200 0 0"/></joint>\n'))
+    robot = load_description(f)
+    third = 1 / 3 ** 0.5
+    assert robot.joint_by_name["j"].axis == pytest.approx((third, third, third))
+    assert robot.joint_by_name["k"].axis == (1.0, 0.0, 0.0)
 
 
 def test_planar_and_floating_warn() -> None:

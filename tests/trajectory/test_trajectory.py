@@ -15,8 +15,9 @@ from tfrec.description import load_description, parse_urdf
 from tfrec.errors import TrajectoryError
 from tfrec.kinematics.joints import all_joint_states, apply_mimic
 from tfrec.model import JointType, Robot
+from tfrec.trajectory.clock import sample_times_ns
 from tfrec.trajectory.csv_file import read_csv_trajectory
-from tfrec.trajectory.generators import make_trajectory, sample_times_ns
+from tfrec.trajectory.generators import make_trajectory
 from tfrec.trajectory.joints import center_positions, joint_bounds
 from tfrec.trajectory.types import GeneratedTrajectory, JointTrajectory, TrajectoryKind
 

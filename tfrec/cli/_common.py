@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 import re
+import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn, TextIO
 
 from tfrec.conventions import (
@@ -12,6 +14,7 @@ from tfrec.conventions import (
 )
 
 if TYPE_CHECKING:
+    from tfrec.description.launch import LaunchRobot
     from tfrec.model import Robot
 
 __all__ = [
@@ -20,8 +23,10 @@ __all__ = [
     "Progress",
     "add_robot_arguments",
     "as_flags",
+    "command",
     "fmt",
     "load_robot",
+    "load_robot_and_launch",
     "number",
     "start_time",
     "tolerance",
@@ -31,8 +36,11 @@ PROG = "tfrec"
 
 
 def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("robot", metavar="ROBOT", help="a .urdf, .xacro or .urdf.xacro file")
-    parser.add_argument("xacro_args", metavar="name:=value", nargs="*", default=[], help="xacro arguments, as for ROS")
+    parser.add_argument("robot", metavar="ROBOT",
+                        help="a .urdf, .xacro or .urdf.xacro file, or a launch file that loads one "
+                             "(.launch, .launch.xml, .launch.yaml)")
+    parser.add_argument("xacro_args", metavar="name:=value", nargs="*", default=[],
+                        help="xacro arguments (launch arguments for a launch file), as for ROS")
     parser.add_argument(
         "--package-path", metavar="DIR", action="append", default=[],
         help="a package, or a folder of packages, for $(find pkg) and package:// (repeatable; searched "
@@ -55,14 +63,20 @@ class Parser(argparse.ArgumentParser):
 
 
 def load_robot(ns: argparse.Namespace) -> Robot:
-    from tfrec.description import load_description, parse_xacro_args
+    """The ROBOT argument (with its ``name:=value`` arguments) loaded."""
+    return load_robot_and_launch(ns)[0]
 
-    return load_description(
-        ns.robot,
-        args=parse_xacro_args(ns.xacro_args),
-        package_paths=ns.package_path,
-        strict_xacro=ns.strict_xacro,
-    )
+
+def load_robot_and_launch(ns: argparse.Namespace) -> tuple[Robot, LaunchRobot | None]:
+    """The ROBOT argument loaded, and what its launch file says when it is one (its ``name:=value``
+    arguments are then launch arguments, as for roslaunch)."""
+    from tfrec.description import load_description, load_launch, parse_xacro_args
+    from tfrec.description.launch import is_launch_file
+
+    args = parse_xacro_args(ns.xacro_args)
+    if is_launch_file(ns.robot):
+        return load_launch(ns.robot, args=args, package_paths=ns.package_path, strict_xacro=ns.strict_xacro)
+    return load_description(ns.robot, args=args, package_paths=ns.package_path, strict_xacro=ns.strict_xacro), None
 
 
 def fmt(x: float) -> str:
@@ -148,3 +162,21 @@ def as_flags(message: str) -> str:
     """A library message as the command line says it: each parameter named in backquotes
     (```no_mcap```) becomes its flag (``--no-mcap``)."""
     return _PARAMETER.sub(lambda m: _FLAGS.get(m[1], "--" + m[1].replace("_", "-")), message)
+
+
+def command(name: str) -> str:
+    """How to type the command ``name`` (``rerun``, ``tfrec``) that came with this installation: the bare
+    name when it is what the shell finds, else its path (``.venv/bin/rerun`` before the virtual
+    environment is activated), so that printed hints work as typed."""
+    import os
+    import shutil
+
+    installed = Path(sys.executable).parent / name
+    found = shutil.which(name)
+    if not installed.exists() or (found is not None and Path(found).resolve() == installed.resolve()):
+        return name
+    try:
+        relative = os.path.relpath(installed)
+    except ValueError:  # another drive
+        return str(installed)
+    return str(installed) if relative.startswith("..") else relative

@@ -65,7 +65,17 @@ def add_parser(sub: Any) -> None:
     out.add_argument("--rrd", metavar="OUT.rrd", default=None,
                      help="also write both robots moving together as one Rerun recording: A solid and coloured "
                           "by its error, B a translucent ghost, the error over time with the tolerance")
-    out.add_argument("--force", action="store_true", help="overwrite an existing --rrd file")
+    out.add_argument("--plot", metavar="OUT",
+                     help="(two recordings) draw each frame's translation and rotation error over time, worst frames "
+                          "first, with the tolerance and the first time it is exceeded (OUT.png, .svg or .pdf)")
+    out.add_argument("--force", action="store_true", help="overwrite an existing --rrd or --plot file")
+    diff.formatter_class = argparse.RawDescriptionHelpFormatter
+    diff.epilog = ("examples:\n  tfrec diff golden.mcap new.mcap\n"
+                   "  tfrec diff a.mcap b.bag --pos-tol 1e-6 --json\n"
+                   "  tfrec diff before.mcap after.mcap --plot diff.png\n"
+                   "  tfrec diff arm.xacro arm-v2.xacro --rrd diff.rrd\n"
+                   "  tfrec diff arm.xacro arm.xacro hand:=true --traj sweep\n"
+                   "  tfrec diff robot_log.mcap arm-v2.xacro")
     diff.set_defaults(handler=_cmd_diff)
 
 
@@ -103,6 +113,11 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
         from tfrec._atomic import check_target
 
         check_target(Path(ns.rrd), suffix=".rrd", what="Rerun", force=ns.force)
+    if ns.plot is not None:
+        from tfrec.plots import plot_format, refuse_existing
+
+        plot_format(ns.plot)
+        refuse_existing(ns.plot, force=ns.force)
     tolerances = {"pos_tol": ns.pos_tol, "rot_tol": ns.rot_tol, "joint_tol": ns.joint_tol}
     recordings = is_recording_path(a) and is_recording_path(b) and not args_a and not args_b
     if recordings:
@@ -113,7 +128,7 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
 
         report: Any = compare(a, b, topics=ns.topics, absolute=ns.absolute, **tolerances)
     else:
-        for given, flag in ((ns.topics, "topics"), (ns.absolute or None, "absolute")):
+        for given, flag in ((ns.topics, "topics"), (ns.absolute or None, "absolute"), (ns.plot, "plot")):
             if given is not None:
                 raise DiffError(f"`{flag}` compares two recordings; {a} or {b} is a robot description")
     comparison = None
@@ -130,6 +145,11 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
 
         write_overlay(comparison, ns.rrd, force=ns.force, package_paths=ns.package_path)
     sys.stdout.write(report.to_json() + "\n" if ns.json else as_flags(report.to_text()))
+    if ns.plot is not None:
+        from tfrec.plots import plot_diff
+
+        plot_diff(report, ns.plot, force=ns.force)
+        print(f"wrote {ns.plot}", file=sys.stderr if ns.json else sys.stdout)
     if ns.rrd is not None:
-        sys.stderr.write(f"wrote {ns.rrd}   (open with: rerun {ns.rrd})\n")
+        print(f"wrote {ns.rrd}   (open with: rerun {ns.rrd})", file=sys.stderr if ns.json else sys.stdout)
     return 0 if report.equal else 1

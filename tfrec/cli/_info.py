@@ -17,16 +17,36 @@ def add_parser(sub: Any) -> None:
                                       "TF frames and the robot's name, of tfrec's or any ROS 2 recording.")
     info.add_argument("file", metavar="FILE", help="a .mcap file, a rosbag2 folder, a ROS 1 .bag or a tfrec .rrd")
     info.add_argument("--json", action="store_true", help="print the summary as JSON")
+    info.add_argument("--graph", metavar="OUT",
+                      help="draw the recorded TF tree, like view_frames (parent → child, rates, static or "
+                           "dynamic, topic): OUT.svg, .png, .pdf or .dot")
+    info.add_argument("--force", action="store_true", help="overwrite an existing --graph file")
+    info.formatter_class = argparse.RawDescriptionHelpFormatter
+    info.epilog = ("examples:\n  tfrec info recordings/marm.mcap\n  tfrec info bag_folder/ --json\n"
+                   "  tfrec info recordings/marm.mcap --graph frames.pdf")
     info.set_defaults(handler=_cmd_info)
 
 
 def _cmd_info(ns: argparse.Namespace) -> int:
     from tfrec.info import format_summary, summarize
 
+    if ns.graph is not None:
+        from tfrec.plots import graph_format, refuse_existing
+
+        graph_format(ns.graph)
+        refuse_existing(ns.graph, force=ns.force)
     summary = summarize(ns.file)
+    if ns.graph is not None:
+        from tfrec.conventions import TF, TF_STATIC
+        from tfrec.formats import read_recording
+        from tfrec.plots import recorded_graph, render_graph
+
+        render_graph(recorded_graph(read_recording(ns.file, topics=(TF, TF_STATIC))), ns.graph, force=ns.force)
     if ns.json:
         json.dump(summary, sys.stdout, indent=2)
         sys.stdout.write("\n")
     else:
         sys.stdout.write(format_summary(summary).rstrip("\n") + "\n")
+    if ns.graph is not None:
+        print(f"wrote {ns.graph}", file=sys.stderr if ns.json else sys.stdout)
     return 0

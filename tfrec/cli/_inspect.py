@@ -30,6 +30,13 @@ def add_parser(sub: Any) -> None:
     printed = inspect.add_mutually_exclusive_group()
     printed.add_argument("--urdf", action="store_true", help="print the expanded URDF")
     printed.add_argument("--json", action="store_true", help="print the model as JSON")
+    printed.add_argument("--graph", metavar="OUT",
+                         help="draw the link/joint tree, like urdf_to_graphiz: OUT.svg, .png, .pdf or .dot")
+    inspect.add_argument("--force", action="store_true", help="overwrite an existing --graph file")
+    inspect.formatter_class = argparse.RawDescriptionHelpFormatter
+    inspect.epilog = ("examples:\n  tfrec inspect robots/marm.xacro\n"
+                      "  tfrec inspect robots/marm.xacro --graph marm-tree.svg\n"
+                      "  tfrec inspect panda.urdf.xacro hand:=true --package-path ~/ws/src --urdf > panda.urdf")
     inspect.set_defaults(handler=_cmd_inspect)
 
 
@@ -86,8 +93,18 @@ def robot_to_json(robot: Robot) -> dict[str, Any]:
 
 
 def _cmd_inspect(ns: argparse.Namespace) -> int:
+    if ns.graph is not None:
+        from tfrec.plots import graph_format, refuse_existing
+
+        graph_format(ns.graph)
+        refuse_existing(ns.graph, force=ns.force)
     robot = load_robot(ns)
-    if ns.urdf:
+    if ns.graph is not None:
+        from tfrec.plots import render_graph, robot_graph
+
+        render_graph(robot_graph(robot), ns.graph, force=ns.force)
+        print(f"wrote {ns.graph}  ({len(robot.links)} links, {len(robot.joints)} joints)")
+    elif ns.urdf:
         sys.stdout.write(robot.urdf if robot.urdf.endswith("\n") else robot.urdf + "\n")
     elif ns.json:
         json.dump(robot_to_json(robot), sys.stdout, indent=2)

@@ -11,15 +11,17 @@ from typing import Any
 from tfrec.cli._common import (
     Progress,
     add_robot_arguments,
-    load_robot,
+    command,
+    load_robot_and_launch,
     start_time,
 )
 from tfrec.conventions import (
     COMPRESSIONS,
     DEFAULT_START_TIME_NS,
     NS_PER_S,
+    ROS1_COMPRESSIONS,
 )
-from tfrec.errors import TrajectoryError
+from tfrec.errors import TrajectoryError, WriteError
 
 __all__ = ["add_parser"]
 
@@ -32,13 +34,26 @@ def add_parser(sub: Any) -> None:
                     "record: /robot_description, /tf_static, /joint_states and /tf, as a ROS 2 MCAP file, "
                     "plus a Rerun .rrd beside it.",
     )
+    rec.formatter_class = argparse.RawDescriptionHelpFormatter
+    rec.epilog = ("examples:\n  tfrec record robots/mbot.xacro --traj sine\n"
+                  "  tfrec record robots/marm.xacro --traj random --seed 3 --duration 60 -o marm.bag\n"
+                  "  tfrec record marm_description/launch/view_marm.launch --traj keyframes.csv --rate 100 "
+                  "--interp cubic")
     add_robot_arguments(rec)
     traj = rec.add_argument_group("trajectory")
     traj.add_argument("--traj", metavar="KIND", default="sine",
                       help="center, random, sine, sweep, or a CSV file (time column in s + one column per "
                            "joint) (default: sine)")
     traj.add_argument("--duration", metavar="S", type=float, default=None, help="seconds (default 10)")
-    traj.add_argument("--rate", metavar="HZ", type=float, default=None, help="samples per second (default 50)")
+    traj.add_argument("--rate", metavar="HZ", type=float, default=None,
+                      help="samples per second (default 50, or what a launch file gives joint_state_publisher); with "
+                           "a CSV file: resample its rows (keyframes) onto this clock")
+    traj.add_argument("--interp", choices=("linear", "cubic", "hold"), default="linear",
+                      help="how --rate resamples CSV keyframes: linear, cubic (smooth velocity, no overshoot) or "
+                           "hold (steps) (default linear)")
+    traj.add_argument("--hard-limits", action="store_true",
+                      help="move joints within their hard <limit>s; by default, as joint_state_publisher does "
+                           "(use_smallest_joint_limits), within their <safety_controller> soft limits")
     traj.add_argument("--seed", metavar="N", type=int, default=0, help="seed of --traj random (default 0)")
     traj.add_argument("--period", metavar="S", type=float, default=2.0,
                       help="seconds between random waypoints (Randomize presses); sine periods; at least 1/rate "
@@ -47,17 +62,19 @@ def add_parser(sub: Any) -> None:
                       help="sine amplitude, a fraction of each joint's half-range (default 0.8)")
     traj.add_argument("--set", metavar="JOINT=VALUE", action="append", default=[], dest="overrides",
                       help="hold a joint at a value (repeatable), like joint_state_publisher's zeros")
-    traj.add_argument("--frame-prefix", metavar="P", default="",
+    traj.add_argument("--frame-prefix", metavar="P", default=None,
                       help="put P in front of every TF frame id, as robot_state_publisher's frame_prefix")
     out = rec.add_argument_group("output")
     out.add_argument("-o", "--output", metavar="OUT.mcap",
-                     help="MCAP file (default recordings/<robot>-<traj>-<YYYYmmdd-HHMMSS>.mcap)")
+                     help="MCAP file, or a ROS 1 bag when it ends in .bag "
+                          "(default recordings/<robot>-<traj>-<YYYYmmdd-HHMMSS>.mcap)")
     out.add_argument("--bag", metavar="DIR", help="write a rosbag2 folder (metadata.yaml + .mcap) instead")
     out.add_argument("--rrd", metavar="OUT.rrd", help="Rerun recording (default: beside the MCAP, same stem)")
     out.add_argument("--no-rrd", action="store_true", help="write no Rerun recording")
     out.add_argument("--no-mcap", action="store_true", help="write no MCAP (only the .rrd)")
-    out.add_argument("--compression", choices=COMPRESSIONS, default="zstd",
-                     help="MCAP chunk compression (default zstd)")
+    out.add_argument("--compression", choices=sorted({*COMPRESSIONS, *ROS1_COMPRESSIONS}), default=None,
+                     help=f"chunk compression: MCAP {', '.join(COMPRESSIONS)} (default zstd); ROS 1 bag "
+                          f"{', '.join(ROS1_COMPRESSIONS)} (default none, as rosbag record)")
     out.add_argument("--start-time", metavar="S", type=start_time, default=None,
                      help="stamp of the first sample, seconds since the Unix epoch "
                           f"(default {DEFAULT_START_TIME_NS // NS_PER_S} = 2023-11-14T22:13:20Z, so runs are "
@@ -85,38 +102,64 @@ def _cmd_record(ns: argparse.Namespace) -> int:
     from tfrec.trajectory.types import TrajectoryKind
 
     start_ns = DEFAULT_START_TIME_NS if ns.start_time is None else ns.start_time
-    robot = load_robot(ns)
-    if ns.traj not in TrajectoryKind._value2member_map_ and (ns.duration is not None or ns.rate is not None):
-        warnings.warn(f"--duration and --rate do not apply to the CSV trajectory {ns.traj}: its own times are used",
+    robot, launch = load_robot_and_launch(ns)
+    params = launch.node_params if launch is not None else None
+    csv = ns.traj not in TrajectoryKind._value2member_map_
+    if csv and ns.duration is not None:
+        warnings.warn(f"--duration does not apply to the CSV trajectory {ns.traj}: its own times are used",
                       stacklevel=1)
+    rate = ns.rate
+    if rate is None and params is not None and not csv:  # the launch file's joint_state_publisher and
+        rates = [r for r in (params.jsp_rate_hz, params.publish_frequency_hz) if r]  # robot_state_publisher
+        if rates:
+            rate = min(rates)  # /tf is published at the slower of the two
+            if len(rates) == 2 and params.publish_frequency_hz and params.publish_frequency_hz < (params.jsp_rate_hz or 0):
+                warnings.warn(f"{launch.launch_file if launch else ''}: robot_state_publisher publishes /tf at "
+                              f"{params.publish_frequency_hz:g} Hz, below joint_state_publisher's {params.jsp_rate_hz:g} "
+                              "Hz: both are recorded at the /tf rate (--rate overrides)", stacklevel=1)
+    overrides = _parse_overrides(ns.overrides)
+    if not overrides and params is not None and params.jsp_zeros and ns.traj == "center":
+        overrides = dict(params.jsp_zeros)  # joint_state_publisher's zeros: where Center puts the joints
+    frame_prefix = ns.frame_prefix
+    if frame_prefix is None:
+        frame_prefix = params.frame_prefix if params is not None and params.frame_prefix else ""
     trajectory = make_trajectory(
-        robot, ns.traj, duration_s=10.0 if ns.duration is None else ns.duration,
-        rate_hz=50.0 if ns.rate is None else ns.rate, seed=ns.seed, period_s=ns.period,
-        amplitude=ns.amplitude, overrides=_parse_overrides(ns.overrides),
+        robot, ns.traj, duration_s=ns.duration, rate_hz=rate, seed=ns.seed, period_s=ns.period,
+        amplitude=ns.amplitude, overrides=overrides, soft_limits=not ns.hard_limits, interp=ns.interp,
     )
     plan = plan_outputs(stem=default_stem(robot, ns.traj), out=ns.output, rrd=ns.rrd, bag=ns.bag,
                         no_mcap=ns.no_mcap, no_rrd=ns.no_rrd, force=ns.force)
+    allowed = ROS1_COMPRESSIONS if plan.ros1_bag is not None else COMPRESSIONS
+    if ns.compression is not None and ns.compression not in allowed and plan.main is not None:
+        raise WriteError(f"--compression {ns.compression}: a {'ROS 1 bag' if plan.ros1_bag else 'MCAP'} chunk "
+                         f"compression is one of {', '.join(allowed)}")
     progress = Progress(sys.stderr)
     try:
         result = record(robot, trajectory, plan, compression=ns.compression, start_time_ns=start_ns,
-                        frame_prefix=ns.frame_prefix, package_paths=ns.package_path, progress=progress)
+                        frame_prefix=frame_prefix, package_paths=ns.package_path, progress=progress)
     finally:
         progress.close()
     seconds = (result.end_time_ns - result.start_time_ns) / NS_PER_S
-    print(f"recorded {robot.name}: {result.samples} samples over {seconds:g} s "
-          f"({len(trajectory.joint_names)} actuated joints, --traj {ns.traj})")
+    if robot.moving_joints:
+        print(f"recorded {robot.name}: {result.samples} samples over {seconds:g} s "
+              f"({len(trajectory.joint_names)} actuated joints, --traj {ns.traj})")
+    else:  # joint_state_publisher publishes nothing for it, robot_state_publisher no /tf
+        print(f"recorded {robot.name}: no moving joints, so /robot_description and /tf_static only "
+              f"({len(robot.links)} link{'s' if len(robot.links) != 1 else ''})")
     if plan.bag_dir is not None:
         print(f"wrote {plan.bag_dir}/  (rosbag2: metadata.yaml + {plan.mcap.name if plan.mcap else ''})")
+    elif plan.ros1_bag is not None:
+        print(f"wrote {plan.ros1_bag}  (ROS 1 bag)")
     elif plan.mcap is not None:
         print(f"wrote {plan.mcap}")
     if plan.rrd is not None:
         print(f"wrote {plan.rrd}")
     hints = []
     if plan.rrd is not None:
-        hints.append(f"rerun {plan.rrd}")
-    target = plan.bag_dir or plan.mcap
+        hints.append(f"{command('rerun')} {plan.rrd}")
+    target = plan.main
     if target is not None:
-        hints.append(f"tfrec info {target}")
+        hints.append(f"{command('tfrec')} info {target}")
     if hints:
         print("open with: " + "   |   ".join(hints))
     return 0

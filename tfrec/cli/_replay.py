@@ -17,6 +17,7 @@ from tfrec.conventions import (
     NS_PER_S,
     RECORDED_TOPICS,
 )
+from tfrec.errors import ReplayError
 
 __all__ = ["add_parser"]
 
@@ -66,6 +67,13 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     check.add_argument("--rot-tol", metavar="RAD", type=tolerance, default=CHECK_ROT_TOL,
                        help=f"rotation tolerance (default {number(CHECK_ROT_TOL)})")
     check.add_argument("--json", action="store_true", help="print the --check report as JSON")
+    check.add_argument("--plot", metavar="OUT",
+                       help="with --check: draw each frame's translation and rotation error over time, with the "
+                            "tolerance and the first time it is exceeded (OUT.png, .svg or .pdf; --force overwrites)")
+    rep.formatter_class = argparse.RawDescriptionHelpFormatter
+    rep.epilog = ("examples:\n  tfrec replay recordings/marm.mcap\n"
+                  "  tfrec replay bag_folder/ --save bag.rrd --start 10 --end 20\n"
+                  "  tfrec replay robot.bag --check --robot robot.urdf --plot check.png")
     rep.set_defaults(handler=_cmd_replay)
     return rep
 
@@ -76,6 +84,13 @@ def _cmd_replay(ns: argparse.Namespace) -> int:
     from tfrec.replay.play import check_play_options, replay_to_rerun
 
     live = not ns.check or ns.save is not None or ns.connect is not None
+    if ns.plot is not None:
+        from tfrec.plots import plot_format, refuse_existing
+
+        if not ns.check:
+            raise ReplayError("`plot` draws a check: it goes with `check`")
+        plot_format(ns.plot)
+        refuse_existing(ns.plot, force=ns.force)
     if live:
         check_play_options(save=ns.save, connect=ns.connect, rate=ns.rate, loop=ns.loop, force=ns.force)
     robot = None
@@ -95,6 +110,11 @@ def _cmd_replay(ns: argparse.Namespace) -> int:
         else:
             sys.stdout.write(format_check(report))
         status = 0 if report.passed else 1
+        if ns.plot is not None:
+            from tfrec.plots import plot_check
+
+            plot_check(report, ns.plot, force=ns.force)
+            print(f"wrote {ns.plot}", file=sys.stderr if ns.json else sys.stdout)
         if not live:
             return status
     replay_to_rerun(replay, save=ns.save, connect=ns.connect, rate=ns.rate, loop=ns.loop,

@@ -8,8 +8,9 @@ through :class:`tfrec.description.packages.PackageFinder`, and the result is val
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from tfrec.description.packages import PackageFinder
 from tfrec.description.urdf import parse_urdf
@@ -17,7 +18,10 @@ from tfrec.description.xacro import expand_xacro
 from tfrec.errors import DescriptionError, display_path
 from tfrec.model import Robot
 
-__all__ = ["load_description", "parse_urdf", "parse_xacro_args", "read_description_text"]
+__all__ = ["load_description", "load_launch", "parse_urdf", "parse_xacro_args", "read_description_text"]
+
+if TYPE_CHECKING:
+    from tfrec.description.launch import LaunchRobot
 
 
 def parse_xacro_args(items: Sequence[str]) -> dict[str, str]:
@@ -35,8 +39,8 @@ def parse_xacro_args(items: Sequence[str]) -> dict[str, str]:
     return out
 
 
-def _is_plain_urdf(path: Path, text: str) -> bool:
-    return path.suffix == ".urdf" and "xmlns:xacro" not in text
+def _is_plain_urdf(path: Path) -> bool:
+    return path.suffix == ".urdf"
 
 
 def read_description_text(
@@ -45,8 +49,12 @@ def read_description_text(
     args: Mapping[str, str] | None = None,
     package_paths: Sequence[str | os.PathLike[str]] = (),
     strict_xacro: bool = False,
+    force_xacro: bool = False,
 ) -> tuple[str, bool]:
     """The URDF text of a description file, xacro-expanded when needed.
+
+    A ``.urdf`` is never run through xacro (a URDF that mentions ``xmlns:xacro`` is still a URDF:
+    urdfdom ignores what it does not know), unless ``force_xacro`` (a launch file's xacro run).
 
     Returns:
         (text, user_lines): user_lines is True when line numbers in text are the file's own.
@@ -62,7 +70,7 @@ def read_description_text(
         raw = file.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as err:
         raise DescriptionError(f"{display_path(file)}: cannot read: {err}") from err
-    if _is_plain_urdf(file, raw):
+    if _is_plain_urdf(file) and not force_xacro:
         if args:
             raise DescriptionError(f"{display_path(file)}: xacro arguments given for a plain URDF file")
         return raw, True
@@ -80,15 +88,78 @@ def load_description(
     """Load and validate a robot description file.
 
     Args:
-        path: a ``.urdf``, ``.xacro`` or ``.urdf.xacro`` file.
-        args: xacro arguments (``name:=value``).
+        path: a ``.urdf``, ``.xacro`` or ``.urdf.xacro`` file, or a launch file that loads one
+            (ROS 1 ``.launch``, ROS 2 ``.launch.xml``/``.launch.yaml``; see :func:`load_launch`).
+        args: xacro arguments (``name:=value``); for a launch file, its launch arguments.
         package_paths: folders searched first for ``$(find pkg)``.
         strict_xacro: refuse legacy un-prefixed macro calls instead of expanding them.
 
     Raises:
         DescriptionError: one line naming the file and the element at fault.
     """
+    from tfrec.description.launch import is_launch_file
+
+    if is_launch_file(path):
+        return load_launch(path, args=args, package_paths=package_paths, strict_xacro=strict_xacro)[0]
     text, user_lines = read_description_text(
         path, args=args, package_paths=package_paths, strict_xacro=strict_xacro
     )
     return parse_urdf(text, source=os.fspath(path), user_lines=user_lines)
+
+
+def load_launch(
+    path: str | os.PathLike[str],
+    *,
+    args: Mapping[str, str] | None = None,
+    package_paths: Sequence[str | os.PathLike[str]] = (),
+    strict_xacro: bool = False,
+) -> tuple[Robot, LaunchRobot]:
+    """Load the robot a launch file loads, as ``roslaunch``/``ros2 launch`` would (nothing is run).
+
+    Args:
+        path: the launch file.
+        args: launch arguments (``name:=value`` on the command line).
+        package_paths: folders searched first for ``$(find pkg)``.
+        strict_xacro: refuse legacy un-prefixed macro calls in the xacro it runs.
+
+    Returns:
+        The robot, and what the launch file says of it (:class:`~tfrec.description.launch.LaunchRobot`:
+        the description's source, namespace, and the parameters of joint_state_publisher and
+        robot_state_publisher, which ``tfrec record`` takes as options).
+
+    Raises:
+        DescriptionError: one line naming the launch file (or the description) and what is wrong.
+    """
+    from tfrec.description.launch import DescriptionKind, read_launch
+
+    finder = PackageFinder(package_paths, near=path)
+    launch = read_launch(path, args=args, finder=finder, yaml_loader=_yaml_loader())
+    source = launch.description
+    if source.kind is DescriptionKind.URDF_TEXT:
+        robot = parse_urdf(source.text or "", source=f"{display_path(path)}: robot_description", user_lines=False)
+    else:
+        assert source.file is not None
+        xacro_args = source.xacro_args if source.kind is DescriptionKind.XACRO else None
+        text, user_lines = read_description_text(source.file, args=xacro_args, package_paths=package_paths,
+                                                 strict_xacro=strict_xacro, force_xacro=xacro_args is not None)
+        robot = parse_urdf(text, source=os.fspath(source.file), user_lines=user_lines)
+    return robot, launch
+
+
+def _yaml_loader() -> Callable[[str, str], Any] | None:
+    """YAML for launch files (``<rosparam>``, ROS 2 YAML launch): parsing it is the formats stage's, and
+    only :mod:`tfrec.formats` imports a YAML library. It is looked up when a launch file is read — the
+    one place a stage reaches a later one, at run time and by name — and is hardened against alias
+    bombs and deep nesting (:func:`tfrec.formats._yaml.load_yaml`)."""
+    import importlib
+
+    try:
+        module = importlib.import_module("tfrec.formats._yaml")
+    except ImportError:
+        return None
+    load = module.load_yaml
+
+    def loader(text: str, source: str) -> Any:
+        return load(text, where=source, error=DescriptionError)
+
+    return loader

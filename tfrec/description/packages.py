@@ -40,25 +40,29 @@ def package_name(folder: Path) -> str | None:
     return name.strip() if name and name.strip() else None
 
 
-def _crawl(folder: Path, depth: int = 0) -> Iterator[tuple[str, Path]]:
-    """Yield (name, path) of the packages in folder: folder itself, or those below it."""
-    if not folder.is_dir():
-        return
-    name = package_name(folder)
-    if name is not None:
-        yield name, folder
-        return
-    if depth >= _MAX_DEPTH:
-        return
-    try:
-        entries = sorted(folder.iterdir())
-    except OSError:
-        return
-    for entry in entries:
-        if entry.name.startswith(".") or entry.name in _SKIP_DIRS:
-            continue
-        if entry.is_dir() and not (entry / "CATKIN_IGNORE").exists() and not (entry / "COLCON_IGNORE").exists():
-            yield from _crawl(entry, depth + 1)
+def _crawl(folder: Path) -> Iterator[tuple[str, Path, int]]:
+    """Yield (name, path, depth) of the packages in folder: folder itself, or those below it,
+    breadth first (shallower packages first, then in sorted order)."""
+    level = [folder] if folder.is_dir() else []
+    for depth in range(_MAX_DEPTH + 1):
+        deeper: list[Path] = []
+        for current in level:
+            name = package_name(current)
+            if name is not None:
+                yield name, current, depth
+                continue
+            try:
+                entries = sorted(current.iterdir())
+            except OSError:
+                continue
+            for entry in entries:
+                if entry.name.startswith(".") or entry.name in _SKIP_DIRS:
+                    continue
+                if entry.is_dir() and not (entry / "CATKIN_IGNORE").exists() and not (entry / "COLCON_IGNORE").exists():
+                    deeper.append(entry)
+        level = deeper
+        if not level:
+            return
 
 
 def _enclosing_package(path: Path) -> Path | None:
@@ -103,18 +107,19 @@ class PackageFinder:
                     if folder.name == "src":
                         self._local.append(folder)
                         break
+        self._own = _enclosing_package(Path(near).resolve()) if near is not None else None
         self._cache: dict[str, Path] = {}
-        self._indexes: dict[Path, dict[str, Path]] = {}
+        self._indexes: dict[Path, dict[str, list[Path]]] = {}
+        self.twins: dict[str, tuple[Path, tuple[Path, ...]]] = {}
+        """Packages used that have other copies: name → (the copy taken, the others)."""
+        self._warned: set[str] = set()
 
-    def _index(self, folder: Path) -> dict[str, Path]:
+    def _index(self, folder: Path) -> dict[str, list[Path]]:
+        """Package name → its copies under ``folder``, shallower first (then in sorted order)."""
         if folder not in self._indexes:
-            index: dict[str, Path] = {}
-            for name, path in _crawl(folder):
-                if name in index:
-                    warnings.warn(f"package '{name}' is in {index[name]} and {path}; using {index[name]} "
-                                  "(the first in sorted order)", stacklevel=4)
-                    continue
-                index[name] = path
+            index: dict[str, list[Path]] = {}
+            for name, path, _ in _crawl(folder):
+                index.setdefault(name, []).append(path)
             self._indexes[folder] = index
         return self._indexes[folder]
 
@@ -127,35 +132,58 @@ class PackageFinder:
         return places
 
     def find(self, name: str) -> Path:
-        """The folder of package ``name``.
+        """The folder of package ``name``: the input's own package first, then the first copy found in
+        the search order (shallower before deeper within a folder). Other copies are noted in
+        :attr:`twins` (see :meth:`warn_twins`).
 
         Raises:
             DescriptionError: no package of that name in any searched place.
         """
         if name in self._cache:
             return self._cache[name]
-        found = self._lookup(name)
-        if found is None:
+        copies = self._lookup(name)
+        if not copies:
             places = self.searched()
             where = "; ".join(places) if places else "no places (give `package_paths`)"
             raise DescriptionError(f"package '{name}' not found; searched: {where}")
+        found, others = copies[0], tuple(dict.fromkeys(c for c in copies[1:] if c.resolve() != copies[0].resolve()))
+        if others:
+            self.twins[name] = (found, others)
         self._cache[name] = found
         return found
 
-    def _lookup(self, name: str) -> Path | None:
+    def warn_twins(self) -> None:
+        """One warning per package used that has other copies (called once a load is done: inside
+        xacro a warning would be taken for an error)."""
+        for name, (found, others) in self.twins.items():
+            if name not in self._warned:
+                self._warned.add(name)
+                warnings.warn(f"package '{name}' is in {found} and {', '.join(map(str, others))}; using {found}",
+                              stacklevel=3)
+
+    def taken(self, path: str | os.PathLike[str]) -> str | None:
+        """For messages about a file: which copy of a package with twins it lies in, e.g. ``package
+        'arm' is /ws/src/arm (not /ws/old/arm)``; None when the file is in no such package."""
+        target = Path(path)
+        for name, (found, others) in self.twins.items():
+            if target == found or found in target.parents:
+                return f"package '{name}' is {found} (not {', '.join(map(str, others))})"
+        return None
+
+    def _lookup(self, name: str) -> list[Path]:
+        """Every copy of package ``name``, in the order they are taken."""
+        copies: list[Path] = []
+        if self._own is not None and package_name(self._own) == name:
+            copies.append(self._own)
         for folder in [*self._explicit, *self._ros_package_path]:
-            hit = self._index(folder).get(name)
-            if hit is not None:
-                return hit
+            copies.extend(self._index(folder).get(name, ()))
         for prefix in self._ament_prefixes:
             share = prefix / "share" / name
             if share.is_dir():
-                return share
+                copies.append(share)
         for folder in self._local:
-            hit = self._index(folder).get(name)
-            if hit is not None:
-                return hit
-        return None
+            copies.extend(self._index(folder).get(name, ()))
+        return copies
 
     def resolve_uri(self, uri: str, *, relative_to: str | os.PathLike[str] | None = None) -> Path:
         """The file a URDF resource name points to: ``package://``, ``file://`` or a path.

@@ -27,6 +27,7 @@ from tfrec.model import (
     Mimic,
     Pose,
     Robot,
+    SafetyController,
     Sphere,
     Visual,
 )
@@ -63,8 +64,21 @@ def _common_colour(name: str) -> tuple[float, float, float, float] | None:
     """The colour of a common name: ``Red``, ``light grey`` and ``dark-gray`` are found."""
     return COMMON_COLOURS.get(name.strip().lower().replace(" ", "_").replace("-", "_"))
 
-# Top-level elements a URDF may hold besides links and joints (read by other tools, ignored here).
-_OTHER_TOP_LEVEL = {"material", "transmission", "gazebo", "ros2_control", "sensor", "webots", "drake"}
+# The URDF elements; every other element is ignored, as urdfdom (check_urdf, robot_state_publisher) does.
+_KNOWN_CHILDREN = {
+    "robot": {"link", "joint", "material"},
+    "link": {"inertial", "visual", "collision"},
+    "joint": {"origin", "parent", "child", "axis", "calibration", "dynamics", "limit", "mimic", "safety_controller"},
+    "visual": {"origin", "geometry", "material"},
+    "material": {"color", "texture"},
+}
+"""Where an unknown element is worth a warning: what tfrec reads. Inside ``<collision>`` and ``<inertial>``
+(Gazebo's ``<surface>``, say), which tfrec does not use, nothing is looked at."""
+# Elements for other tools (simulators, controllers, planners), ignored without a word.
+_OTHER_TOOLS = {"transmission", "gazebo", "ros2_control", "sensor", "webots", "drake", "mujoco", "klampt",
+                "sdf", "plugin", "xacro"}
+_SHOWN = 5
+"""Ignored elements named in the one warning about them; the rest are counted."""
 
 
 def _parse_xml(text: str, where: str) -> tuple[ET.Element, dict[int, int]]:
@@ -127,6 +141,16 @@ class _Parser:
         xyz = self.floats(origin, "xyz", 3, f"{what} origin", (0.0, 0.0, 0.0))
         rpy = self.floats(origin, "rpy", 3, f"{what} origin", (0.0, 0.0, 0.0))
         return Pose(xyz=(xyz[0], xyz[1], xyz[2]), rpy=(rpy[0], rpy[1], rpy[2]))
+
+    def unit_axis(self, elem: ET.Element | None, axis: tuple[float, ...], what: str) -> tuple[float, ...]:
+        """``axis`` normalized, as robot_state_publisher does; scaled first, so that ``1e200 1e200 1e200``
+        (whose squares overflow) is the diagonal it means and ``1e-200 0 0`` the x axis."""
+        scale = max(abs(a) for a in axis)
+        if not scale > 0.0:
+            raise self.fail(elem, f"{what} has a zero axis")
+        scaled = [a / scale for a in axis]
+        norm = math.sqrt(sum(a * a for a in scaled))
+        return tuple(a / norm for a in scaled)
 
     # ---- elements ----------------------------------------------------------------------
 
@@ -216,11 +240,8 @@ class _Parser:
         axis_elem = elem.find("axis")
         if axis_elem is not None:
             axis = self.floats(axis_elem, "xyz", 3, f"{what} axis", (1.0, 0.0, 0.0))
-        norm = math.sqrt(sum(a * a for a in axis))
         if jtype in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC, JointType.PLANAR):
-            if not norm > 1e-12:
-                raise self.fail(axis_elem, f"{what} has a zero axis")
-            axis = tuple(a / norm for a in axis)
+            axis = self.unit_axis(axis_elem, axis, what)
         limit = None
         limit_elem = elem.find("limit")
         if limit_elem is not None:
@@ -246,9 +267,16 @@ class _Parser:
                 multiplier=self.number(mimic_elem, "multiplier", f"{what} mimic", 1.0),
                 offset=self.number(mimic_elem, "offset", f"{what} mimic", 0.0),
             )
+        safety = None
+        safety_elem = elem.find("safety_controller")
+        if safety_elem is not None:
+            soft = [self.number(safety_elem, attr, f"{what} safety_controller") if safety_elem.get(attr) is not None
+                    else None for attr in ("soft_lower_limit", "soft_upper_limit")]
+            safety = SafetyController(soft[0], soft[1])
         return Joint(
             name=name, type=jtype, parent=links["parent"], child=links["child"],
             origin=self.pose(elem, what), axis=(axis[0], axis[1], axis[2]), limit=limit, mimic=mimic,
+            safety=safety,
         )
 
 
@@ -272,13 +300,9 @@ def parse_urdf(text: str, *, source: str | None = None, user_lines: bool = True)
     if not name:
         raise p.fail(root, "<robot> has no name")
 
-    for elem in root.iter():
-        if ":" in elem.tag:
-            raise p.fail(elem, f"<{elem.tag}> is left over after xacro expansion (not URDF)")
+    _warn_ignored(p, root)
     materials: dict[str, Material] = {}
     for elem in root:
-        if elem.tag not in ("link", "joint") and elem.tag not in _OTHER_TOP_LEVEL:
-            raise p.fail(elem, f"<{elem.tag}> is not a URDF element (an unexpanded macro call?)")
         if elem.tag == "material":
             material = p.material(elem, "robot")
             if material.name in materials and materials[material.name] != material:
@@ -304,6 +328,13 @@ def parse_urdf(text: str, *, source: str | None = None, user_lines: bool = True)
 
     _check_tree(p, name, links, joints, joint_elems.__getitem__)
     _check_mimic(p, joints, joint_elems.__getitem__)
+    frozen = [joint.name for joint in joints if joint.type in (JointType.REVOLUTE, JointType.PRISMATIC)
+              and joint.mimic is None and joint.limit is not None and joint.limit.lower == joint.limit.upper]
+    if frozen:
+        shown = ", ".join(f"'{name}'" for name in frozen[:_SHOWN]) + (f" and {len(frozen) - _SHOWN} more"
+                                                                      if len(frozen) > _SHOWN else "")
+        warnings.warn(f"{where}: joint{'s' if len(frozen) > 1 else ''} {shown} cannot move: lower and upper limit "
+                      "are equal (blank limits, as sw_urdf_exporter writes them?)", stacklevel=2)
     for joint in joints:
         if joint.type is JointType.PLANAR:
             p.warn(joint_elems[joint.name], f"joint '{joint.name}' is planar: treated as fixed, "
@@ -312,6 +343,36 @@ def parse_urdf(text: str, *, source: str | None = None, user_lines: bool = True)
             p.warn(joint_elems[joint.name], f"joint '{joint.name}' is floating: it gets no transform, "
                    "as robot_state_publisher does")
     return Robot(name=name, links=tuple(links), joints=tuple(joints), urdf=text, source=source)
+
+
+def _warn_ignored(p: _Parser, root: ET.Element) -> None:
+    """Warn once about the elements urdfdom would ignore that a user would want to know of: unknown
+    un-prefixed elements where urdfdom reads (a typo like ``<orgin>``, a macro call left unexpanded) and
+    leftover ``xacro:`` elements. Elements of other tools (``<gazebo>``, ``<transmission>``,
+    ``<drake:…>``, ``<mujoco>``…) are ignored without a word."""
+    ignored: list[str] = []
+    stack = [root]
+    while stack:
+        elem = stack.pop()
+        known = _KNOWN_CHILDREN.get(elem.tag)
+        if known is None:
+            continue  # inside an element urdfdom does not read (or a leaf): nothing of it is looked at
+        for child in elem:
+            tag = child.tag
+            if not isinstance(tag, str):
+                continue
+            prefix, colon, _ = tag.partition(":")
+            if tag in known or (elem.tag == "visual" and tag == "geometry"):
+                stack.append(child)
+            elif (colon and prefix != "xacro") or tag in _OTHER_TOOLS:
+                continue
+            else:
+                line = p.lines.get(id(child)) if p.lines is not None else None
+                ignored.append(f"<{tag}>" + (f" (line {line})" if line else f" in <{elem.tag}>"))
+    if ignored:
+        more = f" and {len(ignored) - _SHOWN} more" if len(ignored) > _SHOWN else ""
+        warnings.warn(f"{p.where}: ignored {len(ignored)} element{'s' if len(ignored) > 1 else ''} that URDF "
+                      f"does not define (as urdfdom does): {', '.join(ignored[:_SHOWN])}{more}", stacklevel=3)
 
 
 def _check_tree(p: _Parser, robot: str, links: list[Link], joints: list[Joint],
@@ -362,15 +423,17 @@ def _check_mimic(p: _Parser, joints: list[Joint], elem_of: Callable[[str], ET.El
     by_name = {joint.name: joint for joint in joints}
     for joint in joints:
         if joint.mimic is not None and joint.mimic.joint not in by_name:
-            raise p.fail(elem_of(joint.name), f"joint '{joint.name}' mimics unknown joint '{joint.mimic.joint}'")
+            # urdfdom keeps the name; robot_state_publisher then never moves the joint
+            p.warn(elem_of(joint.name), f"joint '{joint.name}' mimics unknown joint '{joint.mimic.joint}': "
+                   "it stays at its mimic offset")
     for joint in joints:
         if joint.mimic is None:
             continue
         seen = [joint.name]
-        current = by_name[joint.mimic.joint]
-        while current.mimic is not None:
+        current = by_name.get(joint.mimic.joint)
+        while current is not None and current.mimic is not None:
             if current.name in seen:
                 raise p.fail(elem_of(joint.name), "mimic joints form a cycle: "
                              + " -> ".join([*seen[seen.index(current.name):], current.name]))
             seen.append(current.name)
-            current = by_name[current.mimic.joint]
+            current = by_name.get(current.mimic.joint)

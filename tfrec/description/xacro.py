@@ -55,7 +55,10 @@ def _patched_xacro(finder: PackageFinder, *, strict: bool, legacy: list[tuple[st
                 _, _, macro = xacro.resolve_macro(tag, macros, symbols)
             except KeyError:
                 macro = None  # not a macro: an ordinary element
-            if macro is not None and _fits(node, macro):
+            # an element named like a macro is a call, as in xacro <= 1.13 (whose errors for missing or
+            # unknown parameters it then gets), unless it is also a URDF element that does not fit the
+            # macro (a literal <inertial> beside an "inertial" macro)
+            if macro is not None and (tag not in _URDF_ELEMENTS or _fits(node, macro)):
                 where = _call_site(xacro)
                 if strict:
                     raise _LegacyCall(
@@ -102,40 +105,45 @@ def expand_xacro(
     Raises:
         DescriptionError: any xacro, XML or package error, naming the file.
     """
-    mappings = {str(k): str(v) for k, v in (args or {}).items()}
+    mappings = _Args({str(k): str(v) for k, v in (args or {}).items()})
     legacy: list[tuple[str, str]] = []
     chatter = io.StringIO()
     with _LOCK, _patched_xacro(finder, strict=strict, legacy=legacy) as xacro:
         filename = os.fspath(path)
+        message: str | None = None
         try:
             with contextlib.redirect_stderr(chatter):
                 xacro.init_stacks(filename)
                 doc = xacro.parse(None, filename)
                 xacro.process_doc(doc, mappings=mappings)
-        except RecursionError:
-            raise DescriptionError(
-                f"{display_path(filename)}: xacro recursion too deep: a file includes itself or a macro "
-                "calls itself without end"
-            )
+        except RecursionError as err:
+            message = (f"{display_path(filename)}: xacro recursion too deep: a file includes itself or a macro "
+                       "calls itself without end")
+            cause: BaseException = err
         except _LegacyCall as err:
-            raise DescriptionError(str(err)) from err
+            message, cause = str(err), err
         except DescriptionError as err:  # from $(find): name the file that asked
-            raise DescriptionError(f"{_where(xacro, filename)}: {err}") from err
+            message, cause = f"{_where(xacro, filename)}: {err}", err
         except xml.parsers.expat.ExpatError as err:
-            raise DescriptionError(
-                f"{_where(xacro, filename)}:{err.lineno}:{err.offset}: malformed XML: "
-                f"{xml.parsers.expat.ErrorString(err.code)}"
-            ) from err
+            message = (f"{_where(xacro, filename)}:{err.lineno}:{err.offset}: malformed XML: "
+                       f"{xml.parsers.expat.ErrorString(err.code)}")
+            cause = err
         except xacro.XacroException as err:
             if isinstance(err.exc, DescriptionError):  # $(find) failed inside an expression
-                raise DescriptionError(f"{_where(xacro, filename)}: {err.exc}") from err
-            raise DescriptionError(f"{_where(xacro, filename)}: {_xacro_message(err)}") from err
+                message = f"{_where(xacro, filename)}: {err.exc}"
+            else:
+                message = f"{_where(xacro, filename)}: {_xacro_message(err)}"
+            cause = err
         except (NameError, TypeError, ValueError, ZeroDivisionError, SyntaxError, KeyError, IndexError) as err:
             # xacro lets some evaluation errors through unwrapped
-            raise DescriptionError(f"{_where(xacro, filename)}: xacro: {err}") from err
+            message, cause = f"{_where(xacro, filename)}: xacro: {err}", err
         except OSError as err:
-            raise DescriptionError(f"{_where(xacro, filename)}: {err.strerror or err}: {err.filename}") from err
+            message, cause = f"{_where(xacro, filename)}: {err.strerror or err}: {err.filename}", err
+        if message is not None:
+            raise DescriptionError(_with_twins(message, finder)) from cause
         text: str = doc.toprettyxml(indent="  ")
+    finder.warn_twins()
+    _warn_unused_args(filename, mappings)
     for line in chatter.getvalue().splitlines():
         if line.strip():
             warnings.warn(f"{display_path(filename)}: xacro: {line.strip()}", stacklevel=2)
@@ -151,8 +159,58 @@ def expand_xacro(
     return text
 
 
+_URDF_ELEMENTS = frozenset({
+    "robot", "link", "joint", "visual", "collision", "inertial", "origin", "geometry", "box", "cylinder", "sphere",
+    "mesh", "material", "color", "texture", "mass", "inertia", "parent", "child", "axis", "limit", "dynamics",
+    "calibration", "mimic", "safety_controller", "gazebo", "transmission", "ros2_control", "sensor",
+})
+"""Elements a URDF holds: one of them is a legacy macro call only when it fits the macro."""
+
 _FOREIGN_BLOCKS = frozenset({"gazebo", "ros2_control", "transmission"})
 """Elements whose content is for other tools (SDF, controllers): never legacy macro calls."""
+
+
+class _Args(dict[str, str]):
+    """The ``name:=value`` arguments, noting which names the expansion declares (``<xacro:arg>``
+    asks whether a value was given) or reads (``$(arg name)``)."""
+
+    def __init__(self, given: dict[str, str]) -> None:
+        super().__init__(given)
+        self.given = tuple(given)
+        self.known: set[str] = set()
+
+    def __contains__(self, name: object) -> bool:
+        if isinstance(name, str):
+            self.known.add(name)
+        return super().__contains__(name)
+
+    def __getitem__(self, name: str) -> str:
+        self.known.add(name)
+        return super().__getitem__(name)
+
+
+def _with_twins(message: str, finder: PackageFinder) -> str:
+    """``message``, saying which copy of a package with twins was taken when it names a file in one
+    (an include missing from an older copy is otherwise a plain "No such file")."""
+    notes = [note for name, (found, _) in finder.twins.items()
+             if str(found) in message and (note := finder.taken(found)) is not None]
+    return f"{message} ({'; '.join(notes)})" if notes else message
+
+
+def _warn_unused_args(filename: str, args: _Args) -> None:
+    """Warn about a ``name:=value`` that no ``<xacro:arg>`` declares and no ``$(arg)`` reads (a typo:
+    ``hnad:=true`` silently gives another robot), naming the closest declared argument."""
+    import difflib
+
+    declared = sorted(args.known - set(args.given))
+    for name in args.given:
+        if name in args.known:
+            continue
+        close = difflib.get_close_matches(name, declared, n=1)
+        hint = f"; did you mean '{close[0]}'?" if close else (
+            f" (its arguments: {', '.join(declared)})" if declared else " (it declares none)")
+        warnings.warn(f"{display_path(filename)}: xacro argument {name}:={args[name]} is not an argument of this "
+                      f"description, and is ignored{hint}", stacklevel=3)
 
 
 def _inside_foreign_block(node: Any) -> bool:

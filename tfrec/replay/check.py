@@ -31,9 +31,29 @@ from tfrec.recording import FrameSeries
 from tfrec.replay.load import Replay, joint_positions
 from tfrec.resample import align
 
-__all__ = ["CheckReport", "FrameCheck", "check_replay", "format_check"]
+__all__ = [
+    "CheckReport",
+    "FrameCheck",
+    "FrameErrors",
+    "check_replay",
+    "format_check",
+]
 
 Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class FrameErrors:
+    """A frame's errors at every compared stamp (for plots; not in the JSON report).
+
+    Attributes:
+        time_ns: int64 (n,) stamps (ns since the epoch); one 0 for a latched transform.
+        translation_m, rotation_rad: float64 (n,) errors.
+    """
+
+    time_ns: NDArray[np.int64]
+    translation_m: Array
+    rotation_rad: Array
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,6 +70,7 @@ class FrameCheck:
         translation_time_s, rotation_time_s: when they occur (seconds from the recording's
             first stamp; None for latched transforms or nothing compared).
         problem: why the frame could not be compared, or None.
+        errors: the errors at every compared stamp, or None (not in :meth:`to_dict`).
     """
 
     frame: str
@@ -62,12 +83,15 @@ class FrameCheck:
     rotation_rad: float = 0.0
     rotation_time_s: float | None = None
     problem: str | None = None
+    errors: FrameErrors | None = field(default=None, repr=False, compare=False)
 
     def passed(self, pos_tol: float, rot_tol: float) -> bool:
         return self.problem is None and self.translation_m <= pos_tol and self.rotation_rad <= rot_tol
 
     def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
+        out = asdict(replace(self, errors=None))
+        del out["errors"]
+        return out
 
 
 @dataclass
@@ -80,6 +104,7 @@ class CheckReport:
             from the recording, in the description's order.
         pos_tol, rot_tol: the tolerances.
         notes: remarks that are not failures (frames the description does not have).
+        origin_ns: the recording's start (``Replay.origin_ns``): times in the report count from it.
     """
 
     path: str
@@ -87,6 +112,7 @@ class CheckReport:
     pos_tol: float
     rot_tol: float
     notes: list[str] = field(default_factory=list)
+    origin_ns: int = 0
 
     @property
     def failures(self) -> list[FrameCheck]:
@@ -124,12 +150,15 @@ def _largest(errors: Array, times: NDArray[np.int64] | None, replay: Replay) -> 
 
 class _Checker:
     def __init__(self, replay: Replay) -> None:
-        assert replay.robot is not None and replay.joint_states is not None
+        assert replay.robot is not None
         self.replay = replay
         self.robot = replay.robot
         self.prefix = replay.frame_prefix
         self.joint_states = replay.joint_states
-        self.names, self.positions = joint_positions(self.robot, self.joint_states)
+        self.names: tuple[str, ...] = ()
+        self.positions = np.zeros((0, 0))
+        if self.joint_states is not None:  # none: a robot without moving joints, only fixed frames to check
+            self.names, self.positions = joint_positions(self.robot, self.joint_states)
         self.column = {name: k for k, name in enumerate(self.names)}
         fixed = static_transforms(self.robot, frame_prefix=self.prefix).poses()
         self.fixed = {child: pose for (_, child), pose in fixed.items()}
@@ -141,6 +170,8 @@ class _Checker:
             translation, rotation = self.fixed[child]
             return (np.broadcast_to(translation, (len(times), 3)), np.broadcast_to(rotation, (len(times), 4)),
                     np.ones(len(times), dtype=bool))
+        if self.joint_states is None or joint.name not in self.column:
+            return np.zeros((0, 3)), np.zeros((0, 4)), np.zeros(len(times), dtype=bool)
         column = self.positions[:, self.column[joint.name]]
         known = np.isfinite(column)
         if not known.any():
@@ -174,8 +205,9 @@ class _Checker:
         stamps = times[inside] if series is not None else None
         t_max, t_at = _largest(translation_err, stamps, self.replay)
         r_max, r_at = _largest(rotation_err, stamps, self.replay)
+        errors = FrameErrors(times[inside], translation_err, rotation_err)
         return replace(check, samples=int(inside.sum()), translation_m=t_max, translation_time_s=t_at,
-                        rotation_rad=r_max, rotation_time_s=r_at)
+                        rotation_rad=r_max, rotation_time_s=r_at, errors=errors)
 
 
 def check_replay(replay: Replay, *, pos_tol: float = CHECK_POS_TOL, rot_tol: float = CHECK_ROT_TOL) -> CheckReport:
@@ -201,11 +233,12 @@ def check_replay(replay: Replay, *, pos_tol: float = CHECK_POS_TOL, rot_tol: flo
     if robot is None:
         raise ReplayError(f"{replay.path}: no robot description to re-simulate with (no /robot_description in "
                              "the recording); give `robot` FILE")
-    if replay.joint_states is None or not len(replay.joint_states):
+    moving = bool(robot.moving_joints)  # a robot without moving joints has only /tf_static to check
+    if moving and (replay.joint_states is None or not len(replay.joint_states)):
         raise ReplayError(f"{replay.path}: no /joint_states to re-simulate")
     recorded_tf = {pair: s for pair, s in replay.tf.items() if pair not in replay.derived_dynamic and len(s)}
     recorded_static = {pair: v for pair, v in replay.static.items() if pair not in replay.derived_static}
-    if not recorded_tf:
+    if moving and not recorded_tf:
         raise ReplayError(f"{replay.path}: no /tf to compare the re-simulation with")
     checker = _Checker(replay)
     by_child: dict[str, list[FrameCheck]] = {}
@@ -232,7 +265,7 @@ def check_replay(replay: Replay, *, pos_tol: float = CHECK_POS_TOL, rot_tol: flo
             topic = "/tf" if joint.type.moves else "/tf_static"
             frames.append(FrameCheck(child, replay.frame_prefix + joint.parent, joint.name, topic,
                                      problem=f"not in the recording (joint '{joint.name}' of the description)"))
-    report = CheckReport(replay.path, frames, pos_tol, rot_tol)
+    report = CheckReport(replay.path, frames, pos_tol, rot_tol, origin_ns=replay.origin_ns)
     if other:
         shown = ", ".join(f"{p} → {c}" for p, c in other[:3]) + (" …" if len(other) > 3 else "")
         report.notes.append(f"{len(other)} recorded frame pair{'s' if len(other) > 1 else ''} not in the "
@@ -266,7 +299,9 @@ def format_check(report: CheckReport) -> str:
         lines.append(("  ".join(cell.ljust(width) for cell, width in zip(row, widths)) + "  " + row[-1]).rstrip())
     lines.extend(f"note: {note}" for note in report.notes)
     failures = report.failures
-    if not failures:
+    if not report.frames:
+        lines.append("PASS: the description has no joints, so there is no transform to compare")
+    elif not failures:
         lines.append(f"PASS: all {len(report.frames)} frames match the description")
     else:
         named = []

@@ -10,8 +10,9 @@ Imports only the base modules (errors, conventions, model).
 
 from __future__ import annotations
 
+from tfrec.trajectory.clock import sample_times_ns
 from tfrec.trajectory.csv_file import read_csv_trajectory
-from tfrec.trajectory.generators import make_trajectory, sample_times_ns
+from tfrec.trajectory.generators import make_trajectory
 from tfrec.trajectory.types import GeneratedTrajectory, JointTrajectory, TrajectoryKind
 
 __all__ = [

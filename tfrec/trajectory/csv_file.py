@@ -15,13 +15,16 @@ with spaces around them allowed; Python's other float spellings (``1_0``, ``nan`
 from __future__ import annotations
 
 import csv
+import io
 import math
 import os
 import re
-from collections.abc import Iterator, Mapping
-from typing import IO
+import stat
+import warnings
+from collections.abc import Mapping
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tfrec.conventions import STAMP_LIMIT_NS, STAMP_RANGE
 from tfrec.errors import TrajectoryError
@@ -42,14 +45,18 @@ def read_csv_trajectory(
     robot: Robot,
     *,
     overrides: Mapping[str, float] = {},
+    soft_limits: bool = True,
 ) -> JointTrajectory:
     """Read a trajectory from CSV: a ``time`` column in seconds and one column per joint.
 
     Samples are at the file's own times (``time_ns = round(time * 1e9)``, which must be
     non-negative, less than :data:`~tfrec.conventions.STAMP_LIMIT_NS` and increasing). A single
     row is a trajectory of one sample. Joints without a column stay at their center (or their
-    override). Velocities are ``numpy.gradient`` of the positions over the times (0 for a
-    single sample).
+    override; ``soft_limits`` as for :func:`~tfrec.trajectory.joints.center_positions`). Velocities
+    are ``numpy.gradient`` of the positions over the times (0 for a single sample).
+
+    Files of up to :data:`MAX_CSV_BYTES` are read; a file of plain numbers is parsed in one go by
+    numpy (a million rows in about a second), anything else cell by cell.
 
     Raises:
         TrajectoryError: the file cannot be read; a column is not an actuated joint, repeated,
@@ -60,17 +67,9 @@ def read_csv_trajectory(
             ``file:line:``.
     """
     name = os.fspath(path)
-    center = center_positions(robot, overrides=overrides)  # checks the overrides first
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as stream:
-            rows = [(number, row) for number, row in _numbered_rows(stream) if any(cell.strip() for cell in row)]
-    except FileNotFoundError as err:
-        raise TrajectoryError(f"{name}: no such CSV file") from err
-    except (OSError, UnicodeDecodeError, csv.Error) as err:
-        raise TrajectoryError(f"{name}: cannot read CSV: {err}") from err
-    if not rows:
-        raise TrajectoryError(f"{name}: empty file, expected a header with 'time' and joint names")
-    header_line, header = rows[0]
+    center = center_positions(robot, overrides=overrides, soft_limits=soft_limits)  # checks the overrides first
+    text = _read_text(path, name)
+    header_line, header, body_start = _header(text, name)
     columns = [cell.strip() for cell in header]
     joints: dict[int, tuple[int, Joint]] = {}  # CSV column → (trajectory column, joint)
     seen: set[str] = set()
@@ -86,16 +85,19 @@ def read_csv_trajectory(
             raise TrajectoryError(f"{where} is also set by an override")
     if "time" not in seen:
         raise TrajectoryError(f"{name}:{header_line}: no 'time' column")
-    if len(rows) == 1:
+    values = _fast_values(text, body_start, len(columns))
+    lines: NDArray[np.int64] | None = None
+    if values is None:  # anything unusual: read cell by cell, as strictly, naming the line of a fault
+        lines, values = _exact_values(text, body_start, header_line, name, columns)
+    if not len(values):
         raise TrajectoryError(f"{name}: no samples after the header")
 
-    lines = np.array([number for number, _ in rows[1:]])
-    values = np.empty((len(rows) - 1, len(columns)))
-    for r, (number, row) in enumerate(rows[1:]):
-        if len(row) != len(columns):
-            raise TrajectoryError(f"{name}:{number}: {len(row)} cells, expected {len(columns)} as in the header")
-        for c, cell in enumerate(row):
-            values[r, c] = _number(cell, f"{name}:{number}", columns[c])
+    def line(row: int) -> int:
+        """The line a row is on (worked out only for a message)."""
+        nonlocal lines
+        if lines is None:
+            lines = _row_lines(text, body_start, header_line)
+        return int(lines[row])
 
     seconds = values[:, columns.index("time")]
     with np.errstate(over="ignore"):  # beyond float64: inf, refused below
@@ -104,16 +106,16 @@ def read_csv_trajectory(
     if bad.size:
         r = bad[0]
         problem = "negative" if seconds[r] < 0 else f"out of range: {STAMP_RANGE}"
-        raise TrajectoryError(f"{name}:{lines[r]}: time {float(seconds[r])!r} is {problem}")
+        raise TrajectoryError(f"{name}:{line(r)}: time {float(seconds[r])!r} is {problem}")
     time_ns = rounded_ns.astype(np.int64)
     stuck = np.flatnonzero(np.diff(time_ns) <= 0)
     if stuck.size:
         r = stuck[0] + 1
         raise TrajectoryError(
-            f"{name}:{lines[r]}: time {float(seconds[r])!r} does not increase (previous {float(seconds[r - 1])!r})"
+            f"{name}:{line(r)}: time {float(seconds[r])!r} does not increase (previous {float(seconds[r - 1])!r})"
         )
 
-    positions = np.broadcast_to(center, (len(rows) - 1, len(center))).copy()
+    positions = np.broadcast_to(center, (len(values), len(center))).copy()
     for c, (j, joint) in joints.items():
         positions[:, j] = values[:, c]
         lower, upper = position_range(joint)
@@ -121,7 +123,7 @@ def read_csv_trajectory(
         if beyond.size:
             r = beyond[0]
             raise TrajectoryError(
-                f"{name}:{lines[r]}: {joint.name} = {float(values[r, c])!r} is beyond its limits [{lower!r}, {upper!r}]"
+                f"{name}:{line(r)}: {joint.name} = {float(values[r, c])!r} is beyond its limits [{lower!r}, {upper!r}]"
             )
     velocities = np.zeros_like(positions)
     if len(time_ns) > 1 and positions.shape[1]:
@@ -132,8 +134,112 @@ def read_csv_trajectory(
         if fast.size:
             r, j = fast[0]
             column = robot.actuated_joints[j].name
-            raise TrajectoryError(f"{name}:{lines[r]}: {column} changes too fast for a finite velocity")
+            raise TrajectoryError(f"{name}:{line(r)}: {column} changes too fast for a finite velocity")
     return JointTrajectory(tuple(joint.name for joint in robot.actuated_joints), time_ns, positions, velocities)
+
+
+MAX_CSV_BYTES = 128 << 20
+"""The largest CSV file read (about 1.5 million rows of 10 joints); reading it stays under 1 GiB."""
+
+_BLOCK_CHARS = 4 << 20
+"""Characters of the body numpy parses at a time."""
+
+_PLAIN = re.compile(r"[0-9eE+\-.,\t \n]*")
+"""The characters of a body of plain numbers, which numpy parses as :func:`_number` would."""
+
+
+def _read_text(path: str | os.PathLike[str], name: str) -> str:
+    """The file's text, at most :data:`MAX_CSV_BYTES`: a regular file only (a FIFO or a device could be
+    read forever), UTF-8 with an optional byte-order mark, line ends as ``\\n``."""
+    try:
+        with open(path, "rb") as stream:
+            if not stat.S_ISREG(os.fstat(stream.fileno()).st_mode):
+                raise TrajectoryError(f"{name}: not a regular file")
+            data = stream.read(MAX_CSV_BYTES + 1)
+    except FileNotFoundError as err:
+        raise TrajectoryError(f"{name}: no such CSV file") from err
+    except OSError as err:
+        raise TrajectoryError(f"{name}: cannot read CSV: {err.strerror or err}") from err
+    if len(data) > MAX_CSV_BYTES:
+        raise TrajectoryError(f"{name}: larger than {MAX_CSV_BYTES >> 20} MiB, the most a CSV trajectory may be")
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as err:
+        raise TrajectoryError(f"{name}: cannot read CSV: not UTF-8 (byte {err.start:,})") from err
+    return text.replace("\r\n", "\n").replace("\r", "\n")
+
+
+def _header(text: str, name: str) -> tuple[int, list[str], int]:
+    """The header: its line number, its cells, and where the body after it starts."""
+    start, number = 0, 1
+    while start < len(text):
+        end = text.find("\n", start)
+        end = len(text) if end < 0 else end
+        row = text[start:end]
+        if row.strip():
+            try:
+                cells = next(csv.reader([row]))
+            except csv.Error as err:
+                raise TrajectoryError(f"{name}:{number}: cannot read CSV: {err}") from err
+            return number, cells, end + 1
+        start, number = end + 1, number + 1
+    raise TrajectoryError(f"{name}: empty file, expected a header with 'time' and joint names")
+
+
+def _fast_values(text: str, start: int, columns: int) -> NDArray[np.float64] | None:
+    """The body parsed by numpy, block by block (memory: the values and one block), when it is plain
+    numbers in ``columns`` columns, all finite; else None (then :func:`_exact_values` says what is wrong)."""
+    if not _PLAIN.fullmatch(text, start):
+        return None
+    rows = text.count("\n", start) + 1
+    values = np.empty((rows, columns))
+    filled = 0
+    at = start
+    while at < len(text):
+        end = text.find("\n", min(at + _BLOCK_CHARS, len(text)))
+        end = len(text) if end < 0 else end + 1
+        block = text[at:end]
+        at = end
+        if not block.strip():
+            continue
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # numpy warns about a block of blank lines
+                part = np.loadtxt(io.StringIO(block), delimiter=",", dtype=np.float64, ndmin=2, comments=None)
+        except ValueError:
+            return None
+        if part.shape[1] != columns or not np.isfinite(part).all():
+            return None
+        values[filled : filled + len(part)] = part
+        filled += len(part)
+    return values[:filled]
+
+
+def _exact_values(text: str, start: int, header_line: int, name: str,
+                  columns: list[str]) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """The body read row by row with :mod:`csv`, every cell checked by :func:`_number`: the rows' line
+    numbers and values. Raises on the first fault, naming its line."""
+    lines: list[int] = []
+    rows: list[list[float]] = []
+    reader = csv.reader(io.StringIO(text[start:]))
+    try:
+        for row in reader:
+            if not any(cell.strip() for cell in row):
+                continue
+            number = header_line + reader.line_num
+            if len(row) != len(columns):
+                raise TrajectoryError(f"{name}:{number}: {len(row)} cells, expected {len(columns)} as in the header")
+            rows.append([_number(cell, f"{name}:{number}", columns[c]) for c, cell in enumerate(row)])
+            lines.append(number)
+    except csv.Error as err:
+        raise TrajectoryError(f"{name}:{header_line + reader.line_num}: cannot read CSV: {err}") from err
+    return np.array(lines, dtype=np.int64), np.array(rows, dtype=np.float64).reshape(len(rows), len(columns))
+
+
+def _row_lines(text: str, start: int, header_line: int) -> NDArray[np.int64]:
+    """The line number of each non-blank row of a body of plain numbers (for messages)."""
+    rows = text[start:].split("\n")
+    return np.array([header_line + 1 + i for i, row in enumerate(rows) if row.strip()], dtype=np.int64)
 
 
 def _number(cell: str, where: str, column: str) -> float:
@@ -148,8 +254,3 @@ def _number(cell: str, where: str, column: str) -> float:
     raise TrajectoryError(f"{where}: '{text}' in column '{column}' is not a finite number")
 
 
-def _numbered_rows(stream: IO[str]) -> Iterator[tuple[int, list[str]]]:
-    """CSV rows with the (1-based) line number on which each ends."""
-    reader = csv.reader(stream)
-    for row in reader:
-        yield reader.line_num, row

@@ -31,27 +31,30 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.conventions import STAMP_LIMIT_NS, STAMP_RANGE
 from tfrec.errors import TrajectoryError
 from tfrec.model import Robot
+from tfrec.trajectory.clock import sample_times_ns
 from tfrec.trajectory.joints import bounds_arrays, center_positions, pinned_columns, position_range
 from tfrec.trajectory.types import GeneratedTrajectory, JointTrajectory, Sampler, TrajectoryKind
 
 __all__ = [
-    "MAX_SAMPLES",
+    "DEFAULT_DURATION_S",
+    "DEFAULT_RATE_HZ",
+    "INTERPOLATIONS",
     "center_trajectory",
     "make_trajectory",
     "random_trajectory",
-    "sample_times_ns",
     "sine_trajectory",
     "sweep_trajectory",
 ]
 
-MAX_SAMPLES = 10_000_000
-"""Most samples a generated trajectory may have (1 h at 1 kHz is 3.6 million)."""
+DEFAULT_DURATION_S = 10.0
+"""The length of a generated trajectory unless ``duration_s`` says otherwise."""
+DEFAULT_RATE_HZ = 50.0
+"""The sample rate of a generated trajectory unless ``rate_hz`` says otherwise."""
+INTERPOLATIONS = ("linear", "cubic", "hold")
+"""How CSV keyframes are resampled onto a clock (``--interp``)."""
 
-
-_OUT_OF_RANGE = f"out of range: {STAMP_RANGE}"
 
 
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
@@ -68,12 +71,14 @@ def make_trajectory(
     robot: Robot,
     kind: str | os.PathLike[str],
     *,
-    duration_s: float = 10.0,
-    rate_hz: float = 50.0,
+    duration_s: float | None = None,
+    rate_hz: float | None = None,
     seed: int = 0,
     period_s: float = 2.0,
     amplitude: float = 0.8,
     overrides: Mapping[str, float] = {},
+    soft_limits: bool = True,
+    interp: str = "linear",
 ) -> JointTrajectory:
     """Make the trajectory ``--traj KIND`` asks for.
 
@@ -81,7 +86,10 @@ def make_trajectory(
         robot: the robot whose actuated joints move.
         kind: a :class:`TrajectoryKind` name, or else the path of a CSV file (a file
             named like a kind is reached as ``./sine``).
-        duration_s, rate_hz: length and sample rate of the generated kinds.
+        duration_s, rate_hz: length (default 10 s) and sample rate (default 50 Hz) of the
+            generated kinds. A CSV file keeps its own stamps, unless ``rate_hz`` is given: its
+            rows are then keyframes, resampled onto that clock (``interp``); ``duration_s`` does
+            not apply to it.
         seed: seed of ``random`` (same seed, same trajectory).
         period_s: time between the waypoints of ``random``; sets the periods of ``sine``.
             At least the sample interval ``1 / rate_hz`` for those two kinds.
@@ -89,6 +97,11 @@ def make_trajectory(
         overrides: joint name → position, held constant (``--set``). In ``center`` this is
             joint_state_publisher's ``zeros`` parameter; in a CSV file it gives joints
             without a column.
+        soft_limits: narrow each joint's range to its ``<safety_controller>`` soft limits, as
+            joint_state_publisher does by default (``use_smallest_joint_limits``); False uses the
+            hard limits.
+        interp: how CSV keyframes are resampled onto ``rate_hz``: ``linear``, ``cubic`` (monotone
+            cubic: continuous velocity, no overshoot between keyframes) or ``hold`` (steps).
 
     Raises:
         TrajectoryError: an option is out of range (the duration reaches past what ROS 2
@@ -96,38 +109,39 @@ def make_trajectory(
             shorter than the sample interval), an override is unknown or beyond its joint's
             limits, or the CSV file is missing or malformed.
     """
-    if not (isinstance(duration_s, numbers.Real) and math.isfinite(duration_s) and duration_s > 0):
-        raise TrajectoryError(f"duration {duration_s!r} s is not a positive number")
-    if not (isinstance(rate_hz, numbers.Real) and math.isfinite(rate_hz) and rate_hz > 0):
-        raise TrajectoryError(f"rate {rate_hz!r} Hz is not a positive number")
+    duration = DEFAULT_DURATION_S if duration_s is None else duration_s
+    rate = DEFAULT_RATE_HZ if rate_hz is None else rate_hz
+    if not (isinstance(duration, numbers.Real) and math.isfinite(duration) and duration > 0):
+        raise TrajectoryError(f"duration {duration!r} s is not a positive number")
+    if not (isinstance(rate, numbers.Real) and math.isfinite(rate) and rate > 0):
+        raise TrajectoryError(f"rate {rate!r} Hz is not a positive number")
     if not (isinstance(period_s, numbers.Real) and math.isfinite(period_s) and period_s > 0):
         raise TrajectoryError(f"period {period_s!r} s is not a positive number")
     if not (isinstance(amplitude, numbers.Real) and 0.0 <= amplitude <= 1.0):
         raise TrajectoryError(f"amplitude {amplitude!r} is not a fraction between 0 and 1")
     if not (isinstance(seed, numbers.Integral) and not isinstance(seed, bool) and seed >= 0):
         raise TrajectoryError(f"seed {seed!r} is not a non-negative integer")
+    if interp not in INTERPOLATIONS:
+        raise TrajectoryError(f"interpolation '{interp}' is not one of {', '.join(INTERPOLATIONS)}")
     if isinstance(kind, str) and kind in TrajectoryKind._value2member_map_:
         which = TrajectoryKind(kind)
-        if which in (TrajectoryKind.RANDOM, TrajectoryKind.SINE) and period_s * rate_hz < 1.0 - 1e-12:
+        if which in (TrajectoryKind.RANDOM, TrajectoryKind.SINE) and period_s * rate < 1.0 - 1e-12:
             raise TrajectoryError(
-                f"period {period_s!r} s is shorter than the sample interval {1.0 / rate_hz:g} s of {rate_hz:g} Hz"
+                f"period {period_s!r} s is shorter than the sample interval {1.0 / rate:g} s of {rate:g} Hz"
             )
         if which is TrajectoryKind.CENTER:
-            return center_trajectory(robot, duration_s=duration_s, rate_hz=rate_hz, overrides=overrides)
+            return center_trajectory(robot, duration_s=duration, rate_hz=rate, overrides=overrides,
+                                     soft_limits=soft_limits)
         if which is TrajectoryKind.RANDOM:
-            return random_trajectory(
-                robot, duration_s=duration_s, rate_hz=rate_hz, seed=seed, period_s=period_s, overrides=overrides
-            )
+            return random_trajectory(robot, duration_s=duration, rate_hz=rate, seed=seed, period_s=period_s,
+                                     overrides=overrides,
+                                     soft_limits=soft_limits)
         if which is TrajectoryKind.SINE:
-            return sine_trajectory(
-                robot,
-                duration_s=duration_s,
-                rate_hz=rate_hz,
-                period_s=period_s,
-                amplitude=amplitude,
-                overrides=overrides,
-            )
-        return sweep_trajectory(robot, duration_s=duration_s, rate_hz=rate_hz, overrides=overrides)
+            return sine_trajectory(robot, duration_s=duration, rate_hz=rate, period_s=period_s, amplitude=amplitude,
+                                   overrides=overrides,
+                                     soft_limits=soft_limits)
+        return sweep_trajectory(robot, duration_s=duration, rate_hz=rate, overrides=overrides,
+                                     soft_limits=soft_limits)
     path = Path(kind)
     if not path.exists():
         text = os.fspath(kind)
@@ -135,32 +149,13 @@ def make_trajectory(
             names = ", ".join(k.value for k in TrajectoryKind)
             raise TrajectoryError(f"{text}: neither a trajectory kind ({names}) nor a CSV file")
         raise TrajectoryError(f"{text}: no such CSV file")
-    from tfrec.trajectory.csv_file import read_csv_trajectory  # imports this module
+    from tfrec.trajectory.csv_file import read_csv_trajectory
+    from tfrec.trajectory.keyframes import resample_keyframes
 
-    return read_csv_trajectory(path, robot, overrides=overrides)
-
-
-def sample_times_ns(duration_s: float, rate_hz: float) -> NDArray[np.int64]:
-    """``round(i * 1e9 / rate_hz)`` for every i whose time is at most the duration.
-
-    Raises:
-        TrajectoryError: the duration is not below ROS 2's int32 seconds, the rate is above one
-            sample per nanosecond, or the samples would be more than :data:`MAX_SAMPLES`.
-    """
-    if not duration_s * 1e9 < STAMP_LIMIT_NS:
-        raise TrajectoryError(f"duration {duration_s!r} s is {_OUT_OF_RANGE}")
-    if rate_hz > 1e9:
-        raise TrajectoryError(f"rate {rate_hz:g} Hz is more than one sample per nanosecond (1e+09 Hz)")
-    duration_ns = round(duration_s * 1e9)
-    if not duration_ns * rate_hz / 1e9 < MAX_SAMPLES:  # also inf
-        raise TrajectoryError(
-            f"duration {duration_s:g} s at {rate_hz:g} Hz gives more than {MAX_SAMPLES:,} samples"
-        )
-    count = int(duration_ns * rate_hz / 1e9) + 2  # one past the end, dropped below
-    with np.errstate(over="ignore"):  # that one may overflow at a tiny rate
-        candidates = np.rint(np.arange(count, dtype=np.float64) * 1e9 / rate_hz)
-    time_ns = candidates[candidates < STAMP_LIMIT_NS].astype(np.int64)
-    return time_ns[time_ns <= duration_ns]
+    keyframes = read_csv_trajectory(path, robot, overrides=overrides, soft_limits=soft_limits)
+    if rate_hz is None:
+        return keyframes
+    return resample_keyframes(keyframes, robot, rate_hz=rate, interp=interp)
 
 
 def center_trajectory(
@@ -169,9 +164,10 @@ def center_trajectory(
     duration_s: float = 10.0,
     rate_hz: float = 50.0,
     overrides: Mapping[str, float] = {},
+    soft_limits: bool = True,
 ) -> JointTrajectory:
     """Every actuated joint held at its center (:func:`center_positions`)."""
-    center = center_positions(robot, overrides=overrides)
+    center = center_positions(robot, overrides=overrides, soft_limits=soft_limits)
     time_ns = sample_times_ns(duration_s, rate_hz)
 
     def sample(times: NDArray[np.int64]) -> tuple[Array, Array]:
@@ -189,6 +185,7 @@ def random_trajectory(
     seed: int = 0,
     period_s: float = 2.0,
     overrides: Mapping[str, float] = {},
+    soft_limits: bool = True,
 ) -> JointTrajectory:
     """The Randomize button pressed every ``period_s`` seconds, with smooth motion between.
 
@@ -200,8 +197,8 @@ def random_trajectory(
     waypoint, never beyond either end.
     """
     pinned = pinned_columns(robot, overrides)
-    center = center_positions(robot, overrides=overrides)
-    lower, upper = bounds_arrays(robot)
+    center = center_positions(robot, overrides=overrides, soft_limits=soft_limits)
+    lower, upper = bounds_arrays(robot, soft_limits=soft_limits)
     time_ns = sample_times_ns(duration_s, rate_hz)
     count = math.ceil(duration_s / period_s) + 1
     waypoints = np.empty((count, len(center)))
@@ -227,6 +224,7 @@ def sine_trajectory(
     period_s: float = 2.0,
     amplitude: float = 0.8,
     overrides: Mapping[str, float] = {},
+    soft_limits: bool = True,
 ) -> JointTrajectory:
     """Every joint oscillates about the middle of its bounds.
 
@@ -236,7 +234,7 @@ def sine_trajectory(
     share a period and phase, and a joint's motion does not depend on how many joints follow it.
     """
     pinned = pinned_columns(robot, overrides)
-    lower, upper = bounds_arrays(robot)
+    lower, upper = bounds_arrays(robot, soft_limits=soft_limits)
     time_ns = sample_times_ns(duration_s, rate_hz)
     fraction = np.mod(np.arange(len(lower)) * _GOLDEN, 1.0)
     omega = 2.0 * np.pi / (2.0 * period_s * (1.0 + fraction))
@@ -262,6 +260,7 @@ def sweep_trajectory(
     duration_s: float = 10.0,
     rate_hz: float = 50.0,
     overrides: Mapping[str, float] = {},
+    soft_limits: bool = True,
 ) -> JointTrajectory:
     """One joint at a time goes center → lower → upper → center; the others stay at center.
 
@@ -271,8 +270,8 @@ def sweep_trajectory(
     to the nearest sample, so the limits themselves are among the positions.
     """
     pinned = pinned_columns(robot, overrides)
-    center = center_positions(robot, overrides=overrides)
-    lower, upper = bounds_arrays(robot)
+    center = center_positions(robot, overrides=overrides, soft_limits=soft_limits)
+    lower, upper = bounds_arrays(robot, soft_limits=soft_limits)
     time_ns = sample_times_ns(duration_s, rate_hz)
     swept = [i for i in range(len(center)) if i not in pinned]
     slot = duration_s / max(len(swept), 1)

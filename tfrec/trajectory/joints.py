@@ -29,17 +29,29 @@ __all__ = [
 Array = NDArray[np.float64]
 
 
-def joint_bounds(joint: Joint) -> tuple[float, float]:
-    """The position range of a moving joint: its limits, or [-π, π] for a continuous joint."""
+def joint_bounds(joint: Joint, *, soft_limits: bool = True) -> tuple[float, float]:
+    """The range joint_state_publisher gives a moving joint: its limits, or [-π, π] for a continuous
+    joint, narrowed to its ``<safety_controller>`` soft limits unless ``soft_limits`` is False (what
+    joint_state_publisher's ``use_smallest_joint_limits`` parameter, True by default, does). Soft
+    limits that leave no range (lower above upper) are not used."""
     if joint.type is JointType.CONTINUOUS:
-        return -math.pi, math.pi
-    if joint.limit is None:
+        lower, upper = -math.pi, math.pi
+    elif joint.limit is None:
         raise TrajectoryError(f"joint '{joint.name}' is {joint.type.value} but has no <limit>")
-    return joint.limit.lower, joint.limit.upper
+    else:
+        lower, upper = joint.limit.lower, joint.limit.upper
+    safety = joint.safety
+    if soft_limits and safety is not None:
+        soft_lower = lower if safety.soft_lower_limit is None else max(lower, safety.soft_lower_limit)
+        soft_upper = upper if safety.soft_upper_limit is None else min(upper, safety.soft_upper_limit)
+        if soft_lower <= soft_upper:
+            return soft_lower, soft_upper
+    return lower, upper
 
 
-def center_positions(robot: Robot, *, overrides: Mapping[str, float] = {}) -> Array:
-    """joint_state_publisher_gui's Center: 0, or the middle of the limits when 0 is outside them.
+def center_positions(robot: Robot, *, overrides: Mapping[str, float] = {}, soft_limits: bool = True) -> Array:
+    """joint_state_publisher_gui's Center: 0, or the middle of the range (:func:`joint_bounds`) when 0
+    is outside it.
 
     Returns:
         float64 (J,), one value per actuated joint; ``overrides`` replace the computed ones.
@@ -47,7 +59,7 @@ def center_positions(robot: Robot, *, overrides: Mapping[str, float] = {}) -> Ar
     pinned = pinned_columns(robot, overrides)
     center = np.empty(len(robot.actuated_joints))
     for i, joint in enumerate(robot.actuated_joints):
-        lower, upper = joint_bounds(joint)
+        lower, upper = joint_bounds(joint, soft_limits=soft_limits)
         center[i] = 0.0 if lower <= 0.0 <= upper else (lower + upper) / 2.0
     for i, value in pinned.items():
         center[i] = value
@@ -88,7 +100,7 @@ def position_range(joint: Joint) -> tuple[float, float]:
     """
     if joint.type is JointType.CONTINUOUS:
         return -math.inf, math.inf
-    return joint_bounds(joint)
+    return joint_bounds(joint, soft_limits=False)
 
 
 def pinned_columns(robot: Robot, overrides: Mapping[str, float]) -> dict[int, float]:
@@ -111,7 +123,7 @@ def pinned_columns(robot: Robot, overrides: Mapping[str, float]) -> dict[int, fl
     return pinned
 
 
-def bounds_arrays(robot: Robot) -> tuple[Array, Array]:
+def bounds_arrays(robot: Robot, *, soft_limits: bool = True) -> tuple[Array, Array]:
     """Lower and upper bounds (:func:`joint_bounds`) of the actuated joints, float64 (J,) each."""
-    bounds = [joint_bounds(joint) for joint in robot.actuated_joints]
+    bounds = [joint_bounds(joint, soft_limits=soft_limits) for joint in robot.actuated_joints]
     return np.array([b[0] for b in bounds], dtype=np.float64), np.array([b[1] for b in bounds], dtype=np.float64)

@@ -12,9 +12,17 @@ from collections.abc import Callable
 from functools import cache, lru_cache
 from typing import Any
 
-from tfrec.errors import ReadError
+from tfrec.errors import ReadError, RecordingError
 
-__all__ = ["UndecodableMessage", "deserializer", "ros1_typestore", "topic_deserializer", "typestore"]
+__all__ = [
+    "TF_MESSAGE_DEFINITION",
+    "UndecodableMessage",
+    "deserializer",
+    "ros1_message_definition",
+    "ros1_typestore",
+    "topic_deserializer",
+    "typestore",
+]
 
 Deserialize = Callable[[bytes | memoryview], Any]
 
@@ -102,3 +110,34 @@ def topic_deserializer(msgtype: str, *, where: str, topic: str, ros1: bool = Fal
             raise ReadError(f"{where}: a {topic} message cannot be decoded as {msgtype}: {err.reason}") from err
 
     return checked
+
+
+TF_MESSAGE_DEFINITION = "geometry_msgs/TransformStamped[] transforms\n"
+"""``tf2_msgs/TFMessage``: rosbags' Noetic store has no tf2_msgs; its md5sum with this text is
+``94810edda583a504dfda3829e70d7eec``, ROS's."""
+
+
+@cache
+def ros1_message_definition(msgtype: str) -> tuple[str, str]:
+    """The ROS 1 message definition of a type (its .msg, then each dependency once) and its md5sum,
+    from rosbags' Noetic type store with ``tf2_msgs/TFMessage`` added.
+
+    Args:
+        msgtype: ``sensor_msgs/JointState`` or ``sensor_msgs/msg/JointState``.
+
+    Raises:
+        RecordingError: a type the store does not know.
+    """
+    from rosbags.typesys.base import TypesysError
+
+    store: Any = ros1_typestore((("tf2_msgs/msg/TFMessage", TF_MESSAGE_DEFINITION),))
+    try:
+        text, md5sum = store.generate_msgdef(_full_type(msgtype), ros_version=1)
+    except TypesysError as err:
+        raise RecordingError(f"message type '{msgtype}' has no ROS 1 definition: {err}") from err
+    return str(text), str(md5sum)
+
+
+def _full_type(msgtype: str) -> str:
+    """``pkg/msg/Type`` of ``pkg/Type`` or ``pkg/msg/Type``."""
+    return msgtype if "/msg/" in msgtype else msgtype.replace("/", "/msg/", 1)

@@ -1,0 +1,54 @@
+"""``tfrec plot``: a recording's joint states and frame paths as a picture (PNG, SVG or PDF)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+__all__ = ["add_parser"]
+
+
+def add_parser(sub: Any) -> None:
+    """Add the subcommand to ``sub`` (argparse subparsers)."""
+    plot = sub.add_parser(
+        "plot", help="draw a recording: joint positions and velocities over time, frame paths (PNG, SVG, PDF)",
+        description="Draw a recording headless: joint positions and velocities over time, one panel per unit "
+                    "(rad, m), each joint in its own stable colour, limits as shaded bands; and the paths of "
+                    "chosen frames in top and side views. The same input gives the same SVG bytes.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="examples:\n  tfrec plot recordings/marm.mcap -o marm.png\n"
+               "  tfrec plot bag_folder/ -o arm.svg --frames gripper_link tool0\n"
+               "  tfrec plot robot.bag -o robot.pdf --robot robot.urdf",
+    )
+    plot.add_argument("file", metavar="FILE", help="a .mcap file, a rosbag2 folder, a ROS 1 .bag or a .rrd")
+    plot.add_argument("-o", "--output", metavar="OUT", required=True, help="the picture: OUT.png, .svg or .pdf")
+    plot.add_argument("--frames", metavar="FRAME", nargs="+",
+                      help="frames whose paths to draw (default: the leaves of the TF tree)")
+    plot.add_argument("--robot", metavar=("FILE", "name:=value"), nargs="+",
+                      help="the description (joint limits and units) when the recording has no /robot_description")
+    plot.add_argument("--package-path", metavar="DIR", action="append", default=[],
+                      help="a package, or a folder of packages, for $(find pkg) in --robot (repeatable)")
+    plot.add_argument("--force", action="store_true", help="overwrite an existing OUT")
+    plot.set_defaults(handler=_cmd_plot)
+
+
+def _cmd_plot(ns: argparse.Namespace) -> int:
+    from tfrec.formats import read_recording
+    from tfrec.plots import plot_format, plot_recording, refuse_existing
+
+    plot_format(ns.output)
+    refuse_existing(ns.output, force=ns.force)
+    robot = None
+    if ns.robot:
+        from tfrec.description import load_description, parse_xacro_args
+
+        robot = load_description(ns.robot[0], args=parse_xacro_args(ns.robot[1:]), package_paths=ns.package_path)
+    recording = read_recording(ns.file)
+    if recording.read_error:
+        import warnings
+
+        warnings.warn(recording.read_error, stacklevel=1)
+    plot_recording(recording, ns.output, robot=robot, frames=ns.frames, force=ns.force)
+    print(f"wrote {ns.output}", file=sys.stdout)
+    return 0

@@ -1,0 +1,335 @@
+"""A recording at a glance: joint positions and velocities over time, and the paths of chosen frames.
+
+:func:`plot_recording` draws one panel of positions per unit (rad, m) and one of velocities beside
+it, each joint in the same colour in every plot (:func:`tfrec.plots._figure.assign_colours`), its
+limits as shaded bands; below, the paths of frames (default: the leaves of the TF tree) composed
+from /tf_static and /tf into their root frame, seen from the top (x–y) and from the side (x–z).
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tfrec.errors import DescriptionError, display_path
+from tfrec.kinematics.fk import Transforms, root_from_link
+from tfrec.model import JointType, Robot
+from tfrec.plots._figure import (
+    MAX_POINTS,
+    PlotError,
+    assign_colours,
+    envelope,
+    natural_key,
+    plot_format,
+    refuse_existing,
+)
+from tfrec.recording import Recording
+from tfrec.resample import align, data_start_ns
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+__all__ = ["FramePaths", "default_frames", "frame_paths", "plot_recording"]
+
+Array = NDArray[np.float64]
+
+MAX_DEFAULT_FRAMES = 6
+"""Leaves drawn when no frames are chosen: the deepest ones first."""
+
+_UNITS = {"rad": ("position (rad)", "velocity (rad/s)"), "m": ("position (m)", "velocity (m/s)"),
+          "": ("position", "velocity (per s)")}
+
+
+def _parents(recording: Recording) -> dict[str, str]:
+    """child → parent over /tf_static and /tf; a child with several parents keeps the first in
+    name order (with a warning), as a tf listener keeps one."""
+    seen: dict[str, set[str]] = {}
+    for parent, child in list(recording.tf_static) + list(recording.tf):
+        seen.setdefault(child, set()).add(parent)
+    out: dict[str, str] = {}
+    for child, parents in seen.items():
+        chosen = sorted(parents, key=natural_key)
+        if len(chosen) > 1:
+            warnings.warn(f"{recording.path}: frame '{child}' has {len(chosen)} parents ({', '.join(chosen)}); "
+                          f"its path is drawn below '{chosen[0]}'", stacklevel=3)
+        out[child] = chosen[0]
+    return out
+
+
+def _root(frame: str, parents: dict[str, str]) -> str:
+    seen = {frame}
+    while frame in parents and parents[frame] not in seen:
+        frame = parents[frame]
+        seen.add(frame)
+    return frame
+
+
+def default_frames(recording: Recording, *, limit: int = MAX_DEFAULT_FRAMES) -> list[str]:
+    """The leaves of the recorded TF tree (frames that are nobody's parent), deepest first, at most ``limit``."""
+    parents = _parents(recording)
+    has_children = set(parents.values())
+    leaves = [frame for frame in parents if frame not in has_children]
+
+    def depth(frame: str) -> int:
+        return len({frame} | _ancestors(frame, parents))
+
+    return sorted(leaves, key=lambda f: (-depth(f), natural_key(f)))[:limit]
+
+
+def _ancestors(frame: str, parents: dict[str, str]) -> set[str]:
+    out: set[str] = set()
+    while frame in parents and parents[frame] not in out:
+        frame = parents[frame]
+        out.add(frame)
+    return out
+
+
+@dataclass(frozen=True, slots=True)
+class FramePaths:
+    """Where frames go over time, in the frame at the root of their tree.
+
+    Attributes:
+        t_s: float64 (N,) seconds from the recording's start.
+        positions: frame → float64 (N, 3) metres in its root frame; NaN where a transform on the
+            way has no sample.
+        roots: frame → its root frame.
+    """
+
+    t_s: Array
+    positions: dict[str, Array]
+    roots: dict[str, str]
+
+
+def frame_paths(recording: Recording, frames: Sequence[str], *, max_samples: int = MAX_POINTS) -> FramePaths:
+    """Root → frame positions of ``frames``, from /tf_static and /tf (:func:`~tfrec.kinematics.root_from_link`).
+
+    Times are the stamps of the longest /tf series (at most ``max_samples`` of them, evenly spread);
+    the other series are interpolated at them (linearly, slerp for rotations), NaN outside their span.
+
+    Raises:
+        PlotError: a frame that is in neither /tf_static nor /tf.
+    """
+    parents = _parents(recording)
+    known = set(parents) | set(parents.values())
+    unknown = [frame for frame in frames if frame not in known]
+    if unknown:
+        listed = ", ".join(sorted(known, key=natural_key)[:12]) + (" …" if len(known) > 12 else "")
+        raise PlotError(f"{recording.path}: frames {', '.join(unknown)} not in /tf or /tf_static "
+                        f"(its frames: {listed or 'none'})")
+    origin = data_start_ns(recording) or 0
+    series = [s for s in recording.tf.values() if len(s)]
+    if series:
+        longest = max(series, key=len).time_ns
+        index = np.unique(np.linspace(0, len(longest) - 1, min(len(longest), max_samples)).astype(np.int64))
+        times = longest[index]
+    else:
+        times = np.array([origin], dtype=np.int64)
+    static: dict[tuple[str, str], tuple[Array, Array]] = {}
+    dynamic_t: list[Array] = []
+    dynamic_q: list[Array] = []
+    dynamic_pairs: list[tuple[str, str]] = []
+    for child, parent in parents.items():
+        moving = recording.tf.get((parent, child))
+        if moving is not None and len(moving):
+            alignment = align(times, moving.time_ns)
+            translation = np.full((len(times), 3), np.nan)
+            rotation = np.full((len(times), 4), np.nan)
+            translation[alignment.inside] = alignment.linear(moving.translation)
+            rotation[alignment.inside] = alignment.rotations(moving.rotation)
+            dynamic_pairs.append((parent, child))
+            dynamic_t.append(translation)
+            dynamic_q.append(rotation)
+        elif (parent, child) in recording.tf_static:
+            static[(parent, child)] = recording.tf_static[(parent, child)]
+    n = len(times)
+    dynamic = Transforms(tuple(p for p, _ in dynamic_pairs), tuple(c for _, c in dynamic_pairs),
+                         np.stack(dynamic_t, axis=1) if dynamic_t else np.zeros((n, 0, 3)),
+                         np.stack(dynamic_q, axis=1) if dynamic_q else np.zeros((n, 0, 4)))
+    fixed = Transforms.from_poses(static) if static else Transforms((), (), np.zeros((1, 0, 3)), np.zeros((1, 0, 4)))
+    roots = {frame: _root(frame, parents) for frame in frames}
+    positions: dict[str, Array] = {}
+    for root in sorted(set(roots.values()), key=natural_key):
+        composed = root_from_link(fixed, dynamic, root=root)
+        column = {child: k for k, child in enumerate(composed.children)}
+        for frame in frames:
+            if roots[frame] == root:
+                positions[frame] = np.broadcast_to(composed.translation[:, column[frame]], (n, 3)).copy()
+    return FramePaths((times - origin) / 1e9, positions, roots)
+
+
+def _robot(recording: Recording, robot: Robot | None) -> Robot | None:
+    if robot is not None or recording.robot_description is None:
+        return robot
+    from tfrec.description import parse_urdf
+
+    try:
+        return parse_urdf(recording.robot_description, source=f"{recording.path}:/robot_description")
+    except DescriptionError as err:
+        warnings.warn(f"{err}; joints are plotted without units and limits", stacklevel=3)
+        return None
+
+
+def _unit(name: str, robot: Robot | None) -> str:
+    joint = None if robot is None else robot.joint_by_name.get(name)
+    if joint is None or not joint.type.moves:
+        return ""
+    return "m" if joint.type is JointType.PRISMATIC else "rad"
+
+
+def _velocities(t: Array, q: Array) -> Array:
+    """d q / d t by central differences (one-sided at the ends), NaN where stamps repeat or a position is missing."""
+    if len(t) < 2:
+        return np.full_like(q, np.nan)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v: Array = np.gradient(q, t, axis=0)
+    v[~np.isfinite(v)] = np.nan
+    return v
+
+
+def _view(ax: Axes, data: Array, bands: list[tuple[float, float]]) -> bool:
+    """Y limits around the data, and the limit bands when they are not far wider than the data.
+
+    Returns:
+        Whether the bands are in view (bands far wider than the data would shade all of it: not drawn).
+    """
+    finite = data[np.isfinite(data)]
+    lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (-1.0, 1.0)
+    span = max(hi - lo, 1e-9)
+    shown = False
+    if bands:
+        b_lo, b_hi = min(b for b, _ in bands), max(b for _, b in bands)
+        if b_hi - b_lo <= 20.0 * span or lo < b_lo or hi > b_hi:
+            lo, hi = min(lo, b_lo), max(hi, b_hi)
+            span = hi - lo
+            shown = True
+    ax.set_ylim(lo - 0.06 * span, hi + 0.06 * span)
+    return shown
+
+
+def _bands(ax: Axes, intervals: dict[tuple[float, float], list[str]], colours: dict[str, tuple[str, str]]) -> None:
+    for (lo, hi), names in sorted(intervals.items()):
+        colour = "#7f7f7f" if len(names) > 1 else colours[names[0]][0]
+        ax.axhspan(lo, hi, facecolor=colour, alpha=0.06, linewidth=0, zorder=0)
+        for y in (lo, hi):
+            ax.axhline(y, color=colour, linewidth=0.8, linestyle=(0, (4, 3)), alpha=0.8, zorder=1)
+
+
+def plot_recording(recording: Recording, path: str | os.PathLike[str], *, robot: Robot | None = None,
+                   frames: Sequence[str] | None = None, force: bool = False) -> None:
+    """Plot a recording's joint states and frame paths to ``path`` (``.png``, ``.svg`` or ``.pdf``).
+
+    Args:
+        recording: from :func:`tfrec.readers.read_recording`.
+        path: the picture; its suffix chooses the format.
+        robot: the model for joint units and limits; default: the recording's /robot_description
+            (without either, joints go in one panel without units or limits).
+        frames: frames whose paths are drawn; default: the deepest leaves of the TF tree.
+
+    Raises:
+        PlotError: a bad suffix, a recording with neither /joint_states nor /tf, or an unknown frame.
+        WriteError: the file cannot be written.
+    """
+    fmt = plot_format(path)
+    refuse_existing(path, force=force)
+    js = recording.joint_states if recording.joint_states is not None and len(recording.joint_states) else None
+    if js is None and not any(len(s) for s in recording.tf.values()):
+        raise PlotError(f"{recording.path}: nothing to plot: no /joint_states and no /tf")
+    chosen = list(frames) if frames is not None else default_frames(recording)
+    paths = frame_paths(recording, chosen) if chosen else None
+    model = _robot(recording, robot)
+    from tfrec.plots._figure import plot_style, save_figure
+
+    with plot_style():
+        fig = _draw(recording, js, model, paths)
+        save_figure(fig, path, fmt, force=force)
+
+
+def _draw(recording: Recording, js: Any, robot: Robot | None, paths: FramePaths | None) -> Any:
+    from tfrec.plots._figure import new_figure
+
+    units: list[str] = []
+    if js is not None:
+        present = {_unit(name, robot) for name in js.names}
+        units = [u for u in ("rad", "m", "") if u in present]
+    rows = len(units) + (1 if paths is not None else 0)
+    heights = [2.5] * len(units) + ([4.2] if paths is not None else [])
+    fig = new_figure(14.0, 1.0 + sum(heights))
+    fig.set_layout_engine("constrained", h_pad=0.08, w_pad=0.08)
+    grid = fig.add_gridspec(rows, 2, height_ratios=heights)
+    origin = data_start_ns(recording) or 0
+    span = f"{recording.duration_ns / 1e9:.2f} s" if recording.start_ns is not None else "empty"
+    shows = " and ".join(what for what, there in (("joint states", js is not None), ("frame paths", paths is not None))
+                         if there)
+    fig.suptitle(f"Recording {display_path(recording.path)} ({recording.format}, {span}): {shows}", fontsize=12,
+                 fontweight="bold",
+                 x=0.01, ha="left")
+    if js is not None:
+        t = (js.time_ns - origin) / 1e9
+        colours = assign_colours(js.names)
+        velocities = _velocities(t, js.positions)
+        first: Axes | None = None
+        for row, unit in enumerate(units):
+            names = [(k, name) for k, name in enumerate(js.names) if _unit(name, robot) == unit]
+            cols = [k for k, _ in names]
+            for side, values in ((0, js.positions), (1, velocities)):
+                ax = fig.add_subplot(grid[row, side], sharex=first)
+                first = first or ax
+                tt, yy = envelope(t, values[:, cols])
+                intervals: dict[tuple[float, float], list[str]] = {}
+                for j, (_, name) in enumerate(names):
+                    colour, style = colours[name]
+                    ax.plot(tt, yy[:, j], color=colour, linestyle=style, linewidth=1.2, label=name)
+                    joint = None if robot is None else robot.joint_by_name.get(name)
+                    if joint is not None and joint.limit is not None and joint.type is not JointType.CONTINUOUS:
+                        band = ((joint.limit.lower, joint.limit.upper) if side == 0
+                                else (-joint.limit.velocity, joint.limit.velocity))
+                        if band[1] > band[0]:
+                            intervals.setdefault(band, []).append(name)
+                shown = _view(ax, yy, list(intervals))
+                if shown:
+                    _bands(ax, intervals, colours)
+                ax.set_ylabel(_UNITS[unit][side])
+                ax.grid(True, linewidth=0.4, alpha=0.5)
+                what = "joint positions" if side == 0 else "joint velocities (differentiated from positions)"
+                limits = (" — between dashed lines: within limits" if shown
+                          else " — limits far beyond the data, not drawn" if intervals else "")
+                ax.set_title(f"{what}{limits}", loc="left", fontsize=9)
+                if side == 1:
+                    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=8,
+                              ncol=1 if len(names) <= 12 else 2)
+                if row == len(units) - 1:
+                    ax.set_xlabel("time (s) from the recording's start")
+    if paths is not None:
+        _draw_paths(fig, grid[rows - 1, 0], grid[rows - 1, 1], paths)
+    return fig
+
+
+def _draw_paths(fig: Any, top_slot: Any, side_slot: Any, paths: FramePaths) -> None:
+    colours = assign_colours(paths.positions)
+    roots = sorted(set(paths.roots.values()), key=natural_key)
+    where = f"in {roots[0]}" if len(roots) == 1 else "each in the root of its tree"
+    for slot, (a, b, view) in ((top_slot, (0, 1, "top view (x–y)")), (side_slot, (0, 2, "side view (x–z)"))):
+        ax = fig.add_subplot(slot)
+        for frame in sorted(paths.positions, key=natural_key):
+            xyz = paths.positions[frame]
+            colour, style = colours[frame]
+            width = 1.2 if len(xyz) <= 1500 else 0.6  # a long path: thinner, so its shape shows
+            ax.plot(xyz[:, a], xyz[:, b], color=colour, linestyle=style, linewidth=width, label=frame)
+            ok = np.flatnonzero(np.isfinite(xyz[:, a]) & np.isfinite(xyz[:, b]))
+            if ok.size:
+                ax.plot(xyz[ok[0], a], xyz[ok[0], b], marker="o", color=colour, markersize=5)
+                ax.plot(xyz[ok[-1], a], xyz[ok[-1], b], marker="s", color=colour, markersize=5,
+                        markerfacecolor="white")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel(f"{'xyz'[a]} (m)")
+        ax.set_ylabel(f"{'xyz'[b]} (m)")
+        ax.grid(True, linewidth=0.4, alpha=0.5)
+        ax.set_title(f"frame paths, {view}, {where} — ● start, □ end", loc="left", fontsize=9)
+        if b == 2:
+            ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=8)
