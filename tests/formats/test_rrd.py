@@ -699,3 +699,15 @@ def test_stamps_that_are_not_int64_nanoseconds_are_refused(tmp_path: Path) -> No
         sink.write_chunk(stamp_ns=chunk.time_ns * 1e-9, joint_names=chunk.names,  # type: ignore[arg-type]
                          positions=chunk.positions, velocities=chunk.velocities, transforms=chunk.transforms)
     sink.abort()
+
+
+def test_a_robot_without_moving_joints_is_framed_too(tmp_path: Path) -> None:
+    from tfrec import cli
+
+    out = tmp_path / "cube.mcap"
+    assert cli.main(["record", str(REPO / "robots" / "simple_cube.xacro"), "--duration", "1", "-o", str(out)]) == 0
+    rrd = Rrd(out.with_suffix(".rrd"))
+    (eye,) = [row for chunk in rrd.blueprint_chunks for row in chunk if row.get("EyeControls3D:look_target")]
+    target = np.array(eye["EyeControls3D:look_target"][0])
+    assert target[0] > 0.3 and target[1] > 0.1  # towards the cube, 1 m and 0.5 m from the root
+    assert _views(rrd) == {("3D", "/robot")}  # no joints, no frames: the 3D view alone

@@ -50,7 +50,6 @@ Array = NDArray[np.float64]
 
 _EYE_SAMPLES = 64
 """Instants of each chunk (evenly spread) the robot's reach, and so the camera, is fitted to."""
-
 _FRAME_AXIS_LENGTH_M = 0.1  # of the TF axes of frames that are not links of the robot
 
 _FLUSH_BYTES = 16 << 20
@@ -241,6 +240,7 @@ class RerunSink:
             self._send_static(entity, rr.Transform3D.columns(
                 translation=static.translation[:1, k], quaternion=static.rotation[:1, k], parent_frame=[parent],
                 child_frame=[child]))
+        self.fit_camera(Transforms((), (), np.zeros((1, 0, 3)), np.zeros((1, 0, 4))))  # the fixed joints' reach
 
     def log_robot(self) -> None:
         """Log every link's frame and TF axes and its visuals' geometry (:meth:`begin` does).
