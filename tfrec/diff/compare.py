@@ -319,7 +319,6 @@ class _Comparison:
         return pos, rot
 
 
-
 def _nan_is_inf(error: Array) -> Array:
     return np.where(np.isnan(error), np.inf, error)
 
