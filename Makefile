@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 PIP    := $(BIN)/python -m pip --disable-pip-version-check -q
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test lint bench clean screenshots
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -44,3 +44,8 @@ bench: $(VENV)/.installed
 
 clean:
 	rm -rf $(VENV) .pytest_cache .hypothesis build dist
+
+# docs/images/*.png from the current code, in a headless Rerun viewer (needs Mesa's Vulkan driver:
+# apt-get install mesa-vulkan-drivers); not part of `make test`
+screenshots: $(VENV)/.installed
+	$(BIN)/python scripts/screenshots.py

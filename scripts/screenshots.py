@@ -1,25 +1,27 @@
-"""Regenerate the viewer screenshots in docs/images/ from recordings made here.
+"""Regenerate the viewer screenshots in docs/images/ from recordings made here, with the current code.
 
-For each robot it records a short ``sine`` trajectory to a ``.rrd`` (the same code path as
-``tfrec record --no-mcap``), opens it in a headless Rerun viewer of the pinned rerun-sdk
-(``rerun --headless --window-size 1280x800``), and through ``rerun.experimental.ViewerClient`` pauses
-at a chosen instant, waits for the start-up notifications to fade and saves a screenshot of the whole
-window. (``rerun --screenshot-to`` takes its picture at once, while the recording is still loading,
-playing, and half covered by notifications.) One viewer per recording, each in its own process group
-and temporary folder, ended when its picture is taken.
+It records (the code path of ``tfrec record``), replays (``tfrec replay --save``) and diffs
+(``tfrec diff A B --rrd``) the repository's robots, opens each ``.rrd`` in a headless Rerun viewer of
+the pinned rerun-sdk (``rerun --headless --window-size 1200x800``: no X server needed) and, through
+``rerun.experimental.ViewerClient``, pauses at a chosen instant, waits for the start-up notifications
+to fade and saves a screenshot of the whole window. (``rerun --screenshot-to`` takes its picture at
+once, while the recording is still loading and half covered by notifications.) One viewer per
+recording, each in its own process group and temporary folder, ended when its picture is taken.
 
-The viewer renders on a CPU with Mesa's Vulkan driver (Debian/Ubuntu: ``apt-get install
-mesa-vulkan-drivers``); without a Vulkan driver it panics at start-up. Not part of the tests.
+The viewer renders on the CPU with Mesa's Vulkan driver; without one it panics at start-up, so the
+script checks first and says in one line what to install (Debian/Ubuntu: ``mesa-vulkan-drivers``).
+Not part of the tests (``make screenshots``).
 
 Usage::
 
-    python scripts/screenshots.py                 # docs/images/mbot.png, docs/images/marm.png
-    python scripts/screenshots.py --out /tmp/shots --keep-rrd
+    python scripts/screenshots.py                 # every picture, into docs/images/
+    python scripts/screenshots.py --only diff-overlay --out /tmp/shots --keep-rrd
 """
 
 from __future__ import annotations
 
 import argparse
+import glob
 import os
 import shutil
 import signal
@@ -29,48 +31,101 @@ import sys
 import tempfile
 import time
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.description import load_description
-from tfrec.recorder import DEFAULT_START_TIME_NS, RecordingPlan, record
+from tfrec.recorder import RecordingPlan, record
 from tfrec.trajectory.generators import make_trajectory
 
 REPO = Path(__file__).resolve().parents[1]
+ROBOTS = REPO / "robots"
+WINDOW = "1200x800"
+VULKAN_ICDS = ("/usr/share/vulkan/icd.d/*.json", "/etc/vulkan/icd.d/*.json", "/usr/local/share/vulkan/icd.d/*.json")
 
 
 @dataclass(frozen=True)
 class Shot:
     name: str
-    robot: str
-    amplitude: float
+    make: Callable[[Path], Path]
+    """Writes the .rrd into the folder given and returns it."""
     at_s: float
-    """The instant of the trajectory shown, in seconds from its start."""
+    """The instant shown, in seconds from the recording's start."""
+
+
+def _robot(name: str, **args: str):  # type: ignore[no-untyped-def]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # mbot uses legacy xacro macro calls on purpose
+        return load_description(ROBOTS / f"{name}.xacro", args=args)
+
+
+def _record(name: str, traj: str, **options: float) -> Callable[[Path], Path]:
+    def make(folder: Path) -> Path:
+        robot = _robot(name)
+        rrd = folder / f"{name}-{traj}.rrd"
+        mcap = folder / f"{name}-{traj}.mcap"
+        record(robot, make_trajectory(robot, traj, duration_s=10.0, rate_hz=50.0, **options),
+               RecordingPlan(mcap=mcap, rrd=rrd))
+        return rrd
+    return make
+
+
+def _replay(name: str, traj: str) -> Callable[[Path], Path]:
+    def make(folder: Path) -> Path:
+        from tfrec.replay.load import load_replay
+        from tfrec.replay.play import replay_to_rerun
+
+        _record(name, traj)(folder)
+        out = folder / f"{name}-replayed.rrd"
+        replay_to_rerun(load_replay(folder / f"{name}-{traj}.mcap"), save=out)
+        return out
+    return make
+
+
+def _diff(folder: Path) -> Path:
+    """marm against a copy whose joint2 sits 3 cm higher: every link from link2 on moves by 3 cm."""
+    from tfrec.diff.motion import compare_motion
+    from tfrec.diff.overlay import write_overlay
+
+    text = (ROBOTS / "marm.xacro").read_text(encoding="utf-8")
+    moved = text.replace('<origin xyz="${-link1_length} 0 0" rpy="0 ${-M_PI/2} 0"/>',
+                         '<origin xyz="${-link1_length} 0 0.03" rpy="0 ${-M_PI/2} 0"/>')
+    assert moved != text, "robots/marm.xacro's joint2 origin changed: update scripts/screenshots.py"
+    (folder / "marm-moved.xacro").write_text(moved, encoding="utf-8")
+    comparison = compare_motion(ROBOTS / "marm.xacro", folder / "marm-moved.xacro", traj="random")
+    return write_overlay(comparison, folder / "diff-overlay.rrd", force=True)
 
 
 SHOTS = (
-    Shot("mbot", "robots/mbot.xacro", amplitude=0.8, at_s=2.5),
-    Shot("marm", "robots/marm.xacro", amplitude=0.25, at_s=4.0),
+    Shot("marm", _record("marm", "random"), at_s=3.2),
+    Shot("mbot", _record("mbot", "sine", amplitude=0.8), at_s=2.5),
+    Shot("simple_cube", _record("simple_cube", "center"), at_s=1.0),
+    Shot("replay-marm", _replay("marm", "sine"), at_s=4.0),
+    Shot("diff-overlay", _diff, at_s=3.2),
 )
-WINDOW = "1280x800"
+
+
+def missing_requirements() -> str | None:
+    """One line naming the Debian packages to install, or None when everything is there."""
+    packages = []
+    if not any(glob.glob(pattern) for pattern in VULKAN_ICDS):
+        packages.append("mesa-vulkan-drivers")
+    if not Path(sys.executable).with_name("rerun").exists() and shutil.which("rerun") is None:
+        return "no 'rerun' viewer beside this Python or on PATH: install the project (pip install -e .)"
+    if packages:
+        return (f"the headless Rerun viewer needs a Vulkan driver (it renders on the CPU with Mesa's); "
+                f"install it: apt-get install -y {' '.join(packages)}")
+    return None
 
 
 def _free_port() -> int:
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", 0))
         return int(sock.getsockname()[1])
-
-
-def _record(shot: Shot, folder: Path) -> Path:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # mbot uses legacy xacro macro calls on purpose
-        robot = load_description(REPO / shot.robot)
-    trajectory = make_trajectory(robot, "sine", duration_s=10.0, rate_hz=50.0, amplitude=shot.amplitude)
-    rrd = folder / f"{shot.name}.rrd"
-    record(robot, trajectory, RecordingPlan(mcap=None, rrd=rrd))
-    return rrd
 
 
 def _screenshot(rrd: Path, png: Path, *, at_ns: int, settle_s: float, scratch: Path) -> None:
@@ -95,10 +150,21 @@ def _screenshot(rrd: Path, png: Path, *, at_ns: int, settle_s: float, scratch: P
                 break
             except ConnectionError:  # not listening yet
                 if time.monotonic() > deadline or viewer.poll() is not None:
-                    raise SystemExit("the Rerun viewer did not start (is a Vulkan driver installed?)") from None
+                    raise SystemExit("screenshots: the Rerun viewer did not start (is Mesa's Vulkan driver, "
+                                     "mesa-vulkan-drivers, installed?)") from None
                 time.sleep(0.2)
         client.open(os.fspath(rrd))
-        client.set_time("ros_time", timestamp=np.datetime64(at_ns, "ns"), play_state="paused")
+        deadline = time.monotonic() + 10.0
+        while True:
+            try:
+                client.set_time("ros_time", timestamp=np.datetime64(at_ns, "ns"), play_state="paused")
+                break
+            except ConnectionError as err:  # "has no timelines yet": still loading, or all static
+                if time.monotonic() > deadline:
+                    if "no timelines" in str(err):
+                        break  # a robot without moving joints: nothing moves, any time shows it
+                    raise
+                time.sleep(0.3)
         time.sleep(settle_s)  # start-up notifications fade; chunks load; the paused frame is painted
         client.save_screenshot(os.fspath(png.resolve()))
     finally:
@@ -128,22 +194,31 @@ def _stop(viewer: subprocess.Popen[bytes]) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=REPO / "docs" / "images", help="folder for the PNG files")
+    parser.add_argument("--only", nargs="+", choices=[shot.name for shot in SHOTS], help="just these pictures")
     parser.add_argument("--keep-rrd", action="store_true", help="keep the recordings beside the PNG files")
-    parser.add_argument("--settle-s", type=float, default=6.0,
+    parser.add_argument("--settle-s", type=float, default=7.0,
                         help="seconds to wait before each screenshot, so start-up notifications fade")
     ns = parser.parse_args(argv)
 
+    problem = missing_requirements()
+    if problem is not None:
+        print(f"screenshots: {problem}", file=sys.stderr)
+        return 2
     ns.out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         for shot in SHOTS:
-            rrd = _record(shot, Path(tmp))
+            if ns.only and shot.name not in ns.only:
+                continue
+            folder = Path(tmp) / shot.name
+            folder.mkdir()
+            rrd = shot.make(folder)
             png = ns.out / f"{shot.name}.png"
             # One viewer per recording: recordings of one application id share the active blueprint.
             _screenshot(rrd, png, at_ns=DEFAULT_START_TIME_NS + round(shot.at_s * 1e9), settle_s=ns.settle_s,
-                        scratch=Path(tmp))
+                        scratch=folder)
             print(png)
             if ns.keep_rrd:
-                shutil.copy(rrd, ns.out / rrd.name)
+                shutil.copy(rrd, ns.out / f"{shot.name}.rrd")
     return 0
 
 

@@ -35,9 +35,11 @@ __all__ = [
     "Transforms",
     "WriteError",
     "__version__",
+    "assert_descriptions_match",
     "assert_recordings_match",
     "check_replay",
     "compare",
+    "compare_descriptions",
     "find_robots",
     "load_description",
     "load_replay",
@@ -65,7 +67,7 @@ from tfrec.model import Joint, JointType, Link, Robot
 
 if TYPE_CHECKING:
     from tfrec.description import load_description, parse_urdf
-    from tfrec.diff import assert_recordings_match, compare
+    from tfrec.diff import assert_descriptions_match, assert_recordings_match, compare, compare_descriptions
     from tfrec.formats import read_recording
     from tfrec.kinematics import Transforms
     from tfrec.recorder import plan_outputs, record
@@ -86,6 +88,8 @@ _LAZY = {
     "read_recording": "tfrec.formats",
     "compare": "tfrec.diff",
     "assert_recordings_match": "tfrec.diff",
+    "compare_descriptions": "tfrec.diff",
+    "assert_descriptions_match": "tfrec.diff",
     "load_replay": "tfrec.replay",
     "check_replay": "tfrec.replay",
     "find_robots": "tfrec.robots",

@@ -34,7 +34,15 @@ from tfrec.errors import DescriptionError
 from tfrec.model import Robot
 from tfrec.recording import FrameSeries, JointStates, Recording, RobotTopics
 
-__all__ = ["OTHER_FRAMES", "RecordedRobot", "detect_frame_prefix", "find_robots", "parse_description", "robot_name"]
+__all__ = [
+    "OTHER_FRAMES",
+    "RecordedRobot",
+    "detect_frame_prefix",
+    "find_robots",
+    "pair_robots",
+    "parse_description",
+    "robot_name",
+]
 
 Array = NDArray[np.float64]
 Pair = tuple[str, str]
@@ -91,6 +99,11 @@ class RecordedRobot:
         """Where ``replay`` logs it in Rerun: ``/robot1``; ``""`` (the top) for the root namespace's robot."""
         return "" if self.key in ("", "/") else ("" if self.key.startswith("/") else "/") + self.key
 
+    def contents(self) -> str:
+        """``marm, 9 frame pairs``: what the robot holds, for messages."""
+        pairs = len(self.tf) + len(self.tf_static)
+        return (self.name or "no description") + (f", {pairs} frame pair{'s' if pairs != 1 else ''}" if pairs else "")
+
     def frames(self) -> list[str]:
         """Every frame id of its TF, in order of appearance."""
         seen: dict[str, None] = {}
@@ -108,6 +121,17 @@ def robot_name(urdf: str) -> str | None:
     except ElementTree.ParseError:
         return None
     return None
+
+
+def pair_robots(a: Sequence[RecordedRobot],
+                b: Sequence[RecordedRobot]) -> list[tuple[RecordedRobot | None, RecordedRobot | None]]:
+    """The robots of two recordings paired for comparing: by key, a robot of one recording only with None;
+    the one robot of each when each has one, whatever their namespaces."""
+    if len(a) == 1 and len(b) == 1:
+        return [(a[0], b[0])]
+    by_key = {robot.key: robot for robot in b}
+    pairs: list[tuple[RecordedRobot | None, RecordedRobot | None]] = [(r, by_key.pop(r.key, None)) for r in a]
+    return pairs + [(None, robot) for robot in by_key.values()]
 
 
 def parse_description(text: str, where: str) -> tuple[Robot | None, str | None]:

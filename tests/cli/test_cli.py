@@ -142,10 +142,11 @@ def _modules_after(argv: list[str]) -> set[str]:
         f"    main({argv!r})\n"
         "except SystemExit:\n"
         "    pass\n"
-        "print(' '.join(sorted(sys.modules)))\n"
+        "print('MODULES: ' + ' '.join(sorted(sys.modules)))\n"
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, check=True)
-    return set(result.stdout.splitlines()[-1].split())  # the last line: the help text comes before it
+    (line,) = [line for line in result.stdout.splitlines() if line.startswith("MODULES: ")]  # not the help's words
+    return set(line.split()[1:])
 
 
 @pytest.mark.parametrize("argv", [["--help"], ["inspect", "robots/marm.xacro"]])
@@ -170,6 +171,9 @@ def test_usage_errors_are_one_line(capsys: pytest.CaptureFixture[str]) -> None:
     assert err == ("tfrec: error: argument --compression: invalid choice: 'foo' (choose from 'bz2', 'lz4', "
                    "'none', 'zstd') (see 'tfrec record --help')\n")
     code, _, err = run(capsys, "diff", "a.mcap")
+    assert code == 2 and err == ("tfrec: error: diff takes two inputs, A and B, each followed by its xacro "
+                                 "arguments; got 1 (a.mcap)\n")
+    code, _, err = run(capsys, "diff")
     assert code == 2 and err.count("\n") == 1 and err.startswith("tfrec: error: the following arguments")
 
 

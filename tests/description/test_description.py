@@ -495,3 +495,24 @@ def test_two_packages_of_one_name_in_a_folder_warn(tmp_path: Path) -> None:
     with pytest.warns(UserWarning, match=r"package 'twin_pkg' is in .*a_first and .*b_second; using .*a_first"):
         robot = load_description(_main_file(tmp_path, "twin_pkg"), package_paths=[tmp_path / "ws"])
     assert robot.links[0].name == "from_twin_pkg"
+
+
+@pytest.mark.parametrize(("name", "rgba"), [("red", (0.8, 0.0, 0.0, 1.0)), ("Grey", (0.5, 0.5, 0.5, 1.0)),
+                                             ("light gray", (0.75, 0.75, 0.75, 1.0)), ("ORANGE", (1.0, 0.42, 0.04, 1.0))])
+def test_an_undefined_material_with_a_common_colour_name_gets_that_colour(name: str, rgba: tuple[float, ...]) -> None:
+    text = (f'<robot name="cube"><link name="base"><visual><geometry><box size="1 1 1"/></geometry>'
+            f'<material name="{name}"/></visual></link></robot>')
+    with pytest.warns(UserWarning, match=rf"<urdf>:1: link 'base' visual 0 uses material '{name}', which is not "
+                                         r"defined; shown as the colour of that name"):
+        robot = parse_urdf(text)
+    material = robot.links[0].visuals[0].material
+    assert material is not None and material.name == name and material.rgba == rgba
+
+
+def test_an_undefined_material_with_another_name_has_no_colour() -> None:
+    text = ('<robot name="cube"><link name="base"><visual><geometry><box size="1 1 1"/></geometry>'
+            '<material name="anodized"/></visual></link></robot>')
+    with pytest.warns(UserWarning, match=r"uses material 'anodized', which is not defined$"):
+        robot = parse_urdf(text)
+    material = robot.links[0].visuals[0].material
+    assert material is not None and material.rgba is None

@@ -66,10 +66,32 @@ def test_mcap_against_its_own_rrd(tmp_path: Path, marm: Robot, traj: JointTrajec
     assert plan.mcap is not None and plan.rrd is not None
     report = assert_recordings_match(plan.mcap, plan.rrd, pos_tol=FLOAT32_TOL, rot_tol=FLOAT32_TOL)
     assert 0 < report.largest["rotation"].value < 1e-6
-    # at float64 tolerance the float32 rounding shows, and the report says what to do
-    strict = compare(plan.mcap, plan.rrd)
-    assert not strict.equal and {d.kind for d in strict.differences} == {"tf"}
-    assert any("float32" in note and "`pos_tol` 1e-05" in note for note in strict.notes)
+    # at the default float64 tolerances the .rrd's float32 transforms compare at float32's precision
+    report = compare(plan.mcap, plan.rrd)
+    assert report.equal, report.to_text()
+    (note,) = [note for note in report.notes if "float32" in note]
+    assert note.startswith(f"{plan.rrd} stores transforms as float32: they were compared at the precision")
+    assert "max(`pos_tol`, 4·eps32·|t|)" in note and "rotations within up to 4.77e-07 rad" in note
+    # ...and a difference float32 can hold still shows: 1e-6 m in one transform of the .rrd's data
+    rrd = read_recording(plan.rrd)
+    series = rrd.tf[("link2", "link3")]
+    series.translation[7, 0] += 1e-6
+    moved = compare(plan.mcap, rrd)
+    assert [d.what for d in moved.differences] == ["link2 → link3"]
+    assert "first above 1e-09 m" not in moved.differences[0].detail  # the float32 tolerance, not the user's
+
+
+def test_float32_tolerance_is_what_float32_tells_apart() -> None:
+    from tfrec.diff.compare import float32_tolerance
+
+    eps32 = float(np.finfo(np.float32).eps)
+    np.testing.assert_array_equal(float32_tolerance(1e-9, np.array([0.0, 1.0, 100.0])),
+                                  [1e-9, 4 * eps32, 400 * eps32])
+    assert float32_tolerance(1e-3, np.array([1.0]))[0] == 1e-3  # a user's larger tolerance stays
+    # float32 rounding of a value is within the tolerance at its magnitude, for any magnitude
+    values = np.array([1e-6, 0.3, 1.7, 123.456, 9e4])
+    rounded = values.astype(np.float32).astype(np.float64)
+    assert np.all(np.abs(rounded - values) <= float32_tolerance(0.0, values))
 
 
 _NO_FIXED_JOINTS = """<?xml version="1.0"?>

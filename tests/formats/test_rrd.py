@@ -248,10 +248,73 @@ def test_recording_identity_properties_and_blueprint(tmp_root: str) -> None:
     assert "ViewCoordinates:xyz" in rrd.static["/"]
     assert rrd.static["/robot_description"]["TextDocument:text"][0].startswith("<")
     rows = [row for chunk in rrd.blueprint_chunks for row in chunk]
-    views = {(row["ViewBlueprint:class_identifier"][0], row["ViewBlueprint:space_origin"][0])
-             for row in rows if row.get("ViewBlueprint:class_identifier")}
-    assert views == {("3D", "/robot"), ("TimeSeries", "/joints"), ("TimeSeries", "/joint_velocities")}
+    views = {(row["ViewBlueprint:class_identifier"][0], row["ViewBlueprint:space_origin"][0],
+              row["ViewBlueprint:display_name"][0]) for row in rows if row.get("ViewBlueprint:class_identifier")}
+    assert views == {("3D", "/robot", "robot"), ("TimeSeries", "/joints", "joint positions (rad)"),
+                     ("TimeSeries", "/joint_velocities", "joint velocities (rad/s)"),
+                     ("TimeSeries", "/joints", "joint positions (m)"),
+                     ("TimeSeries", "/joint_velocities", "joint velocities (m/s)"), ("Graph", "/tf_tree", "TF tree")}
     assert any(row.get("EyeControls3D:position") for row in rows)
+    # each plot holds the joints of its unit: marm's fingers are prismatic
+    contents = {tuple(sorted(row["ViewContents:query"])) for row in rows if row.get("ViewContents:query")}
+    assert (joint_entity("finger_joint1"), joint_entity("finger_joint2")) in contents
+    assert tuple(sorted(joint_entity(f"joint{i}") for i in range(1, 7))) in contents
+
+
+def test_joint_plots_have_stable_colours_and_names_and_frame_labels_are_off(tmp_root: str) -> None:
+    from tfrec.formats.rrd.blueprint import joint_colour
+
+    rrd, robot = recorded("marm", tmp_root), load_robot("marm")
+    for index, joint in enumerate(robot.joints):
+        if joint.type.moves:
+            for entity in (joint_entity(joint.name), velocity_entity(joint.name)):
+                assert rrd.static[entity]["SeriesLines:colors"] == [joint_colour(index)]
+                assert rrd.static[entity]["SeriesLines:names"] == [joint.name]
+    colours = [joint_colour(i) for i, joint in enumerate(robot.joints) if joint.type.moves]
+    assert len(set(colours)) == len(colours)
+    assert {rrd.static[link_entity(link.name)]["TransformAxes3D:show_frame"][0] for link in robot.links} == {False}
+
+
+def test_the_tf_tree_is_a_graph_of_frames(tmp_root: str) -> None:
+    rrd, robot = recorded("marm", tmp_root), load_robot("marm")
+    tree = rrd.static["/tf_tree"]
+    assert sorted(tree["GraphNodes:node_ids"]) == sorted(link.name for link in robot.links)
+    edges = [(edge["first"], edge["second"]) for edge in tree["GraphEdges:edges"]]
+    assert sorted(edges) == sorted((j.parent, j.child) for j in robot.joints)
+    assert tree["GraphEdges:graph_type"] == [2]  # directed
+    position = dict(zip(tree["GraphNodes:node_ids"], tree["GraphNodes:positions"]))
+    for joint in robot.joints:  # a parent above its child
+        assert position[joint.parent][1] < position[joint.child][1]
+
+
+@pytest.mark.parametrize("name", ["marm", "mbot", "simple_cube"])
+def test_the_camera_frames_the_robots_whole_reach(name: str, tmp_path: Path) -> None:
+    """Every link origin at every sample, not only the first chunk's, is inside the 3D view's field of view,
+    looked at from front-left and above, Z up; and the robot is not lost in the distance."""
+    from tfrec.formats.rrd.blueprint import FIELD_OF_VIEW_DEG
+    from tfrec.kinematics.fk import link_poses
+    from tfrec.kinematics.joints import all_joint_states
+
+    robot = load_robot(name)
+    path = tmp_path / f"{name}.rrd"
+    trajectory = make_trajectory(robot, "random", duration_s=4.0, rate_hz=50.0, period_s=0.5)
+    sink = RerunSink(path, robot=robot, recording_id="reach")
+    sink.begin(static=static_transforms(robot), start_time_ns=START_NS)
+    for chunk in iter_dynamic_chunks(robot, trajectory, chunk_samples=16):
+        sink.write_chunk(stamp_ns=chunk.time_ns + START_NS, joint_names=chunk.names, positions=chunk.positions,
+                         velocities=chunk.velocities, transforms=chunk.transforms)
+    sink.finish()
+    (eye,) = [row for chunk in Rrd(path).blueprint_chunks for row in chunk if row.get("EyeControls3D:position")]
+    position, target = np.array(eye["EyeControls3D:position"][0]), np.array(eye["EyeControls3D:look_target"][0])
+    assert eye["EyeControls3D:eye_up"][0] == [0.0, 0.0, 1.0]
+    view = target - position
+    assert view[0] < 0 and view[1] < 0 and view[2] < 0 and abs(view[0] - view[1]) < 1e-6  # ¾ from front-left, above
+    names, positions, _ = all_joint_states(robot, trajectory)
+    origins = np.concatenate([pose[:, :3, 3] for pose in link_poses(robot, names, positions).values()])
+    rays = origins - position
+    angles = np.degrees(np.arccos(np.clip(rays @ view / np.linalg.norm(rays, axis=1) / np.linalg.norm(view), -1, 1)))
+    assert angles.max() < FIELD_OF_VIEW_DEG / 2  # all of the reach is in view...
+    assert angles.max() > FIELD_OF_VIEW_DEG / 10 or len(robot.joints) == 0  # ...and fills a good part of it
 
 
 def test_frame_prefix_goes_on_frames_not_on_entity_paths(tmp_path: Path) -> None:
@@ -298,7 +361,8 @@ def test_pairs_and_positions_logged_separately_land_where_chunks_do(tmp_path: Pa
     sink.write_joint_positions(stamps, chunk.names, chunk.positions)
     sink.finish()
     pairs = Rrd(tmp_path / "pairs.rrd")
-    assert _data(pairs.static) == _data(chunked.static)  # the same geometry, frames, axes, fixed joints and URDF
+    # the same geometry, frames, axes, fixed joints and URDF (pairs log no velocities, so no velocity styles)
+    assert _data(pairs.static) == {e: row for e, row in _data(chunked.static).items() if "/joint_velocities/" not in e}
     assert set(pairs.temporal) == {e for e in chunked.temporal if not e.startswith("/joint_velocities/")}
     for joint in robot.moving_joints:
         for column in ("Transform3D:translation", "Transform3D:quaternion", "Transform3D:child_frame"):
@@ -309,7 +373,7 @@ def test_pairs_and_positions_logged_separately_land_where_chunks_do(tmp_path: Pa
         np.testing.assert_array_equal(times, stamps)
         assert values == chunked.series(joint_entity(joint.name), "Scalars:scalars")[1]
     # no velocities, no velocity tab; the same camera
-    assert _views(pairs) == {("3D", "/robot"), ("TimeSeries", "/joints")}
+    assert _views(pairs) == {("3D", "/robot"), ("TimeSeries", "/joints"), ("Graph", "/tf_tree")}
     assert _eyes(pairs) == _eyes(chunked)
 
 
@@ -386,8 +450,9 @@ def test_a_replay_has_the_recordings_layout_and_a_fitted_camera(tmp_path: Path) 
     replay_to_rerun(load_replay(source), save=tmp_path / "replay.rrd")
     recorded_, replayed = Rrd(source.with_suffix(".rrd")), Rrd(tmp_path / "replay.rrd")
     assert _views(recorded_) == _views(replayed) | {("TimeSeries", "/joint_velocities")}
+    assert ("Graph", "/tf_tree") in _views(replayed)
     assert len(_eyes(replayed)) == 1
-    assert set(replayed.static) == set(recorded_.static)
+    assert set(replayed.static) == {e for e in recorded_.static if not e.startswith("/joint_velocities/")}
 
 
 # -- the file as rerun's tools see it ---------------------------------------------------------
@@ -406,6 +471,47 @@ def test_same_inputs_give_recordings_rerun_finds_identical(tmp_path: Path) -> No
                             timeout=120)
     assert result.returncode == 0, result.stderr
     assert not any("log_time" in column for rows in Rrd(first).temporal.values() for column in rows[0])
+
+
+def test_the_same_command_gives_the_same_data_and_blueprint(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """What is equal between two runs of one command (docs/recording-format.md, Determinism): every
+    chunk of the recording, in order, but for the ids Rerun mints when it writes (chunk and row ids);
+    the blueprint but for those ids and its rows' log_time; the identity and properties. Not the bytes."""
+    import pyarrow as pa
+
+    from tfrec import cli
+
+    files = []
+    for run in ("one", "two"):
+        folder = tmp_path / run
+        folder.mkdir()
+        monkeypatch.chdir(folder)
+        assert cli.main(["record", str(REPO / "robots" / "marm.xacro"), "--duration", "1", "-o", "marm.mcap"]) == 0
+        files.append(folder / "marm.rrd")
+    assert files[0].read_bytes() != files[1].read_bytes()  # the ids Rerun mints differ...
+
+    def chunks(path: Path, store: Any = None) -> list[tuple[str, pa.RecordBatch]]:
+        out = []
+        for chunk in rr.chunk.RrdReader(path).stream(store=store):
+            batch = chunk.to_record_batch()
+            keep = [i for i, name in enumerate(batch.schema.names) if name not in ("rerun.controls.RowId", "log_time")]
+            metadata = {k: v for k, v in (batch.schema.metadata or {}).items() if k != b"rerun:id"}
+            out.append((chunk.entity_path, pa.RecordBatch.from_arrays(
+                [batch.column(i) for i in keep], schema=pa.schema([batch.schema.field(i) for i in keep], metadata))))
+        return out
+
+    first, second = chunks(files[0]), chunks(files[1])
+    assert [e for e, _ in first] == [e for e, _ in second]  # ...and nothing else: same chunks, same order
+    assert all(a.equals(b, check_metadata=True) for (_, a), (_, b) in zip(first, second))
+    blueprints = [chunks(path, rr.chunk.RrdReader(path).blueprints()[0]) for path in files]
+    assert sorted(e for e, _ in blueprints[0]) == sorted(e for e, _ in blueprints[1])  # stable view ids
+    assert sorted(str(b.to_pylist()) for _, b in blueprints[0]) == sorted(str(b.to_pylist()) for _, b in blueprints[1])
+    stores = [rr.chunk.RrdReader(path).recordings()[0] for path in files]
+    assert stores[0].recording_id == stores[1].recording_id and stores[0].application_id == "tfrec"
+    info = Rrd(files[0]).static["/__properties"]
+    assert info["RecordingInfo:start_time"] == [START_NS]  # the first stamp, not the wall clock
+    result = subprocess.run([RERUN, "rrd", "compare", *files], check=False, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
 
 
 def test_waiting_for_the_writer_every_few_bytes_changes_nothing_in_the_recording(
@@ -595,3 +701,15 @@ def test_stamps_that_are_not_int64_nanoseconds_are_refused(tmp_path: Path) -> No
         sink.write_chunk(stamp_ns=chunk.time_ns * 1e-9, joint_names=chunk.names,  # type: ignore[arg-type]
                          positions=chunk.positions, velocities=chunk.velocities, transforms=chunk.transforms)
     sink.abort()
+
+
+def test_a_robot_without_moving_joints_is_framed_too(tmp_path: Path) -> None:
+    from tfrec import cli
+
+    out = tmp_path / "cube.mcap"
+    assert cli.main(["record", str(REPO / "robots" / "simple_cube.xacro"), "--duration", "1", "-o", str(out)]) == 0
+    rrd = Rrd(out.with_suffix(".rrd"))
+    (eye,) = [row for chunk in rrd.blueprint_chunks for row in chunk if row.get("EyeControls3D:look_target")]
+    target = np.array(eye["EyeControls3D:look_target"][0])
+    assert target[0] > 0.3 and target[1] > 0.1  # towards the cube, 1 m and 0.5 m from the root
+    assert _views(rrd) == {("3D", "/robot")}  # no joints, no frames: the 3D view alone

@@ -1,4 +1,4 @@
-"""``tfrec diff``: compare two recordings by meaning."""
+"""``tfrec diff``: compare two recordings, or two robot descriptions (or one of each), by meaning."""
 
 from __future__ import annotations
 
@@ -17,58 +17,142 @@ from tfrec.conventions import (
     DIFF_POS_TOL,
     DIFF_ROT_TOL,
 )
+from tfrec.errors import DiffError
 
-__all__ = ["add_parser"]
+__all__ = ["add_parser", "split_inputs"]
 
 
 def add_parser(sub: Any) -> None:
     """Add the subcommand to ``sub`` (argparse subparsers)."""
     diff = sub.add_parser(
-        "diff", help="compare two recordings by meaning (description, topics, joint states, TF)",
+        "diff", help="compare two recordings or robot descriptions by meaning (description, TF, joints)",
+        usage="tfrec diff A [name:=value ...] B [name:=value ...] [options]",
         description="Compare two recordings — MCAP, rosbag2 folder, ROS 1 bag or tfrec .rrd — by meaning: the "
                     "robot description as URDF, topics, joint positions and transforms, aligned by the time "
-                    "since each recording's start (its first /joint_states or /tf stamp). Exit 0 when "
-                    "identical within tolerance, 1 when different, 2 on error.",
+                    "since each recording's start (its first /joint_states or /tf stamp). A or B may also be a "
+                    "robot description (.urdf, .xacro), with its xacro arguments right after it: descriptions "
+                    "are driven along one motion (--traj, or --joints REC; a recording's own /joint_states) and "
+                    "every link's world pose is compared. Exit 0 when identical within tolerance, 1 when "
+                    "different, 2 on error.",
     )
-    diff.add_argument("a", metavar="A", help="a recording: .mcap, rosbag2 folder, ROS 1 .bag or .rrd")
-    diff.add_argument("b", metavar="B", help="the recording to compare with A")
+    diff.add_argument("inputs", metavar="A [name:=value ...] B [name:=value ...]", nargs="+",
+                      help="two recordings (.mcap, rosbag2 folder, ROS 1 .bag, .rrd) or descriptions (.urdf, "
+                           ".xacro); xacro arguments belong to the input they follow")
     diff.add_argument("--pos-tol", metavar="M", type=tolerance, default=DIFF_POS_TOL,
                       help=f"translations within M metres are equal (default {number(DIFF_POS_TOL)})")
     diff.add_argument("--rot-tol", metavar="RAD", type=tolerance, default=DIFF_ROT_TOL,
                       help=f"rotations within RAD radians are equal (default {number(DIFF_ROT_TOL)})")
     diff.add_argument("--joint-tol", metavar="X", type=tolerance, default=DIFF_JOINT_TOL,
                       help=f"joint positions within X (rad or m) are equal (default {number(DIFF_JOINT_TOL)})")
-    diff.add_argument("--topics", metavar="TOPIC", nargs="+", help="compare only these topics (default: all)")
+    diff.add_argument("--topics", metavar="TOPIC", nargs="+", help="compare only these topics (recordings; default: all)")
     diff.add_argument("--absolute", action="store_true",
-                      help="align samples on their stamps, not on the time since each recording's start")
+                      help="align samples on their stamps, not on the time since each recording's start (recordings)")
     diff.add_argument("--json", action="store_true", help="print the report as JSON")
-    diff.add_argument("--plot", metavar="OUT",
-                      help="draw each frame's translation and rotation error over time, worst frames first, with "
-                           "the tolerance and the first time it is exceeded (OUT.png, .svg or .pdf)")
-    diff.add_argument("--force", action="store_true", help="overwrite an existing --plot file")
+    add_naming_arguments(diff.add_argument_group("recordings: robots and topics"))
+    motion = diff.add_argument_group("descriptions")
+    motion.add_argument("--traj", metavar="KIND", default=None,
+                        help="the trajectory both descriptions follow: random (default; seeded, a new configuration "
+                             "every 0.5 s), sweep, sine, center or a CSV file")
+    motion.add_argument("--duration", metavar="S", type=float, default=10.0, help="seconds (default 10)")
+    motion.add_argument("--rate", metavar="HZ", type=float, default=50.0, help="samples per second (default 50)")
+    motion.add_argument("--seed", metavar="N", type=int, default=0, help="seed of --traj random (default 0)")
+    motion.add_argument("--joints", metavar="REC", default=None,
+                        help="follow the /joint_states of this recording instead (with a recording as A or B: "
+                             "that one, the default)")
+    motion.add_argument("--package-path", metavar="DIR", action="append", default=[],
+                        help="a package, or a folder of packages, for $(find pkg) and package:// (repeatable)")
+    motion.add_argument("--strict-xacro", action="store_true",
+                        help="refuse macro calls without the 'xacro:' prefix instead of expanding them with a warning")
+    out = diff.add_argument_group("output")
+    out.add_argument("--rrd", metavar="OUT.rrd", default=None,
+                     help="also write both robots moving together as one Rerun recording: A solid and coloured "
+                          "by its error, B a translucent ghost, the error over time with the tolerance")
+    out.add_argument("--plot", metavar="OUT",
+                     help="(two recordings) draw each frame's translation and rotation error over time, worst frames "
+                          "first, with the tolerance and the first time it is exceeded (OUT.png, .svg or .pdf)")
+    out.add_argument("--force", action="store_true", help="overwrite an existing --rrd or --plot file")
     diff.formatter_class = argparse.RawDescriptionHelpFormatter
     diff.epilog = ("examples:\n  tfrec diff golden.mcap new.mcap\n"
                    "  tfrec diff a.mcap b.bag --pos-tol 1e-6 --json\n"
-                   "  tfrec diff before.mcap after.mcap --plot diff.png")
-    add_naming_arguments(diff)
+                   "  tfrec diff before.mcap after.mcap --plot diff.png\n"
+                   "  tfrec diff arm.xacro arm-v2.xacro --rrd diff.rrd\n"
+                   "  tfrec diff arm.xacro arm.xacro hand:=true --traj sweep\n"
+                   "  tfrec diff robot_log.mcap arm-v2.xacro")
     diff.set_defaults(handler=_cmd_diff)
 
 
-def _cmd_diff(ns: argparse.Namespace) -> int:
-    from tfrec.diff.compare import compare
+def split_inputs(tokens: list[str]) -> tuple[tuple[str, dict[str, str]], tuple[str, dict[str, str]]]:
+    """``A [name:=value ...] B [name:=value ...]`` → ((A, A's arguments), (B, B's arguments)).
 
+    Raises:
+        DiffError: not exactly two inputs, arguments before the first input, or a malformed argument.
+    """
+    from tfrec.description import parse_xacro_args
+
+    groups: list[tuple[str, list[str]]] = []
+    for token in tokens:
+        if ":=" in token:
+            if not groups:
+                raise DiffError(f"xacro argument '{token}' before A: arguments follow the input they belong to")
+            groups[-1][1].append(token)
+        else:
+            groups.append((token, []))
+    if len(groups) != 2:
+        found = ", ".join(path for path, _ in groups) or "none"
+        raise DiffError(f"diff takes two inputs, A and B, each followed by its xacro arguments; got {len(groups)} "
+                        f"({found})")
+    (a, args_a), (b, args_b) = groups
+    return (a, parse_xacro_args(args_a)), (b, parse_xacro_args(args_b))
+
+
+def _cmd_diff(ns: argparse.Namespace) -> int:
+    from tfrec.diff.inputs import is_recording_path
+
+    (a, args_a), (b, args_b) = split_inputs(ns.inputs)
+    if ns.rrd is not None:
+        from pathlib import Path
+
+        from tfrec._atomic import check_target
+
+        check_target(Path(ns.rrd), suffix=".rrd", what="Rerun", force=ns.force)
     if ns.plot is not None:
         from tfrec.plots import plot_format, refuse_existing
 
         plot_format(ns.plot)
         refuse_existing(ns.plot, force=ns.force)
-    report = compare(ns.a, ns.b, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol, joint_tol=ns.joint_tol,
-                     topics=ns.topics, absolute=ns.absolute, namespace=ns.namespace, remap=ns.remap,
-                     use_log_time=ns.use_log_time)
+    tolerances = {"pos_tol": ns.pos_tol, "rot_tol": ns.rot_tol, "joint_tol": ns.joint_tol}
+    recordings = is_recording_path(a) and is_recording_path(b) and not args_a and not args_b
+    if recordings:
+        for given, flag in ((ns.traj, "traj"), (ns.joints, "joints")):
+            if given is not None:
+                raise DiffError(f"`{flag}` drives descriptions; {a} and {b} are both recordings")
+        from tfrec.diff.compare import compare
+
+        report: Any = compare(a, b, topics=ns.topics, absolute=ns.absolute, namespace=ns.namespace, remap=ns.remap,
+                              use_log_time=ns.use_log_time, **tolerances)
+    else:
+        for given, flag in ((ns.topics, "topics"), (ns.absolute or None, "absolute"), (ns.plot, "plot")):
+            if given is not None:
+                raise DiffError(f"`{flag}` compares two recordings; {a} or {b} is a robot description")
+    comparison = None
+    if not recordings or ns.rrd is not None:
+        from tfrec.diff.motion import compare_motion
+
+        comparison = compare_motion(a, b, args_a=args_a, args_b=args_b, traj=ns.traj, duration_s=ns.duration,
+                                    rate_hz=ns.rate, seed=ns.seed, joints=ns.joints, package_paths=ns.package_path,
+                                    strict_xacro=ns.strict_xacro, **tolerances)
+        if not recordings:
+            report = comparison.report
+    if ns.rrd is not None and comparison is not None:
+        from tfrec.diff.overlay import write_overlay
+
+        write_overlay(comparison, ns.rrd, force=ns.force, package_paths=ns.package_path)
     sys.stdout.write(report.to_json() + "\n" if ns.json else as_flags(report.to_text()))
     if ns.plot is not None:
         from tfrec.plots import plot_diff
 
         plot_diff(report, ns.plot, force=ns.force)
         print(f"wrote {ns.plot}", file=sys.stderr if ns.json else sys.stdout)
+    if ns.rrd is not None:
+        print(f"wrote {ns.rrd}   (open with: rerun {ns.rrd})", file=sys.stderr if ns.json else sys.stdout)
     return 0 if report.equal else 1

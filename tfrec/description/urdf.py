@@ -32,7 +32,37 @@ from tfrec.model import (
     Visual,
 )
 
-__all__ = ["parse_urdf"]
+__all__ = ["COMMON_COLOURS", "parse_urdf"]
+
+COMMON_COLOURS: dict[str, tuple[float, float, float, float]] = {
+    "red": (0.8, 0.0, 0.0, 1.0),
+    "green": (0.0, 0.8, 0.0, 1.0),
+    "blue": (0.0, 0.0, 0.8, 1.0),
+    "yellow": (0.8, 0.8, 0.0, 1.0),
+    "orange": (1.0, 0.42, 0.04, 1.0),
+    "cyan": (0.0, 0.8, 0.8, 1.0),
+    "magenta": (0.8, 0.0, 0.8, 1.0),
+    "purple": (0.5, 0.0, 0.5, 1.0),
+    "pink": (1.0, 0.6, 0.8, 1.0),
+    "brown": (0.55, 0.35, 0.17, 1.0),
+    "grey": (0.5, 0.5, 0.5, 1.0),
+    "gray": (0.5, 0.5, 0.5, 1.0),
+    "light_grey": (0.75, 0.75, 0.75, 1.0),
+    "light_gray": (0.75, 0.75, 0.75, 1.0),
+    "dark_grey": (0.25, 0.25, 0.25, 1.0),
+    "dark_gray": (0.25, 0.25, 0.25, 1.0),
+    "silver": (0.75, 0.75, 0.75, 1.0),
+    "black": (0.0, 0.0, 0.0, 1.0),
+    "white": (1.0, 1.0, 1.0, 1.0),
+}
+"""Colours of common names (any case), for a visual naming a material the description never defines:
+shown in that colour (with a warning) rather than in the viewer's default. Primary colours at 0.8, as
+the ROS tutorials define them (``urdf_tutorial``'s blue is ``0 0 0.8 1``)."""
+
+
+def _common_colour(name: str) -> tuple[float, float, float, float] | None:
+    """The colour of a common name: ``Red``, ``light grey`` and ``dark-gray`` are found."""
+    return COMMON_COLOURS.get(name.strip().lower().replace(" ", "_").replace("-", "_"))
 
 # The URDF elements; every other element is ignored, as urdfdom (check_urdf, robot_state_publisher) does.
 _KNOWN_CHILDREN = {
@@ -175,6 +205,10 @@ class _Parser:
                 if material.rgba is None and material.texture is None:
                     if material.name in materials:
                         material = materials[material.name]
+                    elif (rgba := _common_colour(material.name)) is not None:
+                        self.warn(mat, f"{what} uses material '{material.name}', which is not defined; "
+                                       f"shown as the colour of that name ({' '.join(f'{c:g}' for c in rgba)})")
+                        material = Material(name=material.name, rgba=rgba)
                     else:
                         self.warn(mat, f"{what} uses material '{material.name}', which is not defined")
             visuals.append(Visual(geometry=geometry, origin=self.pose(visual, what), material=material,

@@ -9,24 +9,26 @@ one into a failing test with the readable report.
 A /tf_static whose messages hold no transforms (tfrec records one for a robot without fixed
 joints; its ``.rrd`` has none) is the same as no /tf_static: the report's notes say so.
 
-Robots: a recording of several robots (namespaces, or several descriptions on one topic,
-:func:`tfrec.robots.find_robots`) is compared robot by robot — each robot's description and TF
-with the robot of the same key in the other recording, each namespace's joint states with the
-same namespace's — and every difference names its robot. Two recordings of one robot each are
-compared whatever their namespaces. Frame ids are compared as tf2 sees them (no leading slash).
+Robots (:func:`tfrec.robots.find_robots`): compared robot by robot (:func:`tfrec.robots.pair_robots`),
+each difference naming its robot; joint states namespace by namespace. Frame ids as tf2 sees them.
 
 Time: samples are aligned by time since each recording's start, so two recordings made at
 different wall-clock times compare; ``absolute=True`` aligns on the stamps. A recording's start
 (:func:`tfrec.resample.data_start_ns`) is the first stamp of its time series, /joint_states or /tf, whichever
 comes first — not its first message: a latched /robot_description or /tf_static published
 seconds before the data does not shift it. ``tfrec replay --start`` counts from the same start.
-Samples are on their header stamps (or their log times, ``use_log_time``); the topic table's
-spans are log times, counted from when that first /joint_states or /tf message was logged — so a
-simulation's stamps (seconds since it started) are never mixed with the wall clock of the log.
+The topic table's spans are log times, counted from when that first message was logged: sim-time
+stamps and the log's wall clock never mix.
 Where A's times fall between B's samples, B is interpolated at A's times — linearly for joint
 positions and translations, by slerp for rotations — and the report says so (not when B merely
 has more samples or a longer span, its samples at A's times where both have data). A's samples
 outside B's time span have no counterpart and are reported as such.
+
+Float32: when either recording stores transforms as float32 (an ``.rrd``), a transform compares
+within what float32 can tell apart at its magnitude — ``max(pos_tol, 4·eps32·|t|)`` for a
+translation ``t`` (m) and ``max(rot_tol, 4·eps32)`` for a rotation (rad), eps32 = 2⁻²³ — so a
+recording equals its own ``.rrd``; the report's notes say when and by how much this widened a
+tolerance.
 
 Errors: a translation error is the distance between the two translations (m); a rotation error
 is the angle of the relative rotation ``q_a⁻¹ q_b``, ``2·atan2(|v|, |w|)``
@@ -58,6 +60,7 @@ from tfrec.conventions import (
     namespace_name,
     split_topic,
 )
+from tfrec.diff.precision import FLOAT32_ULPS, float32_tolerance
 from tfrec.diff.report import Difference, DiffReport, Largest, at_time, format_time
 from tfrec.errors import DiffError
 from tfrec.formats._collect import decodes_type
@@ -65,18 +68,20 @@ from tfrec.formats.reader import read_recording
 from tfrec.kinematics.rotations import rotation_error
 from tfrec.recording import FrameSeries, JointStates, Recording
 from tfrec.resample import Alignment, align, data_start_ns, log_start_ns
-from tfrec.robots import RecordedRobot, find_robots
+from tfrec.robots import RecordedRobot, find_robots, pair_robots
 
 __all__ = [
     "DEFAULT_JOINT_TOL",
     "DEFAULT_POS_TOL",
     "DEFAULT_ROT_TOL",
     "FLOAT32_TOL",
+    "FLOAT32_ULPS",
     "DiffReport",
     "Difference",
     "assert_recordings_match",
     "compare",
     "data_start_ns",
+    "float32_tolerance",
     "rotation_error",
 ]
 
@@ -104,6 +109,8 @@ class _Comparison:
         self.rot_tol = report.tolerances["rot_tol"]
         self.joint_tol = report.tolerances["joint_tol"]
         self.interpolated: dict[str, list[str]] = {}  # "(A 50 Hz, B 100 Hz)" → what
+        self.float32 = a.float32 or b.float32
+        self.widened: dict[str, float] = {}  # quantity → the largest float32 tolerance used above the user's
         self.origin_a = 0 if absolute else data_start_ns(a) or 0
         self.origin_b = 0 if absolute else data_start_ns(b) or 0
         self.log_origin_a = 0 if absolute else log_start_ns(a) or 0  # the topic table's log times count from these
@@ -128,13 +135,7 @@ class _Comparison:
 
     def robots(self, namespace: str | None) -> None:
         """Compare the recordings robot by robot (see the module docstring)."""
-        found_a, found_b = find_robots(self.a, namespace=namespace), find_robots(self.b, namespace=namespace)
-        if len(found_a) == 1 and len(found_b) == 1:
-            pairs: list[tuple[RecordedRobot | None, RecordedRobot | None]] = [(found_a[0], found_b[0])]
-        else:
-            by_key = {robot.key: robot for robot in found_b}
-            pairs = [(robot, by_key.pop(robot.key, None)) for robot in found_a]
-            pairs += [(None, robot) for robot in by_key.values()]
+        pairs = pair_robots(find_robots(self.a, namespace=namespace), find_robots(self.b, namespace=namespace))
         several = len(pairs) > 1
         joint_states: set[tuple[str, str]] = set()
         for ra, rb in pairs:
@@ -144,7 +145,7 @@ class _Comparison:
                 robot = ra or rb
                 assert robot is not None
                 self.who = ""
-                self.diff("robot", robot.label, f"{robot.label} only in {side} ({_contents(robot)})")
+                self.diff("robot", robot.label, f"{robot.label} only in {side} ({robot.contents()})")
                 continue
             self.description(ra.description, rb.description)
             self.transforms(ra, rb)
@@ -230,9 +231,9 @@ class _Comparison:
             self.diff(kind, what,
                       f"{what}: {alignment.outside} sample(s) of B lie outside A's time span (no data in A)")
 
-    def errors(self, kind: str, what: str, quantity: str, unit: str, tol: float, error: Array,
+    def errors(self, kind: str, what: str, quantity: str, unit: str, tol: float | Array, error: Array,
                times: NDArray[np.int64]) -> None:
-        """Report the largest error and when it first exceeds ``tol``."""
+        """Report the largest error and when it first exceeds ``tol`` (one per sample, or for all)."""
         if len(error) == 0:
             return
         worst = int(np.argmax(error))
@@ -255,7 +256,7 @@ class _Comparison:
         else:
             detail = (
                 f"{what}: {quantity} differs by up to {_num(value)}{unit}{at_time(int(times[worst]))}; "
-                f"first above {tol:g}{unit}{at_time(int(times[first]))}"
+                f"first above {np.broadcast_to(tol, error.shape)[first]:g}{unit}{at_time(int(times[first]))}"
                 f" ({int(over.sum())} of {len(error)} samples)"
             )
         self.diff(kind, what, detail, int(times[first]), value)
@@ -332,26 +333,32 @@ class _Comparison:
         rotation_a = sa.rotation[alignment.inside]
         trans = np.linalg.norm(translation_a - alignment.linear(sb.translation), axis=1)
         rot = rotation_error(rotation_a, alignment.rotations(sb.rotation))
-        self.errors("tf", label, "translation", "m", self.pos_tol, _nan_is_inf(trans), times)
-        self.errors("tf", label, "rotation", "rad", self.rot_tol, _nan_is_inf(rot), times)
+        pos_tol, rot_tol = self.transform_tolerances(translation_a)
+        self.errors("tf", label, "translation", "m", pos_tol, _nan_is_inf(trans), times)
+        self.errors("tf", label, "rotation", "rad", rot_tol, _nan_is_inf(rot), times)
 
     def static_pair(self, label: str, va: tuple[Array, Array], vb: tuple[Array, Array]) -> None:
         trans = float(np.linalg.norm(va[0] - vb[0]))
         rot = float(rotation_error(va[1], vb[1]))
-        for quantity, unit, tol, value in (("translation", "m", self.pos_tol, trans),
-                                           ("rotation", "rad", self.rot_tol, rot)):
+        pos_tol, rot_tol = self.transform_tolerances(va[0][np.newaxis])
+        for quantity, unit, tol, value in (("translation", "m", float(pos_tol[0]), trans),
+                                           ("rotation", "rad", float(rot_tol[0]), rot)):
             self.largest(quantity, value, label, None)
             if not value <= tol:
                 self.diff("tf_static", label, f"{label}: {quantity} differs by {_num(value)} {unit}", None, value)
 
-
-def _contents(robot: RecordedRobot) -> str:
-    """``marm, 9 frame pairs``: what a robot of one recording only holds."""
-    parts = [robot.name or "no description"]
-    pairs = len(robot.tf) + len(robot.tf_static)
-    if pairs:
-        parts.append(f"{pairs} frame pair{'s' if pairs != 1 else ''}")
-    return ", ".join(parts)
+    def transform_tolerances(self, translation: Array) -> tuple[Array, Array]:
+        """The translation and rotation tolerances of each of n transforms (translations (n, 3)):
+        the user's, widened to what float32 tells apart when a recording holds float32."""
+        n = len(translation)
+        if not self.float32:
+            return np.full(n, self.pos_tol), np.full(n, self.rot_tol)
+        pos = float32_tolerance(self.pos_tol, np.linalg.norm(np.nan_to_num(translation), axis=1))
+        rot = float32_tolerance(self.rot_tol, np.ones(n))
+        for quantity, tol, user in (("translation", pos, self.pos_tol), ("rotation", rot, self.rot_tol)):
+            if n and float(tol.max()) > user:
+                self.widened[quantity] = max(self.widened.get(quantity, 0.0), float(tol.max()))
+        return pos, rot
 
 
 def _nan_is_inf(error: Array) -> Array:
@@ -449,10 +456,13 @@ def compare(
             f"positions and translations, slerp for rotations): {'; '.join(groups)}"
         )
     float32 = [rec.path for rec in (rec_a, rec_b) if rec.float32]
-    if float32 and min(tolerances["pos_tol"], tolerances["rot_tol"]) < 1e-6:
+    if float32 and cmp.widened:
+        widened = [f"{quantity}s within up to {tol:.3g} {'m' if quantity == 'translation' else 'rad'}"
+                   for quantity, tol in sorted(cmp.widened.items(), reverse=True)]
         report.notes.append(
-            f"{' and '.join(float32)} store{'s' if len(float32) == 1 else ''} transforms as float32: "
-            f"rounding alone differs by up to ~1e-7; compare with `pos_tol` {FLOAT32_TOL:g} `rot_tol` {FLOAT32_TOL:g}"
+            f"{' and '.join(float32)} store{'s' if len(float32) == 1 else ''} transforms as float32: they were "
+            f"compared at the precision float32 holds, max(`pos_tol`, 4·eps32·|t|) and max(`rot_tol`, 4·eps32) "
+            f"(eps32 = 1.19e-07): {', '.join(widened)}"
         )
     return report
 
@@ -473,8 +483,17 @@ def assert_recordings_match(
 
     Raises:
         AssertionError: the recordings differ; the message is :meth:`DiffReport.to_text`.
+
+    A or B may be a robot description too (a :class:`~tfrec.model.Robot`, or a path that is no
+    recording): then it is :func:`tfrec.diff.assert_descriptions_match`.
     """
     __tracebackhide__ = True  # pytest: show the report, not this frame
+    from tfrec.diff.inputs import is_description
+
+    if is_description(a) or is_description(b):
+        from tfrec.diff.motion import assert_descriptions_match
+
+        return assert_descriptions_match(a, b, **options)  # type: ignore[return-value]
     report = compare(a, b, **options)
     if not report.equal:
         raise AssertionError("recordings differ: " + report.to_text())

@@ -25,7 +25,7 @@ from tfrec.recording import FrameSeries, JointStates
 from tfrec.replay.pacing import BATCH_WALL_S, Clock, MonotonicClock, Pacer, batches
 from tfrec.replay.prepared import Replay, RobotReplay
 
-__all__ = ["PlayResult", "ReplaySink", "check_play_options", "play", "replay_to_rerun"]
+__all__ = ["PlayResult", "ReplaySink", "check_play_options", "play", "replay_to_rerun", "sample_poses"]
 
 Array = NDArray[np.float64]
 Pair = tuple[str, str]
@@ -42,7 +42,7 @@ class ReplaySink(Protocol):
 
     def begin(self, *, start_time_ns: int, name: str, robot_description: str | None,
               static: dict[Pair, tuple[Array, Array]], frames: Sequence[str], root: str | None,
-              first_pose: dict[Pair, tuple[Array, Array]], robot: int = 0) -> None: ...
+              poses: dict[Pair, tuple[Array, Array]], robot: int = 0) -> None: ...
 
     def write_transforms(self, parent: str, child: str, time_ns: NDArray[np.int64], translation: Array,
                          rotation: Array, *, robot: int = 0) -> None: ...
@@ -114,7 +114,7 @@ def play(
             sink.begin(start_time_ns=replay.start_ns if replay.start_ns is not None else replay.origin_ns,
                        name=name, robot_description=robot.robot_description, static=robot.static,
                        frames=robot.frames(), root=robot.root_frame(), robot=index,
-                       first_pose={pair: (s.translation[0], s.rotation[0]) for pair, s in robot.tf.items() if len(s)})
+                       poses=sample_poses(replay, robot=robot))
         streams = [_Streams(index, robot) for index, robot in enumerate(robots)]
         if replay.start_ns is None:
             sink.finish()
@@ -143,6 +143,27 @@ def play(
         sink.abort()
         raise
     return PlayResult(passes, sent, slept)
+
+
+REACH_SAMPLES = 64
+"""Instants of a replay at which the camera's framing of the robot is computed."""
+
+
+def sample_poses(replay: Replay, count: int = REACH_SAMPLES, *,
+                 robot: RobotReplay | None = None) -> dict[Pair, tuple[Array, Array]]:
+    """Each /tf pair's transform (of ``robot``, default the first) at ``count`` instants spread evenly
+    over the replay (its latest sample at or before each; its first before it starts): (translations
+    (K, 3), rotations (K, 4))."""
+    tf = (robot or replay.robots[0]).tf
+    series = {pair: s for pair, s in tf.items() if len(s)}
+    if not series or replay.start_ns is None or replay.end_ns is None:
+        return {}
+    instants = np.linspace(replay.start_ns, replay.end_ns, count).astype(np.int64)
+    out = {}
+    for pair, s in series.items():
+        index = np.clip(np.searchsorted(s.time_ns, instants, side="right") - 1, 0, len(s) - 1)
+        out[pair] = (s.translation[index], s.rotation[index])
+    return out
 
 
 def _check_loop(loop: bool, *, live: bool) -> None:

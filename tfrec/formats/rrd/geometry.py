@@ -8,13 +8,11 @@ file's ``<unit meter>`` and ignoring its up axis, as RViz does. Meshes that brin
 materials keep them; others get the URDF material colour (RViz's rule, too).
 
 Every column built here is static and has one row; :mod:`tfrec.formats.rrd.sink` sends them.
-:func:`fit_eye` places the 3D view's camera around the robot.
 """
 
 from __future__ import annotations
 
 import logging
-import math
 import os
 import struct
 from collections.abc import Iterator, Mapping, Sequence
@@ -25,25 +23,14 @@ from typing import Any
 
 import numpy as np
 import rerun as rr
-import rerun.blueprint as rrb
-from numpy.typing import NDArray
 
 from tfrec.description.packages import PackageFinder
 from tfrec.errors import DescriptionError
-from tfrec.kinematics.fk import Transforms
-from tfrec.kinematics.rotations import quaternion_from_rpy, quaternion_rotate
+from tfrec.kinematics.rotations import quaternion_from_rpy
 from tfrec.model import Box, Cylinder, Material, Mesh, Robot, Sphere, Visual
 
-__all__ = [
-    "MeshAsset",
-    "MeshLoader",
-    "default_axis_length",
-    "fit_eye",
-    "missing_meshes",
-    "rgba8",
-    "visual_columns",
-    "visual_radius",
-]
+__all__ = ["MeshAsset", "MeshLoader", "colour_archetype", "default_axis_length", "missing_meshes", "rgba8",
+           "visual_columns", "visual_radius"]
 
 _NATIVE_MEDIA_TYPES = {
     ".stl": "model/stl",
@@ -193,12 +180,21 @@ def rgba8(material: Material | None) -> int | None:
     return (r << 24) | (g << 16) | (b << 8) | a
 
 
-def visual_columns(visual: Visual, asset: MeshAsset | None) -> list[Any]:
+def colour_archetype(visual: Visual) -> str:
+    """The archetype :func:`visual_columns` logs a visual's colour with: ``Boxes3D``, ``Cylinders3D``,
+    ``Ellipsoids3D`` (``colors``) or ``Asset3D`` (``albedo_factor``)."""
+    kinds = {Box: "Boxes3D", Cylinder: "Cylinders3D", Sphere: "Ellipsoids3D"}
+    return kinds.get(type(visual.geometry), "Asset3D")
+
+
+def visual_columns(visual: Visual, asset: MeshAsset | None, *, colour: int | None = None) -> list[Any]:
     """The static columns of one visual: its origin as ``InstancePoses3D`` and its shape.
 
     Args:
         visual: the URDF visual.
         asset: the mesh to embed when the geometry is a mesh (None: the origin alone).
+        colour: 0xRRGGBBAA for the shape instead of its material's (a mesh's own colours too);
+            0 for no colour at all.
 
     Returns:
         Component columns of one row each, for ``rr.send_columns`` with no index.
@@ -212,8 +208,10 @@ def visual_columns(visual: Visual, asset: MeshAsset | None) -> list[Any]:
             scales=[scale],
         )
     )
-    colour = rgba8(visual.material)
-    colours = None if colour is None else [colour]
+    own = colour is None
+    if colour is None:
+        colour = rgba8(visual.material)
+    colours = None if not colour else [colour]
     solid = [rr.components.FillMode.Solid]
     if isinstance(geometry, Box):
         columns += rr.Boxes3D.columns(half_sizes=[np.asarray(geometry.size) / 2.0], colors=colours, fill_mode=solid)
@@ -224,7 +222,7 @@ def visual_columns(visual: Visual, asset: MeshAsset | None) -> list[Any]:
     elif isinstance(geometry, Sphere):
         columns += rr.Ellipsoids3D.columns(half_sizes=[[geometry.radius] * 3], colors=colours, fill_mode=solid)
     elif asset is not None:
-        albedo = None if asset.own_colours or colour is None else [colour]
+        albedo = None if (asset.own_colours and own) or not colour else [colour]
         columns += rr.Asset3D.columns(blob=[asset.contents], media_type=[asset.media_type], albedo_factor=albedo)
     return columns
 
@@ -251,51 +249,6 @@ def default_axis_length(robot: Robot) -> float:
     for joint in robot.tree_order:
         reach[joint.child] = reach.get(joint.parent, 0.0) + float(np.linalg.norm(joint.origin.xyz))
     return min(max(0.1 * max(reach.values()), 0.02), 0.25)
-
-
-def fit_eye(
-    robot: Robot, world: Transforms, *, frame_prefix: str = "", radii: Mapping[tuple[str, int], float]
-) -> rrb.EyeControls3D | None:
-    """A camera that sees the robot at the poses ``world``, from front-left and above.
-
-    RViz's orbit view starts at 45° yaw and pitch; this looks from 45° yaw, 30° pitch at the
-    middle of the space the links and visuals take up in ``world``, from a distance that fits it.
-
-    Args:
-        robot: the robot.
-        world: root_from_frame at N instants, as from :func:`tfrec.kinematics.root_from_link`.
-        frame_prefix: in front of the link names in ``world``'s frame ids.
-        radii: (link, visual index) → the visual's :func:`visual_radius` (0 when missing).
-
-    Returns:
-        The camera, or None when no link is placed.
-    """
-    by_frame = {child: k for k, child in enumerate(world.children)}
-    points: list[NDArray[np.float64]] = []
-    sizes: list[float] = []
-    for link in robot.links:
-        k = by_frame.get(frame_prefix + link.name)
-        if k is None:
-            continue
-        origin = world.translation[:, k]
-        points.append(origin)
-        sizes.append(0.0)
-        for index, visual in enumerate(link.visuals):
-            points.append(origin + quaternion_rotate(world.rotation[:, k], np.asarray(visual.origin.xyz)))
-            sizes.append(radii.get((link.name, index), 0.0))
-    if not points:
-        return None
-    cloud = np.concatenate(points)
-    pad = np.repeat(sizes, len(world))[:, np.newaxis]
-    low, high = (cloud - pad).min(axis=0), (cloud + pad).max(axis=0)
-    centre = (low + high) / 2.0
-    radius = max(float(np.max(np.linalg.norm(cloud - centre, axis=1) + pad[:, 0])), 0.1)
-    distance = 2.0 * radius
-    yaw, pitch = math.radians(45.0), math.radians(30.0)
-    direction = np.array([math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch)])
-    return rrb.EyeControls3D(
-        position=(centre + distance * direction).tolist(), look_target=centre.tolist(), eye_up=[0.0, 0.0, 1.0]
-    )
 
 
 MESHES_LISTED = 3

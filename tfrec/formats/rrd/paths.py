@@ -16,7 +16,10 @@ Entity paths (``<link>`` and ``<joint>`` are URDF names, escaped with
 - ``/tf/<joint>``: ``Transform3D`` of a moving joint, *ros_time*;
 - ``/joints/<joint>``: ``Scalars``, the joint position (rad or m), *ros_time*;
 - ``/joint_velocities/<joint>``: ``Scalars``, the joint velocity (rad/s or m/s), *ros_time*;
-- ``/robot_description``: ``TextDocument``, the expanded URDF.
+- ``/robot_description``: ``TextDocument``, the expanded URDF;
+- ``/tf_tree``: ``GraphNodes`` (the frames) and ``GraphEdges`` (parent → child): the TF tree.
+
+Joint plots carry a ``SeriesLines`` style (the joint's colour and name) beside their ``Scalars``.
 
 A replay may hold frames the robot model does not name (or have no model); they keep entities
 of their own: ``/tf/<parent>/<child>`` (*ros_time*) and ``/tf_static/<parent>/<child>`` for a
@@ -43,6 +46,7 @@ __all__ = [
     "ROBOT_ROOT",
     "TF_ROOT",
     "TF_STATIC_ROOT",
+    "TF_TREE_ROOT",
     "TIMELINE",
     "VELOCITIES_ROOT",
     "joint_entity",
@@ -68,6 +72,7 @@ TF_STATIC_ROOT = "tf_static"
 JOINTS_ROOT = "joints"
 VELOCITIES_ROOT = "joint_velocities"
 DESCRIPTION_ROOT = "robot_description"
+TF_TREE_ROOT = "tf_tree"
 """The top-level entity names (``/robot_description`` is an entity of its own)."""
 
 _UNESCAPED = {"n": "\n", "r": "\r", "t": "\t"}

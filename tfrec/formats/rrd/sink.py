@@ -1,16 +1,14 @@
 """The Rerun sink: a robot's TF, joint states and geometry as Rerun data, for record and replay.
 
 Opened with ``rerun OUT.rrd`` it shows what RViz shows with the RobotModel and TF displays, plus
-plots of the joint states. It uses Rerun's named transform frames, which model ROS's tf2: every
+plots of the joint states and the TF tree (the layout: :mod:`tfrec.formats.rrd.blueprint`). It uses Rerun's named transform frames, which model ROS's tf2: every
 link is a frame named like its TF frame (``frame_prefix`` + link name), joint transforms relate
 frame pairs, and geometry is attached to frames.
 
 ``tfrec record`` writes a ``.rrd`` file through :class:`RerunSink`; ``tfrec replay`` logs
 through the same sink (:mod:`tfrec.formats.rrd.viewer`) to a file, a spawned viewer or a running one,
 so a replayed recording has the entities of a recorded one.
-
-Entity paths and the timeline are defined in :mod:`tfrec.formats.rrd.paths`.
-"""
+Entity paths and the timeline: :mod:`tfrec.formats.rrd.paths`."""
 
 from __future__ import annotations
 
@@ -26,20 +24,14 @@ import rerun.blueprint as rrb
 from numpy.typing import NDArray
 
 from tfrec.errors import KinematicsError, WriteError
+from tfrec.formats.rrd.blueprint import Reach, blueprint_of, joint_colour, joint_units, robot_layout, tf_tree_columns
 from tfrec.formats.rrd.columns import check_stamps, repeated_strings, time_column
-from tfrec.formats.rrd.geometry import (
-    MeshLoader,
-    default_axis_length,
-    fit_eye,
-    missing_meshes,
-    visual_columns,
-    visual_radius,
-)
-from tfrec.formats.rrd.layout import blueprint_of, robot_views
+from tfrec.formats.rrd.geometry import MeshLoader, default_axis_length, missing_meshes, visual_columns, visual_radius
 from tfrec.formats.rrd.paths import (
     APPLICATION_ID,
     DESCRIPTION_ROOT,
     ROBOT_ROOT,
+    TF_TREE_ROOT,
     joint_entity,
     link_entity,
     pair_entity,
@@ -56,11 +48,9 @@ __all__ = ["RerunSink"]
 
 Array = NDArray[np.float64]
 
-_EYE_SAMPLES = 256
-"""Samples of the first chunk the default camera is fitted to."""
-
-_FRAME_AXIS_LENGTH_M = 0.1
-"""Length of the TF axes of frames that are not links of the robot."""
+_EYE_SAMPLES = 64
+"""Instants of each chunk (evenly spread) the robot's reach, and so the camera, is fitted to."""
+_FRAME_AXIS_LENGTH_M = 0.1  # of the TF axes of frames that are not links of the robot
 
 _FLUSH_BYTES = 16 << 20
 """Payload bytes sent between two blocking flushes. ``send_columns`` only queues a chunk for Rerun's
@@ -71,25 +61,24 @@ slower than the sender would hold any amount of the recording in memory."""
 class RerunSink:
     """Logs one robot recording to Rerun, streamed: to a ``.rrd`` file, or to any recording stream.
 
-    Call :meth:`begin` once, then log the samples, then :meth:`finish`; after an error call
-    :meth:`abort`. ``tfrec record`` logs a trajectory with :meth:`write_chunk`, all joints at
-    shared stamps increasing from chunk to chunk; a replay logs each frame pair with
-    :meth:`write_transforms` and the joint states with :meth:`write_joint_positions`, in any
-    order (only each pair's own stamps must not go back). Memory stays flat with the recording's
-    duration: the sink waits for Rerun's writer after every 16 MiB of data sent.
+    :meth:`begin` once, then the samples, then :meth:`finish` (:meth:`abort` after an error). ``tfrec
+    record`` logs chunks of a trajectory (:meth:`write_chunk`); a replay each frame pair
+    (:meth:`write_transforms`) and the joint states (:meth:`write_joint_positions`), in any order.
+    Memory stays flat: the sink waits for Rerun's writer after every 16 MiB of data sent.
 
     Args:
         path: the file to write (the caller renames it into place on success); see
             :meth:`from_stream` for a viewer.
-        robot: the robot; its ``source`` anchors relative mesh paths and its own package. None
-            logs transforms alone (a replay without a robot model).
-        recording_id: the Rerun recording id; derive it from the inputs for reproducible files
-            (None: a new random one).
+        robot: the robot (its ``source`` anchors relative mesh paths); None: transforms alone.
+        recording_id: the Rerun recording id; derive it from the inputs for reproducible files.
         package_paths: folders searched first for ``package://`` meshes.
         frame_prefix: put in front of every TF frame id (as in the transforms given).
         axis_length_m: length of the links' TF axes; default: a tenth of the robot's reach,
             between 2 cm and 25 cm.
-        entity_root: put in front of every entity path (``/robot1``: one robot of several).
+        entity_prefix: put in front of every entity path but ``/`` and ``/__properties``
+            (``/a``: two robots in one recording, :mod:`tfrec.formats.rrd.overlay`).
+        colour: one colour (0xRRGGBBAA) for every visual instead of its material's (a ghost); 0
+            for none (to colour them over time: static colours would hide those).
 
     Raises:
         WriteError: the file cannot be created.
@@ -104,7 +93,8 @@ class RerunSink:
         package_paths: Sequence[str | os.PathLike[str]] = (),
         frame_prefix: str = "",
         axis_length_m: float | None = None,
-        entity_root: str = "",
+        entity_prefix: str = "",
+        colour: int | None = None,
     ) -> None:
         file = Path(path)
         stream = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id, send_properties=False)
@@ -117,7 +107,8 @@ class RerunSink:
         except RuntimeError as err:  # Rerun could not write the file's header
             raise WriteError(f"{file}: cannot write: {err}") from err
         self._setup(stream, target=os.fspath(file), file=file, robot=robot, package_paths=package_paths,
-                    frame_prefix=frame_prefix, axis_length_m=axis_length_m, entity_root=entity_root)
+                    frame_prefix=frame_prefix, axis_length_m=axis_length_m, entity_prefix=entity_prefix,
+                    colour=colour)
 
     @classmethod
     def from_stream(
@@ -126,22 +117,17 @@ class RerunSink:
         *,
         target: str,
         robot: Robot | None,
-        package_paths: Sequence[str | os.PathLike[str]] = (),
-        frame_prefix: str = "",
-        axis_length_m: float | None = None,
-        entity_root: str = "",
+        **options: Any,
     ) -> RerunSink:
-        """A sink logging to a stream already pointed at its target (a spawned viewer, a connection,
-        another sink's stream: :attr:`stream`).
+        """A sink logging to a stream already pointed at its target (a spawned viewer, a connection).
 
         Args:
             stream: the recording stream, of application id :data:`APPLICATION_ID`.
             target: what the stream goes to, for error messages (a URL, "the Rerun viewer on port 9876").
-            robot, package_paths, frame_prefix, axis_length_m, entity_root: as for the constructor.
+            robot, **options: as for the constructor (``package_paths``, ``frame_prefix``, ...).
         """
         sink = cls.__new__(cls)
-        sink._setup(stream, target=target, file=None, robot=robot, package_paths=package_paths,
-                    frame_prefix=frame_prefix, axis_length_m=axis_length_m, entity_root=entity_root)
+        sink._setup(stream, target=target, file=None, robot=robot, **options)
         return sink
 
     def _setup(
@@ -151,13 +137,15 @@ class RerunSink:
         target: str,
         file: Path | None,
         robot: Robot | None,
-        package_paths: Sequence[str | os.PathLike[str]],
-        frame_prefix: str,
-        axis_length_m: float | None,
-        entity_root: str = "",
+        package_paths: Sequence[str | os.PathLike[str]] = (),
+        frame_prefix: str = "",
+        axis_length_m: float | None = None,
+        entity_prefix: str = "",
+        colour: int | None = None,
     ) -> None:
         self._rec = stream
-        self._root = entity_root.rstrip("/")
+        self._root = entity_prefix.rstrip("/")
+        self._colour = colour
         self._target = target
         self._file = file
         self._robot = robot
@@ -172,8 +160,11 @@ class RerunSink:
         self._joint_of_child = {frame_prefix + joint.child: joint.name for joint in joints}
         self._other_frames: set[str] = set()
         self._static: Transforms | None = None
-        self._eye: rrb.EyeControls3D | None = None
         self._visual_radii: dict[tuple[str, int], float] = {}
+        self._reach = Reach(robot, frame_prefix, self._visual_radii) if robot is not None else None
+        self._joint_order = {joint.name: k for k, joint in enumerate(joints)}
+        self._units: dict[str, str] = {}  # joint logged → its unit
+        self._tf_tree = False
         self._last_time_ns: int | None = None
         self._last_pair_ns: dict[tuple[str, str], int] = {}
         self._has_velocities = False
@@ -181,14 +172,18 @@ class RerunSink:
         self._unflushed_bytes = 0
 
     @property
-    def path(self) -> Path | None:
-        """The file written, or None for a sink made with :meth:`from_stream`."""
-        return self._file
+    def reach(self) -> Reach | None:  # the space the robot took up in what was logged (None without a robot)
+        return self._reach
 
     @property
     def stream(self) -> rr.RecordingStream:
-        """The recording stream, for more sinks into the same recording (:meth:`from_stream`)."""
+        """The recording stream logged to (for a second robot, :meth:`from_stream`)."""
         return self._rec
+
+    @property
+    def path(self) -> Path | None:
+        """The file written, or None for a sink made with :meth:`from_stream`."""
+        return self._file
 
     # -- what does not change --------------------------------------------------------------
 
@@ -212,23 +207,25 @@ class RerunSink:
             robot_description: the URDF text, kept at ``/robot_description``.
             name: the recording's name in the viewer (default: the robot's).
             root: the frame the 3D view is drawn in when there is no robot (with one: its root link).
-            properties: log the recording's name, start time and view coordinates (not for the
-                second robot of a replay).
+            properties: log the recording's name and start time and the view coordinates (a
+                second robot in the same recording does not).
 
-        A mesh that cannot be found or read gives one warning naming the file and the link;
+        Meshes that cannot be found or read give one warning naming how many, and the first few;
         the rest of the robot is logged.
         """
         self._static = static
         robot = self._robot
         if name is None and robot is not None:
             name = robot.name
-        # The recording's name and start time, in one chunk (the SDK's own calls go through its
-        # batcher, whose time-based flushes split them differently from run to run).
+        # The recording's name and start time (the first stamp, no wall clock), in one chunk (the SDK's
+        # own calls go through its batcher, whose time-based flushes split them differently from run to run).
         if properties:
-            info = rr.archetypes.RecordingInfo.columns(start_time=[int(start_time_ns)],
-                                                       name=None if name is None else [name])
-            self._send_static("/__properties", info, rooted=False)
-            self._send_static("/", rr.ViewCoordinates.columns(xyz=[rr.ViewCoordinates.RIGHT_HAND_Z_UP]), rooted=False)
+            for entity, columns in (
+                ("/__properties", rr.archetypes.RecordingInfo.columns(start_time=[int(start_time_ns)],
+                                                                      name=None if name is None else [name])),
+                ("/", rr.ViewCoordinates.columns(xyz=[rr.ViewCoordinates.RIGHT_HAND_Z_UP])),
+            ):
+                rr.send_columns(entity, indexes=[], columns=columns, recording=self._rec, strict=True)
         if robot is not None:
             root = self._prefix + robot.root
         if root is not None:
@@ -240,21 +237,16 @@ class RerunSink:
         for k, (parent, child) in enumerate(zip(static.parents, static.children)):
             joint = self._joint_of_child.get(child)
             entity = tf_static_entity(joint) if joint is not None else static_pair_entity(parent, child)
-            self._send_static(
-                entity,
-                rr.Transform3D.columns(
-                    translation=static.translation[:1, k],
-                    quaternion=static.rotation[:1, k],
-                    parent_frame=[parent],
-                    child_frame=[child],
-                ),
-            )
+            self._send_static(entity, rr.Transform3D.columns(
+                translation=static.translation[:1, k], quaternion=static.rotation[:1, k], parent_frame=[parent],
+                child_frame=[child]))
+        self.fit_camera(Transforms((), (), np.zeros((1, 0, 3)), np.zeros((1, 0, 4))))  # the fixed joints' reach
 
     def log_robot(self) -> None:
         """Log every link's frame and TF axes and its visuals' geometry (:meth:`begin` does).
 
-        Meshes that cannot be found or read give one warning: how many, and the first few
-        (file, link and why); the visuals' entities are logged without them.
+        Meshes that cannot be found or read give one warning: how many, and the first few (file,
+        link and why); the visuals' entities are logged without them.
         """
         robot = self._robot
         if robot is None:
@@ -265,7 +257,7 @@ class RerunSink:
             frame = [self._prefix + link.name]
             self._send_static(link_entity(link.name), [
                 *rr.CoordinateFrame.columns(frame=frame),
-                *rr.TransformAxes3D.columns(axis_length=[self._axis_length_m], show_frame=[True])])
+                *rr.TransformAxes3D.columns(axis_length=[self._axis_length_m], show_frame=[False])])
             for index, visual in enumerate(link.visuals):
                 asset = None
                 if isinstance(visual.geometry, Mesh):
@@ -276,10 +268,11 @@ class RerunSink:
                     else:
                         asset = found
                 self._visual_radii[(link.name, index)] = visual_radius(visual, asset)
-                columns = [*rr.CoordinateFrame.columns(frame=frame), *visual_columns(visual, asset)]
-                self._send_static(visual_entity(link.name, index), columns)
+                self._send_static(visual_entity(link.name, index), [
+                    *rr.CoordinateFrame.columns(frame=frame), *visual_columns(visual, asset, colour=self._colour)])
         if missing:
             warnings.warn(missing_meshes(missing), stacklevel=3)
+        self.log_tf_tree([(self._prefix + j.parent, self._prefix + j.child) for j in robot.tree_order])
 
     def log_frames(self, frames: Iterable[str]) -> None:
         """Log TF axes at ``/robot/<frame>`` for each frame that is no link of the robot, once."""
@@ -289,8 +282,15 @@ class RerunSink:
             self._other_frames.add(frame)
             self._send_static(link_entity(frame), [
                 *rr.CoordinateFrame.columns(frame=[frame]),
-                *rr.TransformAxes3D.columns(axis_length=[_FRAME_AXIS_LENGTH_M], show_frame=[True]),
+                *rr.TransformAxes3D.columns(axis_length=[_FRAME_AXIS_LENGTH_M], show_frame=[False]),
             ])
+
+    def log_tf_tree(self, pairs: Sequence[tuple[str, str]]) -> None:
+        """Log the TF tree, (parent, child) frame pairs, as a graph at ``/tf_tree`` (once)."""
+        if self._tf_tree or not pairs:
+            return
+        self._tf_tree = True
+        self._send_static(f"/{TF_TREE_ROOT}", tf_tree_columns(pairs))
 
     # -- samples ---------------------------------------------------------------------------
 
@@ -305,7 +305,7 @@ class RerunSink:
     ) -> None:
         """Log a piece of a trajectory: joint states and the moving joints' transforms.
 
-        The first chunk also fits the 3D view's camera (:meth:`fit_camera`).
+        Every chunk widens the robot's reach the 3D view's camera frames (:meth:`fit_camera`).
 
         Args:
             stamp_ns: int64 (n,) absolute stamps (nanoseconds since the epoch), increasing.
@@ -321,10 +321,8 @@ class RerunSink:
         n = len(stamps)
         shape = (n, len(joint_names))
         if np.shape(positions) != shape or np.shape(velocities) != shape or len(transforms) != n:
-            raise WriteError(
-                f"chunk of {n} stamps has positions {np.shape(positions)}, velocities {np.shape(velocities)} "
-                f"and {len(transforms)} transforms; expected {shape}"
-            )
+            raise WriteError(f"chunk of {n} stamps has positions {np.shape(positions)}, velocities "
+                             f"{np.shape(velocities)} and {len(transforms)} transforms; expected {shape}")
         if n == 0:
             return
         if np.any(np.diff(stamps) < 0) or (self._last_time_ns is not None and stamps[0] < self._last_time_ns):
@@ -332,13 +330,13 @@ class RerunSink:
         self._last_time_ns = int(stamps[-1])
         index = [time_column(stamps)]
         for j, name in enumerate(joint_names):
+            self._style_joint(name, velocity=True)
             self._write_scalars(joint_entity(name), index, stamps, positions[:, j])
             self._write_scalars(velocity_entity(name), index, stamps, velocities[:, j])
             self._has_velocities = True
         for k, (parent, child) in enumerate(zip(transforms.parents, transforms.children)):
             self._write_pair(parent, child, index, stamps, transforms.translation[:, k], transforms.rotation[:, k])
-        if self._eye is None:
-            self.fit_camera(transforms)
+        self.fit_camera(transforms)
 
     def write_transforms(
         self, parent: str, child: str, time_ns: NDArray[np.int64], translation: Array, rotation: Array
@@ -383,18 +381,19 @@ class RerunSink:
         if len(stamps):
             index = [time_column(stamps)]
             for j, name in enumerate(names):
+                self._style_joint(name, velocity=False)
                 self._write_scalars(joint_entity(name), index, stamps, positions[:, j])
 
     # -- the view --------------------------------------------------------------------------
 
     def fit_camera(self, moving: Transforms) -> None:
-        """Aim the 3D view's camera at the robot at (up to 256 of) the instants of ``moving``.
+        """Widen the robot's reach (the camera frames it) by the robot at (up to 64 of) the instants of ``moving``.
 
-        ``moving`` is composed with :meth:`begin`'s latched transforms and the camera placed by
-        :func:`tfrec.formats.rrd.geometry.fit_eye`. Without a robot, or when the frames do not form a
-        tree, the viewer's own camera is kept.
+        ``moving`` is composed with :meth:`begin`'s latched transforms; the camera looks at the
+        whole reach (:class:`tfrec.formats.rrd.blueprint.Reach`). Without a robot, or when the frames
+        do not form a tree, the viewer's own camera is kept.
         """
-        if self._static is None or self._robot is None:
+        if self._static is None or self._robot is None or self._reach is None or not len(moving):
             return
         picked = np.unique(np.linspace(0, len(moving) - 1, min(len(moving), _EYE_SAMPLES)).astype(int))
         sampled = Transforms(moving.parents, moving.children, moving.translation[picked], moving.rotation[picked])
@@ -402,20 +401,19 @@ class RerunSink:
             world = root_from_link(self._static, sampled, root=self._prefix + self._robot.root)
         except KinematicsError:  # a frame with two parents (in a replayed recording)
             return
-        self._eye = fit_eye(self._robot, world, frame_prefix=self._prefix, radii=self._visual_radii)
+        self._reach.add(world)
 
-    def blueprint(self) -> rrb.Blueprint:
-        """The layout (:mod:`tfrec.formats.rrd.layout`) of :meth:`views`."""
-        return blueprint_of([self.views()])
+    def blueprint(self) -> rrb.Blueprint:  # the layout (tfrec.formats.rrd.blueprint) of :meth:`layout`
+        return blueprint_of(self.layout())
 
-    def views(self, name: str | None = None) -> rrb.Container:
-        """A 3D view of ``/robot`` (camera from :meth:`fit_camera`) beside a plot of the joint positions,
-        and in a second tab of the joint velocities when some were logged (``name``: a tab's title)."""
-        return robot_views(self._root, eye=self._eye, velocities=self._has_velocities, name=name)
+    def layout(self, name: str | None = None) -> rrb.Container | rrb.View:
+        """The 3D view, joint plots and TF tree of the sink's robot, under its entity prefix (``name``: a tab's)."""
+        units = joint_units(self._robot, [j.name for j in self._robot.moving_joints] if self._robot else []) | self._units
+        return robot_layout(eye=self._reach.eye() if self._reach is not None else None, units=units,
+                                velocities=self._has_velocities, tf_tree=self._tf_tree, root=self._root, name=name)
 
     def send_blueprint(self, blueprint: rrb.Blueprint | None = None) -> None:
-        """Send :meth:`blueprint` (or several sinks' :func:`blueprint_of`) now; :meth:`finish` then sends
-        none (that would reset a live viewer's layout)."""
+        """Send ``blueprint`` (default :meth:`blueprint`) now; :meth:`finish` then sends none."""
         self._rec.send_blueprint(self.blueprint() if blueprint is None else blueprint)
         self._blueprint_sent = True
 
@@ -456,17 +454,25 @@ class RerunSink:
 
     # -- helpers ---------------------------------------------------------------------------
 
-    def _send(self, entity: str, index: list[rr.TimeColumn], columns: Any, *, nbytes: int = 0,
-              rooted: bool = True) -> None:
-        if rooted and self._root:
-            entity = self._root + entity
-        rr.send_columns(entity, indexes=index, columns=columns, recording=self._rec, strict=True)
+    def _send(self, entity: str, index: list[rr.TimeColumn], columns: Any, *, nbytes: int = 0) -> None:
+        rr.send_columns(self._root + entity, indexes=index, columns=columns, recording=self._rec, strict=True)
         self._unflushed_bytes += nbytes
         if self._unflushed_bytes >= _FLUSH_BYTES:
             self.flush()
 
-    def _send_static(self, entity: str, columns: Any, *, rooted: bool = True) -> None:
-        self._send(entity, [], columns, rooted=rooted)
+    def _send_static(self, entity: str, columns: Any) -> None:
+        self._send(entity, [], columns)
+
+    def _style_joint(self, name: str, *, velocity: bool) -> None:
+        """A joint's plot colour and name, once (its colour from its place in the robot's URDF)."""
+        if name in self._units:
+            return
+        self._units[name] = joint_units(self._robot, [name])[name]
+        index = self._joint_order.setdefault(name, len(self._joint_order))
+        style = rr.SeriesLines.columns(colors=[joint_colour(index)], names=[name])
+        self._send_static(joint_entity(name), style)
+        if velocity:
+            self._send_static(velocity_entity(name), style)
 
     def _write_scalars(self, entity: str, index: list[rr.TimeColumn], stamps: NDArray[np.int64],
                        values: Array) -> None:
@@ -486,12 +492,9 @@ class RerunSink:
         self._last_pair_ns[(parent, child)] = int(stamps[-1])
         joint = self._joint_of_child.get(child)
         n = len(stamps)
-        self._send(
-            tf_entity(joint) if joint is not None else pair_entity(parent, child),
-            index,
-            rr.Transform3D.columns(translation=translation, quaternion=rotation,
-                                   parent_frame=repeated_strings(parent, n), child_frame=repeated_strings(child, n)),
-            nbytes=stamps.nbytes + translation.nbytes + rotation.nbytes + n * (len(parent) + len(child)),
-        )
+        columns = rr.Transform3D.columns(translation=translation, quaternion=rotation,
+                                         parent_frame=repeated_strings(parent, n), child_frame=repeated_strings(child, n))
+        self._send(tf_entity(joint) if joint is not None else pair_entity(parent, child), index, columns,
+                   nbytes=stamps.nbytes + translation.nbytes + rotation.nbytes + n * (len(parent) + len(child)))
 
 

@@ -4,7 +4,7 @@ A replay is logged through :class:`tfrec.formats.rrd.sink.RerunSink`, the sink `
 with, so a replayed recording looks like a recorded one: the robot's geometry under
 ``/robot/<link>``, a transform pair whose child frame is a link of the robot at ``/tf/<joint>``
 (``/tf_static/<joint>`` when latched), joint positions at ``/joints/<joint>``, the same
-blueprint with the camera fitted to the robot at its first pose. What the robot model does not
+blueprint with the camera framing the robot's reach over the replay. What the robot model does not
 name keeps its own entities, so nothing recorded is dropped:
 
 ================================  =========================================================
@@ -14,8 +14,8 @@ name keeps its own entities, so nothing recorded is dropped:
 ================================  =========================================================
 
 A recording of several robots (namespaces, or several descriptions on one topic) is replayed
-into one Rerun recording, each robot under its own entity root (``/robot1/robot/<link>``,
-``/robot1/tf/<joint>``…), each in a tab of the blueprint.
+into one Rerun recording, each robot under its own entity prefix (``/robot1/robot/<link>``,
+``/robot1/tf/<joint>``…), each in a tab of the layout.
 
 :class:`RerunReplaySink` adapts the sink to :class:`tfrec.replay.play.ReplaySink`;
 :func:`open_rerun_sink` points it at its target.
@@ -35,7 +35,7 @@ import rerun as rr
 from numpy.typing import NDArray
 
 from tfrec.errors import WriteError
-from tfrec.formats.rrd.layout import blueprint_of
+from tfrec.formats.rrd.blueprint import blueprint_of
 from tfrec.formats.rrd.paths import APPLICATION_ID
 from tfrec.formats.rrd.sink import RerunSink
 from tfrec.kinematics.fk import Transforms
@@ -60,8 +60,8 @@ class RerunReplaySink:
     :meth:`finish` (or :meth:`abort` after an error).
 
     Args:
-        sinks: the Rerun sinks, one per robot, all on one recording stream.
-        names: each robot's name in the blueprint's tabs (when there are several).
+        sinks: the Rerun sinks, one per robot, all on one recording stream (the first one's).
+        names: each robot's name in the layout's tabs (when there are several).
         live: True for a viewer: the static data is flushed at once, to fail early.
     """
 
@@ -79,11 +79,11 @@ class RerunReplaySink:
         static: Mapping[Pair, tuple[Array, Array]],
         frames: Sequence[str] = (),
         root: str | None = None,
-        first_pose: Mapping[Pair, tuple[Array, Array]] | None = None,
+        poses: Mapping[Pair, tuple[Array, Array]] | None = None,
         robot: int = 0,
     ) -> None:
-        """Log what does not change of one robot: geometry, frames, latched transforms, the URDF; after
-        the last robot, the blueprint.
+        """Log what does not change of one robot: geometry, frames, latched transforms, the URDF; after the
+        last robot, the blueprint (one tab per robot when there are several).
 
         Args:
             start_time_ns: the stamp the replay starts at.
@@ -92,8 +92,9 @@ class RerunReplaySink:
             static: /tf_static, (parent, child) → (translation (3,), rotation (4,)).
             frames: every frame id of the robot; those that are not links get TF axes.
             root: the frame the 3D view is drawn in when there is no robot model.
-            first_pose: the first /tf transform of each pair, like ``static``; the 3D view's
-                camera is fitted to the robot there.
+            poses: each /tf pair's transforms at K instants spread over the replay, (parent,
+                child) → (translations (K, 3), rotations (K, 4)); the 3D view's camera frames the
+                robot's reach over them.
             robot: which robot (the order of :func:`open_rerun_sink`'s ``robots``).
 
         Raises:
@@ -104,11 +105,14 @@ class RerunReplaySink:
                    robot_description=robot_description, name=name, root=root, properties=robot == 0)
         sink.log_frames([*frames, *(frame for pair in static for frame in pair)])
         latched = {child for _, child in static}
-        sink.fit_camera(Transforms.from_poses({pair: pose for pair, pose in (first_pose or {}).items()
-                                               if pair[1] not in latched}))
+        moving = {pair: pose for pair, pose in (poses or {}).items() if pair[1] not in latched}
+        if moving:
+            sink.fit_camera(Transforms(tuple(p for p, _ in moving), tuple(c for _, c in moving),
+                                       np.stack([t for t, _ in moving.values()], axis=1),
+                                       np.stack([r for _, r in moving.values()], axis=1)))
         if robot == len(self._sinks) - 1:  # the first sink sends and finishes for all: they share a stream
-            views = [s.views(name or None) for s, name in zip(self._sinks, self._names)]
-            self._sinks[0].send_blueprint(blueprint_of(views) if len(views) > 1 else None)
+            layouts = [s.layout(name or None) for s, name in zip(self._sinks, self._names)]
+            self._sinks[0].send_blueprint(blueprint_of(*layouts) if len(layouts) > 1 else None)
             if self._live:
                 sink.flush()
 
@@ -128,7 +132,7 @@ class RerunReplaySink:
         Raises:
             WriteError: the data could not be written out or sent.
         """
-        self._sinks[0].finish()  # one stream: flushed and closed once
+        self._sinks[0].finish()
 
     def abort(self) -> None:
         """Stop logging; a file target is deleted."""
@@ -159,9 +163,8 @@ def open_rerun_sink(
         recording_id: the recording id (default: a new one).
         robot, frame_prefix: the model and frame prefix of a replay of one robot, as for
             :class:`tfrec.formats.rrd.sink.RerunSink`.
-        robots: (model, frame prefix, entity root) of each robot of a replay of several (instead
-            of ``robot`` and ``frame_prefix``).
-        names: each robot's name in the blueprint's tabs.
+        robots: (model, frame prefix, entity prefix) of each robot of a replay of several, instead.
+        names: each robot's name in the layout's tabs.
         package_paths: folders searched first for ``package://`` meshes.
         port: where a spawned viewer listens; a viewer already listening there is reused.
 
@@ -170,9 +173,9 @@ def open_rerun_sink(
             be spawned.
     """
     parts = list(robots) if robots is not None else [(robot, frame_prefix, "")]
+    model, prefix, root = parts[0]
     if save is not None:
-        model, prefix, root = parts[0]
-        first = RerunSink(save, robot=model, recording_id=recording_id, frame_prefix=prefix, entity_root=root,
+        first = RerunSink(save, robot=model, recording_id=recording_id, frame_prefix=prefix, entity_prefix=root,
                           package_paths=package_paths)
         return RerunReplaySink([first, *_more_sinks(first, parts[1:], package_paths)], names=names, live=False)
     stream = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id)
@@ -191,17 +194,16 @@ def open_rerun_sink(
                 f"cannot spawn the Rerun viewer ({err}); use `save` OUT.rrd or `connect` URL"
             ) from err
         target = f"the Rerun viewer on port {port}"
-    model, prefix, root = parts[0]
-    first = RerunSink.from_stream(stream, target=target, robot=model, frame_prefix=prefix, entity_root=root,
+    first = RerunSink.from_stream(stream, target=target, robot=model, frame_prefix=prefix, entity_prefix=root,
                                   package_paths=package_paths)
     return RerunReplaySink([first, *_more_sinks(first, parts[1:], package_paths)], names=names, live=True)
 
 
 def _more_sinks(first: RerunSink, parts: Sequence[tuple[Robot | None, str, str]],
                 package_paths: Sequence[str | os.PathLike[str]]) -> list[RerunSink]:
-    """Sinks of the other robots of a replay, on the first one's recording stream."""
+    """The other robots' sinks of a replay, on the first one's recording stream."""
     target = str(first.path) if first.path is not None else "the Rerun viewer"
-    return [RerunSink.from_stream(first.stream, target=target, robot=model, frame_prefix=prefix, entity_root=root,
+    return [RerunSink.from_stream(first.stream, target=target, robot=model, frame_prefix=prefix, entity_prefix=root,
                                   package_paths=package_paths) for model, prefix, root in parts]
 
 
