@@ -146,7 +146,7 @@ def test_resource_bounds_refuse_quickly(expr: str) -> None:
     start = time.perf_counter()
     with pytest.raises(ExpressionRefused):
         run(expr)
-    assert time.perf_counter() - start < 3
+    assert time.perf_counter() - start < 10  # ~1 s at most on an idle machine
 
 
 def test_results_are_bounded() -> None:

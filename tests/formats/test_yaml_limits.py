@@ -160,13 +160,13 @@ def test_a_large_document_is_refused_before_parsing() -> None:
 
 
 @pytest.mark.parametrize("text, message", [
-    ("rosbag2_bagfile_information: [\n", r"^bad\.yaml:2: not valid YAML: expected the node content, but found "
-                                          r"'<stream end>'$"),
+    ("rosbag2_bagfile_information: [\n", (r"^bad\.yaml:2: not valid YAML: expected the node content, but found "
+                                          r"'<stream end>'$")),
     ("a: [1, 2\n", r"^bad\.yaml:2: not valid YAML: expected ',' or ']', but got '<stream end>'$"),
     ("a: b: c\n", r"^bad\.yaml:1: not valid YAML: mapping values are not allowed here$"),
     ("a: *nothing\n", r"^bad\.yaml:1: not valid YAML: found undefined alias 'nothing'$"),
-    ("--- 1\n--- 2\n", r"^bad\.yaml:2: not valid YAML: expected a single document in the stream, but found "
-                         r"another document$"),
+    ("--- 1\n--- 2\n", (r"^bad\.yaml:2: not valid YAML: expected a single document in the stream, but found "
+                         r"another document$")),
     ("a:\n\t- b\n", r"^bad\.yaml:2: not valid YAML: found character '\\t' that cannot start any token$"),
     ("a: !!python/object:os.system x\n", r"^bad\.yaml:1: not valid YAML: could not determine a constructor"),
 ])

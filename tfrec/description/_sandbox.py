@@ -32,7 +32,7 @@ import os
 import re
 import xml.dom.minidom
 import xml.parsers.expat
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -42,6 +42,7 @@ from tfrec.description.packages import PackageFinder
 from tfrec.errors import DescriptionError, display_path, one_line
 
 __all__ = [
+    "Sandbox",
     "SandboxLimits",
     "SandboxRefusal",
     "decode_xml",
@@ -53,6 +54,21 @@ __all__ = [
 
 class SandboxRefusal(DescriptionError):
     """What the sandbox refused, as one complete line (file, element, reason)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Sandbox:
+    """What :func:`xacro_sandbox` gives the expansion it guards.
+
+    Attributes:
+        roots: the places the expansion may read.
+        count_macro_call: ``(node, macros, symbols) -> None``, to call from a patch of xacro's
+            ``handle_macro_call`` before expanding, when the sandbox was told not to wrap it
+            (``wrap_macro_calls=False``): one Python frame less per level of macro recursion.
+    """
+
+    roots: ReadRoots
+    count_macro_call: Callable[[Any, Any, Any], None]
 
 
 @dataclass(frozen=True, slots=True)
@@ -95,13 +111,17 @@ def xacro_sandbox(
     package_paths: Sequence[str | os.PathLike[str]] = (),
     allow_paths: Sequence[str | os.PathLike[str]] = (),
     limits: SandboxLimits = SandboxLimits(),
-) -> Iterator[ReadRoots]:
+    wrap_macro_calls: bool = True,
+) -> Iterator[Sandbox]:
     """Patch xacro for one expansion of ``input_path`` (see the module's docstring).
 
     Use it around ``init_stacks`` / ``parse`` / ``process_doc`` / ``toprettyxml``, under the
     lock that serializes xacro, and outside other patches of ``handle_macro_call`` (enter it
     first): then the legacy un-prefixed macro calls they rename reach it as ``xacro:`` calls
-    and are counted too. Everything it patches is restored on exit, also on error.
+    and are counted too. Its wrapper costs one Python frame per level of macro recursion (a
+    recursive macro 164 levels deep becomes 141); a caller that patches ``handle_macro_call``
+    anyway can pass ``wrap_macro_calls=False`` and call :attr:`Sandbox.count_macro_call` from
+    its own patch. Everything it patches is restored on exit, also on error.
 
     Args:
         input_path: the description file given by the user.
@@ -109,9 +129,11 @@ def xacro_sandbox(
         package_paths: ``--package-path`` folders, which may be read.
         allow_paths: more folders or files that may be read.
         limits: the bounds of the expansion.
+        wrap_macro_calls: patch ``handle_macro_call`` to count macro expansions; False when the
+            caller's own patch calls :attr:`Sandbox.count_macro_call` instead.
 
     Yields:
-        The places the expansion may read (for messages and tests).
+        The places the expansion may read, and the macro-call counter.
     """
     import xacro.substitution_args as subst
 
@@ -125,7 +147,7 @@ def xacro_sandbox(
         (xacro, "safe_eval", xacro.safe_eval),
         (xacro, "parse", xacro.parse),
         (xacro, "process_include", xacro.process_include),
-        (xacro, "handle_macro_call", xacro.handle_macro_call),
+        *([(xacro, "handle_macro_call", xacro.handle_macro_call)] if wrap_macro_calls else []),
         (xacro, "replace_node", xacro.replace_node),
         (subst, "_eval", subst._eval),
     ]
@@ -139,7 +161,8 @@ def xacro_sandbox(
     subst._eval = state.eval_substitution
     xacro.parse = state.parse_hook(original["parse"])
     xacro.process_include = state.include_hook(original["process_include"])
-    xacro.handle_macro_call = state.macro_hook(original["handle_macro_call"])
+    if wrap_macro_calls:
+        xacro.handle_macro_call = state.macro_hook(original["handle_macro_call"])
     xacro.replace_node = state.replace_hook(original["replace_node"])
     xacro.open = _no_open  # a backstop: xacro's own open() is used by parse and load_yaml only
     dict.__setitem__(symbols, "load_yaml", state.deprecated_load_yaml)
@@ -147,7 +170,7 @@ def xacro_sandbox(
     dict.__setitem__(namespaces["python"], "type", refused_function("python.type"))
     dict.__setitem__(namespaces["python"], "vars", refused_function("python.vars"))
     try:
-        yield roots
+        yield Sandbox(roots, state.count_macro_call)
     finally:
         for module, name, value in reversed(saved_modules):
             setattr(module, name, value)
@@ -156,9 +179,9 @@ def xacro_sandbox(
         for table, content, unevaluated, recursive in saved_tables:
             dict.clear(table)
             dict.update(table, content)
-            if hasattr(table, "unevaluated"):
-                table.unevaluated = unevaluated
-                table.recursive = recursive
+            if hasattr(table, "unevaluated"):  # a xacro Table: its lazily evaluated names
+                setattr(table, "unevaluated", unevaluated)  # noqa: B010 - a Table's, not a dict's
+                setattr(table, "recursive", recursive)  # noqa: B010
 
 
 def _symbol_tables(symbols: dict[str, Any]) -> list[dict[str, Any]]:
@@ -220,9 +243,15 @@ def parse_xml(data: bytes) -> xml.dom.minidom.Document:
     return xml.dom.minidom.parseString(text if text is not None else data)
 
 
-def decode_xml(data: bytes, *, where: str) -> str:
+def decode_xml(data: bytes, *, where: str, declare_utf8: bool = False) -> str:
     """The text of an XML document, decoded as it declares (UTF-8 when valid, else as expat reads
-    it: UTF-16 by its byte order mark, latin-1 by its declaration…). The declaration is kept.
+    it: UTF-16 by its byte order mark, latin-1 by its declaration…).
+
+    Args:
+        data: the file's bytes.
+        where: the file, for messages.
+        declare_utf8: rewrite the declaration's ``encoding="…"`` to ``UTF-8``, for text that will
+            be stored or sent as UTF-8 (``/robot_description``); otherwise it is kept as written.
 
     Raises:
         DescriptionError: bytes that are not well-formed XML in any encoding expat knows.
@@ -238,7 +267,11 @@ def decode_xml(data: bytes, *, where: str) -> str:
     except xml.parsers.expat.ExpatError as err:
         raise DescriptionError(f"{where}:{err.lineno}:{err.offset}: malformed XML: "
                                f"{xml.parsers.expat.ErrorString(err.code)}") from err
-    return "".join(parts)
+    text = "".join(parts)
+    return _DECLARED_ENCODING.sub(r"\1\2UTF-8\2", text, count=1) if declare_utf8 else text
+
+
+_DECLARED_ENCODING = re.compile(r"""\A(<\?xml[^>]*?\sencoding\s*=\s*)(["'])[^"']*\2""")
 
 
 def _utf8(data: bytes) -> str | None:
@@ -412,17 +445,22 @@ class _Expansion:
 
     # -- expansion size
 
+    def count_macro_call(self, node: Any, macros: Any, symbols: Any) -> None:
+        """Count the element copies a macro call is about to make (before xacro's
+        ``handle_macro_call`` expands it)."""
+        tag = node.tagName
+        if tag.startswith("xacro:") and tag != "xacro:call":  # xacro:call comes back renamed
+            name = tag.removeprefix("xacro:")
+            try:
+                macro = self._xacro.resolve_macro(name, macros, symbols)[2]
+            except (KeyError, TypeError, AttributeError):
+                macro = None  # xacro reports it
+            if macro is not None and macro.body is not None:
+                self._count_copies(macro.body, f"macro '{name}'")
+
     def macro_hook(self, handle_macro_call: Any) -> Any:
         def counted_macro_call(node: Any, macros: Any, symbols: Any) -> Any:
-            tag = node.tagName
-            if tag.startswith("xacro:") and tag != "xacro:call":  # xacro:call comes back renamed
-                name = tag.removeprefix("xacro:")
-                try:
-                    macro = self._xacro.resolve_macro(name, macros, symbols)[2]
-                except (KeyError, TypeError, AttributeError):
-                    macro = None  # xacro reports it
-                if macro is not None and macro.body is not None:
-                    self._count_copies(macro.body, f"macro '{name}'")
+            self.count_macro_call(node, macros, symbols)
             return handle_macro_call(node, macros, symbols)
 
         return counted_macro_call
