@@ -34,7 +34,7 @@ class Namespace(dict[str, Any]):
 def symbols(**extra: Any) -> dict[str, Any]:
     python = Namespace(type=type, vars=vars, sorted=sorted, range=range, str=str, abs=abs, sum=sum, list=list)
     return {"pi": math.pi, "math": Namespace(math.__dict__), "python": python, "list": list, "map": map,
-            "len": len, "str": str, "int": int, "min": min, "max": max, "sorted": sorted, "dict": dict, **extra}
+            "len": len, "str": str, "int": int, "round": round, "min": min, "max": max, "sorted": sorted, "dict": dict, **extra}
 
 
 def run(expr: str, **extra: Any) -> Any:
@@ -230,3 +230,26 @@ def test_mutating_the_symbol_table_does_not_disable_the_guard() -> None:
             evaluate(f"[{mutation}, (lambda: 'x' * 10 ** 9)()]", table)
         with pytest.raises(ExpressionRefused, match=r"format field"):
             evaluate(f"[{mutation}, [f for f in ['{{0.real}}'.format(1)]]]", table)
+
+
+@pytest.mark.parametrize("expr", [
+    "s.encode('utf-32').hex().encode('utf-32').hex().encode('utf-32').hex()",
+    "round(7, -10 ** 9)",
+    "int.from_bytes(b'\\xff' * 100000, 'big')",
+])
+def test_each_call_is_bounded(expr: str) -> None:
+    start = time.perf_counter()
+    with pytest.raises(ExpressionRefused):
+        run(expr, s="x" * 10_000)
+    assert time.perf_counter() - start < 5
+
+
+def test_xml_elements_cannot_be_copied_or_rewired() -> None:
+    import xml.dom.minidom
+
+    block = xml.dom.minidom.parseString("<robot><link name='a'/></robot>").documentElement
+    assert run("block.tagName", block=block) == "robot"  # reading is fine
+    for expr in ("[block.cloneNode(True) for i in python.range(1000)]", "list(map(block.cloneNode, [True]))",
+                 "block.appendChild(block)"):
+        with pytest.raises(ExpressionRefused, match=r"XML element method"):
+            run(expr, block=block)

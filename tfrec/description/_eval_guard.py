@@ -12,6 +12,8 @@ import builtins
 import math
 import re
 import string
+import types
+import xml.dom
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from typing import Any
 
@@ -213,10 +215,15 @@ class Guard:
             return self._fold(lambda x, y: self.op("*", x, y), args[0] if args else (), kwargs.get("start", 1))
         elif func is math.lcm:
             return self._fold(lambda x, y: _int_bounded(math.lcm(x, y), "math.lcm()"), args, 1)
+        elif func is round and len(args) > 1 and _is_int(args[1]) and args[1] < -10_000:
+            raise ExpressionRefused("round() to more than 10,000 digits")  # an int rounds by 10 ** -ndigits
         result = func(*args, **kwargs)
+        what = f"{getattr(func, '__name__', 'a call')}()"
         if type(result) is range:  # xacro's deprecated global range() wraps the builtin
             self._charge(_length(result))
-        return _int_bounded(result, f"{getattr(func, '__name__', 'a call')}()")
+        elif isinstance(result, _SIZED) and len(result) > MAX_SIZE:  # x.encode('utf-32').hex()…: each step bounded
+            raise ExpressionRefused(f"{what} made {len(result):,} characters or items (more than {MAX_SIZE:,})")
+        return _int_bounded(result, what)
 
     def _charged_iterables(self, which: str, args: tuple[Any, ...]) -> tuple[Any, ...]:
         if which == "after-function":  # map(f, *iterables), filter(f, iterable)
@@ -351,6 +358,9 @@ def _allowed(value: object) -> None:
     name = _FORBIDDEN.get(id(value))
     if name is not None and value is getattr(builtins, name, None):
         raise ExpressionRefused(f"{name}() is refused in xacro expressions")
+    if isinstance(value, types.MethodType) and isinstance(value.__self__, xml.dom.Node):
+        # a macro's block parameter is a DOM element: copying or rewiring the document is xacro's job
+        raise ExpressionRefused(f"the XML element method .{value.__func__.__name__}() is refused in xacro expressions")
 
 
 def _bounded(size: int, what: str) -> None:
