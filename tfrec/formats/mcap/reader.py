@@ -32,7 +32,7 @@ from typing import IO
 
 from tfrec.errors import ReadError
 from tfrec.formats._collect import DECODE_BATCH, Collector, ReadStopped, read_error_line, with_article
-from tfrec.formats._compression import decompress, salvage
+from tfrec.formats._compression import MAX_CHUNK_BYTES, decompress, salvage
 from tfrec.formats.mcap.records import (
     COMPRESSIONS,
     MCAP_MAGIC,
@@ -233,7 +233,7 @@ class _McapReader:
         if head is None:
             return 0
         before = self.messages
-        records = salvage(head.compression, head.records, supported=COMPRESSIONS)[: head.size]
+        records = salvage(head.compression, head.records, limit=min(head.size, MAX_CHUNK_BYTES), supported=COMPRESSIONS)
         self._chunk_records(records)  # stops at the first incomplete record
         return self.messages - before
 
