@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import shutil
 import uuid
+import warnings
 from pathlib import Path
 from types import TracebackType
 from typing import final
@@ -84,9 +86,13 @@ class AtomicOutputs:
 
     def path(self, target: Path, *, directory: bool = False) -> Path:
         """A temporary name for ``target`` in its folder (created, with its parents); with
-        ``directory`` the temporary folder is created too."""
+        ``directory`` the temporary folder is created too. Temporaries that killed runs (SIGKILL, a
+        power cut) left in that folder are removed first, with a warning."""
+        self._pairs.append((target, target))  # until the temporary exists, errors name the target
         target.parent.mkdir(parents=True, exist_ok=True)
-        temp = target.parent / f".{target.name}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+        self._pairs.pop()
+        remove_stale_temporaries(target.parent)
+        temp = target.parent / f".{target.name}{_TEMP_MARK}{os.getpid()}-{uuid.uuid4().hex[:8]}"
         if directory:
             temp.mkdir()
         self._pairs.append((temp, target))
@@ -94,8 +100,8 @@ class AtomicOutputs:
 
     def target_of(self, filename: object) -> str:
         """The output a (temporary) file name stands for, for messages."""
-        if filename is None:
-            return "output"
+        if filename is None:  # an error of a library that does not say which file (the outputs, then)
+            return ", ".join(dict.fromkeys(str(target) for _, target in self._pairs)) or "output"
         name = Path(os.fsdecode(filename))  # type: ignore[arg-type]
         for temp, target in self._pairs:
             if name == temp or temp in name.parents:
@@ -156,10 +162,58 @@ class AtomicOutputs:
             temp.unlink()
 
     def abort(self) -> None:
-        """Delete the temporaries not yet renamed."""
+        """Delete the temporaries not yet renamed (one that could not be created, in a read-only folder say,
+        is no error)."""
         for temp, _ in self._pairs:
             if temp.is_dir():
                 shutil.rmtree(temp, ignore_errors=True)
             else:
-                temp.unlink(missing_ok=True)
+                try:
+                    temp.unlink(missing_ok=True)
+                except OSError:
+                    pass
         self._pairs.clear()
+
+
+_TEMP_MARK = ".tmp-"
+_STALE = re.compile(r"\..+\.tmp-(\d+)-[0-9a-f]{8}")
+"""The name of a temporary: ``.<target>.tmp-<pid>-<8 hex digits>``."""
+
+
+def remove_stale_temporaries(folder: Path) -> list[Path]:
+    """Remove the temporaries in ``folder`` whose process no longer exists (a run killed by SIGKILL, which
+    cannot clean up), warning once about them; returns them. Temporaries of running processes are left."""
+    removed: list[Path] = []
+    try:
+        entries = list(folder.iterdir())
+    except OSError:
+        return removed
+    for entry in entries:
+        match = _STALE.fullmatch(entry.name)
+        if match is None or _alive(int(match.group(1))):
+            continue
+        try:
+            if entry.is_dir() and not entry.is_symlink():
+                shutil.rmtree(entry)
+            else:
+                entry.unlink()
+        except OSError:
+            continue
+        removed.append(entry)
+    if removed:
+        shown = ", ".join(p.name for p in removed[:3]) + (f" and {len(removed) - 3} more" if len(removed) > 3 else "")
+        warnings.warn(f"{folder}: removed {len(removed)} unfinished output{'s' if len(removed) > 1 else ''} of "
+                      f"killed runs: {shown}", stacklevel=3)
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process: it exists
+        return True
+    return True

@@ -48,6 +48,11 @@ def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
              "before ROS_PACKAGE_PATH, AMENT_PREFIX_PATH and the input's own workspace)",
     )
     parser.add_argument(
+        "--allow-path", metavar="DIR", action="append", default=[],
+        help="a folder (or file) xacro may read besides the input's workspace, the packages found and "
+             "--package-path folders (repeatable; see docs/security.md)",
+    )
+    parser.add_argument(
         "--strict-xacro", action="store_true",
         help="refuse macro calls without the 'xacro:' prefix (legacy xacro <= 1.13 dialect) "
              "instead of expanding them with a warning",
@@ -90,8 +95,10 @@ def load_robot_and_launch(ns: argparse.Namespace) -> tuple[Robot, LaunchRobot | 
 
     args = parse_xacro_args(ns.xacro_args)
     if is_launch_file(ns.robot):
-        return load_launch(ns.robot, args=args, package_paths=ns.package_path, strict_xacro=ns.strict_xacro)
-    return load_description(ns.robot, args=args, package_paths=ns.package_path, strict_xacro=ns.strict_xacro), None
+        return load_launch(ns.robot, args=args, package_paths=ns.package_path, strict_xacro=ns.strict_xacro,
+                           allow_paths=ns.allow_path)
+    return load_description(ns.robot, args=args, package_paths=ns.package_path, strict_xacro=ns.strict_xacro,
+                            allow_paths=ns.allow_path), None
 
 
 def fmt(x: float) -> str:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import signal
 import sys
 import warnings
@@ -53,6 +54,9 @@ def _show_warning(message: Warning | str, category: type[Warning], filename: str
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
+    # Rerun's Rust logger writes to stderr on its own (a full disk gives WARN and ERROR lines before
+    # tfrec's one-line error): quiet unless the user asks for it with RUST_LOG
+    os.environ.setdefault("RUST_LOG", "off")
     parser = _build_parser()
     try:
         ns = parser.parse_args(argv)
@@ -97,5 +101,14 @@ def _terminate_as_interrupt() -> Iterator[None]:
 
 
 def main_exit() -> None:
-    """Console-script entry point: ``sys.exit(main())``."""
-    sys.exit(main())
+    """Console-script entry point: ``sys.exit(main())``.
+
+    When Rerun's file writer died (a full disk), Rerun's own exit handler would wait for it forever:
+    the process then ends at once, its output flushed, without the exit handlers."""
+    code = main()
+    writer = sys.modules.get("tfrec.formats.rrd._flush")
+    if writer is not None and getattr(writer, "STUCK", False):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    sys.exit(code)

@@ -12,6 +12,9 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from tfrec.description._confine import read_capped
+from tfrec.description._sandbox import SandboxLimits
+from tfrec.description._xml_bytes import decode_xml
 from tfrec.description.packages import PackageFinder
 from tfrec.description.urdf import parse_urdf
 from tfrec.description.xacro import expand_xacro
@@ -50,6 +53,7 @@ def read_description_text(
     package_paths: Sequence[str | os.PathLike[str]] = (),
     strict_xacro: bool = False,
     force_xacro: bool = False,
+    allow_paths: Sequence[str | os.PathLike[str]] = (),
 ) -> tuple[str, bool]:
     """The URDF text of a description file, xacro-expanded when needed.
 
@@ -66,16 +70,19 @@ def read_description_text(
     if not file.is_file():
         raise DescriptionError(f"{display_path(file)}: no such file" if not file.exists()
                                else f"{display_path(file)}: not a file")
-    try:
-        raw = file.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise DescriptionError(f"{display_path(file)}: cannot read: {err}") from err
-    if _is_plain_urdf(file) and not force_xacro:
+    plain = _is_plain_urdf(file) and not force_xacro
+    if plain:
         if args:
             raise DescriptionError(f"{display_path(file)}: xacro arguments given for a plain URDF file")
+        try:  # UTF-16 and latin-1 URDFs with a correct declaration are valid XML: decoded as declared
+            raw = decode_xml(read_capped(file, SandboxLimits().max_file_bytes), where=display_path(file),
+                             declare_utf8=True)
+        except OSError as err:
+            raise DescriptionError(f"{display_path(file)}: cannot read: {err.strerror or err}") from err
         return raw, True
     finder = PackageFinder(package_paths, near=file)
-    return expand_xacro(file, args=args, finder=finder, strict=strict_xacro), False
+    return expand_xacro(file, args=args, finder=finder, strict=strict_xacro, package_paths=package_paths,
+                        allow_paths=allow_paths), False
 
 
 def load_description(
@@ -84,6 +91,7 @@ def load_description(
     args: Mapping[str, str] | None = None,
     package_paths: Sequence[str | os.PathLike[str]] = (),
     strict_xacro: bool = False,
+    allow_paths: Sequence[str | os.PathLike[str]] = (),
 ) -> Robot:
     """Load and validate a robot description file.
 
@@ -93,6 +101,8 @@ def load_description(
         args: xacro arguments (``name:=value``); for a launch file, its launch arguments.
         package_paths: folders searched first for ``$(find pkg)``.
         strict_xacro: refuse legacy un-prefixed macro calls instead of expanding them.
+        allow_paths: folders (or files) xacro may read besides the input's workspace, the packages
+            found and ``package_paths`` (``--allow-path``; see docs/security.md).
 
     Raises:
         DescriptionError: one line naming the file and the element at fault.
@@ -100,9 +110,10 @@ def load_description(
     from tfrec.description.launch import is_launch_file
 
     if is_launch_file(path):
-        return load_launch(path, args=args, package_paths=package_paths, strict_xacro=strict_xacro)[0]
+        return load_launch(path, args=args, package_paths=package_paths, strict_xacro=strict_xacro,
+                           allow_paths=allow_paths)[0]
     text, user_lines = read_description_text(
-        path, args=args, package_paths=package_paths, strict_xacro=strict_xacro
+        path, args=args, package_paths=package_paths, strict_xacro=strict_xacro, allow_paths=allow_paths
     )
     return parse_urdf(text, source=os.fspath(path), user_lines=user_lines)
 
@@ -113,6 +124,7 @@ def load_launch(
     args: Mapping[str, str] | None = None,
     package_paths: Sequence[str | os.PathLike[str]] = (),
     strict_xacro: bool = False,
+    allow_paths: Sequence[str | os.PathLike[str]] = (),
 ) -> tuple[Robot, LaunchRobot]:
     """Load the robot a launch file loads, as ``roslaunch``/``ros2 launch`` would (nothing is run).
 
@@ -141,25 +153,17 @@ def load_launch(
         assert source.file is not None
         xacro_args = source.xacro_args if source.kind is DescriptionKind.XACRO else None
         text, user_lines = read_description_text(source.file, args=xacro_args, package_paths=package_paths,
-                                                 strict_xacro=strict_xacro, force_xacro=xacro_args is not None)
+                                                 strict_xacro=strict_xacro, force_xacro=xacro_args is not None,
+                                                 allow_paths=allow_paths)
         robot = parse_urdf(text, source=os.fspath(source.file), user_lines=user_lines)
     return robot, launch
 
 
-def _yaml_loader() -> Callable[[str, str], Any] | None:
-    """YAML for launch files (``<rosparam>``, ROS 2 YAML launch): parsing it is the formats stage's, and
-    only :mod:`tfrec.formats` imports a YAML library. It is looked up when a launch file is read — the
-    one place a stage reaches a later one, at run time and by name — and is hardened against alias
-    bombs and deep nesting (:func:`tfrec.formats._yaml.load_yaml`)."""
-    import importlib
-
-    try:
-        module = importlib.import_module("tfrec.formats._yaml")
-    except ImportError:
-        return None
-    load = module.load_yaml
+def _yaml_loader() -> Callable[[str, str], Any]:
+    """YAML for launch files (``<rosparam>``, ROS 2 YAML launch): :func:`tfrec.description._yaml.load_yaml`."""
+    from tfrec.description._yaml import load_yaml
 
     def loader(text: str, source: str) -> Any:
-        return load(text, where=source, error=DescriptionError)
+        return load_yaml(text, where=source, error=DescriptionError)
 
     return loader

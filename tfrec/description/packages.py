@@ -196,7 +196,10 @@ class PackageFinder:
         if uri.startswith("package://"):
             rest = uri[len("package://"):]
             pkg, _, sub = rest.partition("/")
-            return self.find(pkg) / unquote(sub)
+            relative = unquote(sub)
+            if relative.startswith(("/", "\\")) or ".." in Path(relative).parts or "\\.." in relative:
+                raise DescriptionError(f"{uri}: leaves package '{pkg}' (a '..' or absolute path); refused")
+            return self.find(pkg) / relative
         if uri.startswith("file://"):
             return Path(unquote(urlparse(uri).path))
         path = Path(uri).expanduser()

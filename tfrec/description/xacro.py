@@ -20,9 +20,10 @@ import os
 import threading
 import warnings
 import xml.parsers.expat
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
+from tfrec.description._sandbox import SandboxLimits, describe_xacro_failure, xacro_sandbox
 from tfrec.description.packages import PackageFinder
 from tfrec.errors import DescriptionError, display_path, one_line
 
@@ -90,14 +91,22 @@ def expand_xacro(
     args: Mapping[str, str] | None = None,
     finder: PackageFinder,
     strict: bool = False,
+    package_paths: Sequence[str | os.PathLike[str]] = (),
+    allow_paths: Sequence[str | os.PathLike[str]] = (),
+    limits: SandboxLimits | None = None,
 ) -> str:
-    """Expand a xacro file to URDF text.
+    """Expand a xacro file to URDF text, in the sandbox (:mod:`tfrec.description._sandbox`): expressions
+    cannot reach Python's internals or builtins, files are read only inside the input's workspace, the
+    packages found, ``package_paths`` and ``allow_paths``, and the expansion is bounded by ``limits``.
 
     Args:
         path: the ``.xacro`` / ``.urdf.xacro`` file.
         args: xacro arguments (``name:=value`` on a command line), as strings.
         finder: resolves ``$(find pkg)``.
         strict: refuse legacy un-prefixed macro calls instead of expanding them.
+        package_paths: ``--package-path`` folders (may be read).
+        allow_paths: further folders or files that may be read (``--allow-path``).
+        limits: bounds of the expansion (output, expansion steps, XML depth, file sizes).
 
     Returns:
         The expanded URDF document as text.
@@ -108,7 +117,8 @@ def expand_xacro(
     mappings = _Args({str(k): str(v) for k, v in (args or {}).items()})
     legacy: list[tuple[str, str]] = []
     chatter = io.StringIO()
-    with _LOCK, _patched_xacro(finder, strict=strict, legacy=legacy) as xacro:
+    with _LOCK, xacro_sandbox(path, finder=finder, package_paths=package_paths, allow_paths=allow_paths,
+                              limits=limits or SandboxLimits()), _patched_xacro(finder, strict=strict, legacy=legacy) as xacro:
         filename = os.fspath(path)
         message: str | None = None
         try:
@@ -122,17 +132,22 @@ def expand_xacro(
             cause: BaseException = err
         except _LegacyCall as err:
             message, cause = str(err), err
-        except DescriptionError as err:  # from $(find): name the file that asked
-            message, cause = f"{_where(xacro, filename)}: {err}", err
+        except DescriptionError as err:  # a refusal of the sandbox, $(find) of an unknown package
+            message = (describe_xacro_failure(err, filename=filename, filestack=xacro.filestack)
+                       or f"{_where(xacro, filename)}: {err}")
+            cause = err
         except xml.parsers.expat.ExpatError as err:
             message = (f"{_where(xacro, filename)}:{err.lineno}:{err.offset}: malformed XML: "
                        f"{xml.parsers.expat.ErrorString(err.code)}")
             cause = err
         except xacro.XacroException as err:
-            if isinstance(err.exc, DescriptionError):  # $(find) failed inside an expression
-                message = f"{_where(xacro, filename)}: {err.exc}"
-            else:
-                message = f"{_where(xacro, filename)}: {_xacro_message(err)}"
+            message = (describe_xacro_failure(err, filename=filename, filestack=xacro.filestack)
+                       or f"{_where(xacro, filename)}: {_xacro_message(err)}")
+            cause = err
+        except RuntimeError as err:  # xacro's bare RuntimeError for an element missing an attribute
+            message = describe_xacro_failure(err, filename=filename, filestack=xacro.filestack)
+            if message is None:
+                raise
             cause = err
         except (NameError, TypeError, ValueError, ZeroDivisionError, SyntaxError, KeyError, IndexError) as err:
             # xacro lets some evaluation errors through unwrapped

@@ -24,7 +24,7 @@ from tfrec.formats._collect import (
     ReadStopped,
     with_article,
 )
-from tfrec.formats._compression import decompress, salvage
+from tfrec.formats._compression import MAX_CHUNK_BYTES, decompress, salvage
 from tfrec.formats.mcap.index import index_chunk, read_message_indexes
 from tfrec.formats.mcap.records import (
     COMPRESSIONS,
@@ -282,7 +282,7 @@ class McapWalker:
         if head is None:
             return 0
         before = self.messages
-        records = salvage(head.compression, head.records, supported=COMPRESSIONS)[: head.size]
+        records = salvage(head.compression, head.records, limit=min(head.size, MAX_CHUNK_BYTES), supported=COMPRESSIONS)
         self._chunk_records(records)  # stops at the first incomplete record
         return self.messages - before
 

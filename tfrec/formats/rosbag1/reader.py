@@ -20,7 +20,7 @@ from typing import IO
 
 from tfrec.errors import ReadError, one_line
 from tfrec.formats._collect import Collector, ReadOptions, ReadStopped, read_error_line, with_article
-from tfrec.formats._compression import decompress, salvage
+from tfrec.formats._compression import MAX_CHUNK_BYTES, decompress, salvage
 from tfrec.formats.ros.cdr import ns_from_stamps
 from tfrec.formats.ros.types import ros1_typestore, topic_deserializer
 from tfrec.recording import Recording, TopicStats
@@ -239,7 +239,7 @@ class _Ros1Reader:
             return 0
         self.compressions.add(compression)
         if cut:
-            self._chunk_records(salvage(compression, data, supported=COMPRESSIONS)[:size])
+            self._chunk_records(salvage(compression, data, limit=min(size, MAX_CHUNK_BYTES), supported=COMPRESSIONS))
             return self.messages - before
         try:
             records = decompress(compression, data, size, supported=COMPRESSIONS)

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from tfrec.errors import ReadError
+from tfrec.formats._yaml import load_yaml
 
 __all__ = [
     "BAG_VERSION",
@@ -33,6 +34,9 @@ __all__ = [
     "write_bag_metadata",
     "yaml_dump",
 ]
+
+METADATA_MAX_BYTES = 16 << 20
+"""The largest metadata.yaml read (rosbag2 writes a few kB; one with thousands of topics, a few MB)."""
 
 BAG_VERSION = 9
 ROS_DISTRO = "jazzy"
@@ -179,22 +183,22 @@ def read_bag_metadata(folder: Path) -> BagMetadata:
         ReadError: no or malformed metadata.yaml (one line naming the file, and the line
             of a YAML syntax error), or a listed file that is missing.
     """
-    import yaml
-
     meta = folder / "metadata.yaml"
     if not meta.is_file():
         raise ReadError(f"{folder}: a folder without metadata.yaml is not a rosbag2 bag")
     try:
-        document = yaml.safe_load(meta.read_text(encoding="utf-8"))  # PyYAML's own parser: its errors say more
+        with open(meta, "rb") as stream:
+            data = stream.read(METADATA_MAX_BYTES + 1)
     except OSError as err:
         raise ReadError(f"{meta}: cannot read: {err.strerror or err}") from err
+    if len(data) > METADATA_MAX_BYTES:
+        raise ReadError(f"{meta}: larger than the {METADATA_MAX_BYTES >> 20} MiB a metadata.yaml may have")
+    try:
+        text = data.decode("utf-8")
     except UnicodeDecodeError as err:
         raise ReadError(f"{meta}: not UTF-8 text (byte {err.start:,})") from err
-    except yaml.MarkedYAMLError as err:
-        line = f":{err.problem_mark.line + 1}" if err.problem_mark is not None else ""
-        raise ReadError(f"{meta}{line}: not valid YAML: {one_line(err.problem or str(err))}") from err
-    except yaml.YAMLError as err:
-        raise ReadError(f"{meta}: not valid YAML: {one_line(str(err))}") from err
+    # bounded: an alias bomb or 20,000-deep nesting is refused at once (tfrec.formats._yaml)
+    document = load_yaml(text, where=str(meta), error=ReadError)
     info = document.get("rosbag2_bagfile_information") if isinstance(document, dict) else None
     if not isinstance(info, dict):
         raise ReadError(f"{meta}: not a rosbag2 metadata file (no rosbag2_bagfile_information mapping)")
@@ -249,17 +253,6 @@ def one_line(text: str) -> str:
     return " ".join(text.split())
 
 
-def _load_yaml(text: str) -> Any:
-    """``yaml.safe_load``, with libyaml's parser where PyYAML has it (ten times faster, for a bag's QoS texts).
-
-    Raises:
-        yaml.YAMLError: not YAML.
-    """
-    import yaml
-
-    return yaml.load(text, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
-
-
 _DURABILITY = {0: "system_default", 1: "transient_local", 2: "volatile", 3: "unknown", 4: "best_available"}
 
 
@@ -268,10 +261,8 @@ def qos_durability(offered_qos_profiles: str) -> str | None:
     ``offered_qos_profiles`` of MCAP channel metadata, of sqlite3's topics table); None when
     there is none (or the text is not YAML). Numbers (Humble and older) are named as the strings
     Jazzy writes."""
-    import yaml
-
     try:
-        value = _load_yaml(offered_qos_profiles)[0]["durability"]
-    except (yaml.YAMLError, TypeError, KeyError, IndexError):
+        value = load_yaml(offered_qos_profiles, where="offered_qos_profiles")[0]["durability"]
+    except (ValueError, TypeError, KeyError, IndexError):
         return None
     return _DURABILITY.get(value, "unknown") if isinstance(value, int) else str(value)

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from tfrec.errors import ReadError
 from tfrec.formats._collect import ReadOptions, count_differences
+from tfrec.formats._compression import MAX_CHUNK_BYTES
 from tfrec.formats.rosbag2.metadata import BagMetadata
 from tfrec.recording import Recording
 
@@ -68,8 +69,10 @@ def message_decompressor(meta: BagMetadata, where: str) -> Callable[[bytes], byt
     decompressor = zstandard.ZstdDecompressor()
 
     def decompress(data: bytes) -> bytes:
-        try:
-            return bytes(decompressor.decompress(data))
+        try:  # bounded: zstd ignores max_output_size when the frame states its size, so that is checked first
+            if zstandard.frame_content_size(data) > MAX_CHUNK_BYTES:
+                raise ReadError(f"{where}: a message declares more than {MAX_CHUNK_BYTES:,} bytes")
+            return bytes(decompressor.decompress(data, max_output_size=MAX_CHUNK_BYTES))
         except zstandard.ZstdError as err:
             raise ReadError(f"{where}: a message does not decompress (zstd: {err})") from err
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import logging
 import os
+import stat
 import struct
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
@@ -84,18 +85,34 @@ class MeshLoader:
         try:
             path = self._finder.resolve_uri(uri, relative_to=self._source)
         except DescriptionError as err:
-            return f"not found ({err})"
+            return f"refused ({err})" if "refused" in str(err) else f"not found ({err})"
         if path not in self._cache:
             self._cache[path] = _read_mesh(path)
         return self._cache[path]
 
 
+MAX_MESH_BYTES = 256 << 20
+"""The largest mesh file read."""
+
+
 def _read_mesh(path: Path) -> MeshAsset | str:
-    """The asset for a mesh file, or why it cannot be used (see :meth:`MeshLoader.load`)."""
-    if not path.is_file():
-        return f"not found ({path})"
+    """The asset for a mesh file, or why it cannot be used (see :meth:`MeshLoader.load`).
+
+    Only a regular file of at most :data:`MAX_MESH_BYTES` is read (a FIFO or ``/dev/zero`` would be read
+    forever), and nothing is embedded unless it parses as a mesh of its type: a file that is not one (a
+    link to ``/etc/passwd`` named ``x.stl``) is skipped, and its content is not quoted.
+    """
     try:
-        data = path.read_bytes()
+        info = path.stat()
+    except OSError:
+        return f"not found ({path})"
+    if not stat.S_ISREG(info.st_mode):
+        return f"not readable ({path}: not a regular file)"
+    if info.st_size > MAX_MESH_BYTES:
+        return f"not readable ({path}: {info.st_size:,} bytes, more than the {MAX_MESH_BYTES >> 20} MiB a mesh may have)"
+    try:
+        with open(path, "rb") as stream:
+            data = stream.read(MAX_MESH_BYTES + 1)
     except OSError as err:
         return f"not readable ({path}: {err.strerror or err})"
     suffix = path.suffix.lower()
@@ -103,10 +120,8 @@ def _read_mesh(path: Path) -> MeshAsset | str:
     try:
         scene = _load_scene(path)
     except _mesh_errors() as err:
-        if media_type is None:
-            return f"not readable ({path}: {type(err).__name__}: {err})"
-        scene = None  # Rerun may still read what trimesh does not; embed it as it is
-    radius = _radius(scene) if scene is not None else 0.0
+        return f"not readable ({path}: not a {suffix.lstrip('.') or 'mesh'} file trimesh can read: {type(err).__name__})"
+    radius = _radius(scene)
     if media_type is not None:
         own = suffix == ".glb" or (suffix == ".ply" and _ply_has_colours(data))
         return MeshAsset(data, media_type, own, radius)

@@ -24,6 +24,7 @@ import rerun.blueprint as rrb
 from numpy.typing import NDArray
 
 from tfrec.errors import KinematicsError, WriteError
+from tfrec.formats.rrd._flush import disconnect, flush
 from tfrec.formats.rrd.blueprint import Reach, blueprint_of, joint_colour, joint_units, robot_layout, tf_tree_columns
 from tfrec.formats.rrd.columns import check_stamps, repeated_strings, time_column
 from tfrec.formats.rrd.geometry import MeshLoader, default_axis_length, missing_meshes, visual_columns, visual_radius
@@ -427,11 +428,7 @@ class RerunSink:
                 viewer cannot be reached.
         """
         self._unflushed_bytes = 0
-        try:
-            self._rec.flush()
-        except RuntimeError as err:
-            verb = "cannot write" if self._file is not None else "cannot send to the recording"
-            raise WriteError(f"{self._target}: {verb}: {err}") from err
+        flush(self._rec, file=self._file, target=self._target)
 
     def finish(self) -> None:
         """Send the blueprint (unless :meth:`send_blueprint` did), flush everything and close the target.
@@ -444,11 +441,11 @@ class RerunSink:
         try:
             self.flush()
         finally:
-            self._rec.disconnect()
+            disconnect(self._rec)
 
     def abort(self) -> None:
         """Stop logging; the file of a sink made with a path is deleted."""
-        self._rec.disconnect()
+        disconnect(self._rec)
         if self._file is not None:
             self._file.unlink(missing_ok=True)
 

@@ -1,0 +1,135 @@
+"""Faults while writing (issue 11): a full disk, a read-only folder, SIGKILL's leftovers — one line,
+bounded time, nothing half-written, nothing left behind."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+import warnings
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.conftest import REPO, ROBOTS
+from tfrec._atomic import remove_stale_temporaries
+from tfrec.cli import main
+from tfrec.errors import WriteError
+from tfrec.formats.rrd import _flush
+
+
+class _DeadWriter:
+    """A RecordingStream whose file writer died: every flush times out, closing never returns."""
+
+    def flush(self, *, timeout_sec: float) -> None:
+        time.sleep(min(timeout_sec, 0.01))
+        raise RuntimeError("Flush timed out")
+
+    def disconnect(self) -> None:
+        time.sleep(3600)
+
+
+def test_a_flush_on_a_full_disk_fails_instead_of_waiting_forever(tmp_path: Path,
+                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    target = tmp_path / "x.rrd"
+    target.write_bytes(b"partial")
+    monkeypatch.setattr(_flush.shutil, "disk_usage", lambda _: type("U", (), {"free": 0})())
+    start = time.monotonic()
+    with pytest.raises(WriteError, match=r"x\.rrd: cannot write: No space left on device$"):
+        _flush.flush(_DeadWriter(), file=target, target=str(target))
+    assert time.monotonic() - start < 5
+
+
+def test_a_stalled_writer_is_an_error_and_closing_it_does_not_hang(tmp_path: Path,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(_flush, "STALL_S", 0.2)
+    with pytest.raises(WriteError, match="made no progress"):
+        _flush.flush(_DeadWriter(), file=tmp_path / "y.rrd", target="y.rrd")
+    monkeypatch.setattr(_flush, "STUCK", False)
+    start = time.monotonic()
+    _flush.disconnect(_DeadWriter(), wait_s=0.2)
+    assert time.monotonic() - start < 2 and _flush.STUCK
+
+
+def test_sigkill_leftovers_are_removed_by_the_next_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True, check=False)
+    pid = int(dead.stdout)
+    stale = tmp_path / f".old.mcap.tmp-{pid}-0123abcd"
+    stale.write_bytes(b"half")
+    alive = tmp_path / f".other.mcap.tmp-{os.getpid()}-89abcdef"  # a running process's: kept
+    alive.write_bytes(b"in progress")
+    assert main(["record", str(ROBOTS / "marm.xacro"), "--duration", "1", "--no-rrd",
+                 "-o", str(tmp_path / "new.mcap")]) == 0
+    assert not stale.exists() and alive.exists()
+    assert f"removed 1 unfinished output of killed runs: {stale.name}" in capsys.readouterr().err
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert remove_stale_temporaries(tmp_path) == []
+
+
+def _mount_tmpfs(folder: Path, options: str) -> bool:
+    folder.mkdir(parents=True, exist_ok=True)
+    result = subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(folder)], capture_output=True, check=False)
+    return result.returncode == 0
+
+
+@pytest.fixture
+def small_disk(tmp_path: Path) -> Iterator[Path]:
+    folder = tmp_path / "small"
+    if os.geteuid() != 0 or not _mount_tmpfs(folder, "size=256k"):
+        pytest.skip("needs to mount a small tmpfs (root with mount rights)")
+    yield folder
+    subprocess.run(["umount", "-l", str(folder)], check=False)
+
+
+@pytest.fixture
+def read_only(tmp_path: Path) -> Iterator[Path]:
+    folder = tmp_path / "ro"
+    if os.geteuid() != 0 or not _mount_tmpfs(folder, "ro,size=64k"):
+        pytest.skip("needs to mount a read-only tmpfs (root with mount rights)")
+    yield folder
+    subprocess.run(["umount", "-l", str(folder)], check=False)
+
+
+def _tfrec(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
+    env = {k: v for k, v in os.environ.items() if k != "RUST_LOG"}
+    return subprocess.run([sys.executable, "-m", "tfrec", *args], capture_output=True, text=True, timeout=timeout, check=False,
+                          cwd=REPO, env=env)
+
+
+def test_record_and_replay_save_onto_a_full_disk_give_one_line(small_disk: Path, tmp_path: Path) -> None:
+    source = tmp_path / "long.mcap"
+    assert main(["record", str(ROBOTS / "marm.xacro"), "--duration", "120", "--rate", "100", "--no-rrd",
+                 "-o", str(source)]) == 0
+    for args in (["replay", str(source), "--save", str(small_disk / "r.rrd")],
+                 ["record", str(ROBOTS / "marm.xacro"), "--duration", "120", "-o", str(small_disk / "x.mcap")]):
+        result = _tfrec(*args)
+        assert result.returncode == 2, result.stderr
+        assert result.stderr.count("\n") == 1 and result.stderr.startswith("tfrec: error: ")
+        assert "No space left on device" in result.stderr or "shut down" in result.stderr
+        assert "Traceback" not in result.stderr and "WARN" not in result.stderr
+        assert not list(small_disk.iterdir())
+
+
+def test_sigterm_ends_a_replay_save_blocked_on_a_full_disk(small_disk: Path, tmp_path: Path) -> None:
+    source = tmp_path / "long.mcap"
+    assert main(["record", str(ROBOTS / "marm.xacro"), "--duration", "120", "--rate", "100", "--no-rrd",
+                 "-o", str(source)]) == 0
+    with subprocess.Popen([sys.executable, "-m", "tfrec", "replay", str(source), "--save", str(small_disk / "r.rrd")],
+                          cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) as process:
+        time.sleep(1.5)
+        process.terminate()
+        try:
+            code = process.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            pytest.fail("SIGTERM did not end tfrec replay --save on a full disk")
+    assert code in (2, 143)
+
+
+def test_a_read_only_folder_is_one_line(read_only: Path, capsys: Any) -> None:
+    assert main(["record", str(ROBOTS / "marm.xacro"), "--duration", "1", "-o", str(read_only / "x.mcap")]) == 2
+    assert capsys.readouterr().err == f"tfrec: error: {read_only / 'x.mcap'}: cannot write: Read-only file system\n"
