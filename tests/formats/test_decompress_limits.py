@@ -216,5 +216,7 @@ def test_salvage_of_a_cut_chunk_is_salvage_up_to_the_limit(kind: str, size: int,
     packed = zstd_in_blocks(data) if kind == "zstd-blocks" else COMPRESSORS[kind](data)
     part = packed[: int(len(packed) * cut)]
     expected = bytes(salvage(compression, part, supported=(compression,)))[:limit]
-    assert bytes(salvage_bounded(compression, part, limit=limit)) == expected
-    assert data.startswith(expected)
+    got = bytes(salvage_bounded(compression, part, limit=limit))
+    # the same records, or a few more of them: the bounded salvage feeds smaller pieces, so an lz4 frame's
+    # last, uncompressed block can come out in part where the reference's larger piece gives none of it
+    assert got.startswith(expected) and data.startswith(got) and len(got) <= limit
