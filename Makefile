@@ -29,6 +29,7 @@ demo: $(VENV)/.installed
 	@echo "The .mcap is a ROS 2 bag (ros2 bag info/play, Foxglove, rosbags); the .rrd opens in Rerun:"
 	@echo "  $(BIN)/rerun <file>.rrd          (the viewer comes with the pinned rerun-sdk)"
 	@echo "  $(BIN)/tfrec info <file>.mcap    (topics, rates, joints, frames)"
+	@echo "Or activate the environment first ('. $(BIN)/activate') and type tfrec and rerun."
 
 test: $(VENV)/.installed-test
 	$(BIN)/python -m pytest -q
@@ -39,7 +40,8 @@ lint: $(VENV)/.installed-lint
 	$(BIN)/mypy tfrec
 	$(BIN)/lint-imports
 
-bench: $(VENV)/.installed
+# the baselines (yourdfpy, mcap_ros2, rosbags' writers) come with the test extra
+bench: $(VENV)/.installed-test
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done
 
 clean:
