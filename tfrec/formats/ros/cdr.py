@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tfrec.conventions import NS_PER_S
+from tfrec.formats.ros._layout import CDR_HEADER, Layout, align, check_rows, float_bytes
 
 __all__ = [
     "CDR_HEADER",
@@ -33,16 +34,8 @@ __all__ = [
     "stamps_from_ns",
 ]
 
-CDR_HEADER = b"\x00\x01\x00\x00"
-"""Encapsulation header: CDR, little-endian, no options."""
 
 U8 = NDArray[np.uint8]
-
-
-def align(offset: int, size: int) -> int:
-    """``offset`` rounded up to a multiple of ``size``: where a primitive of ``size`` bytes
-    starts (CDR offsets count from the end of the encapsulation header)."""
-    return offset + -offset % size
 
 
 @overload
@@ -68,54 +61,6 @@ def stamps_from_ns(time_ns: NDArray[np.int64]) -> U8:
     return packed.view(np.uint8).reshape(len(time_ns), 8)
 
 
-class _Layout:
-    """Builds a CDR template and records where the variable fields sit."""
-
-    def __init__(self) -> None:
-        self.buf = bytearray(CDR_HEADER)
-
-    def align(self, size: int) -> None:
-        offset = len(self.buf) - len(CDR_HEADER)
-        self.buf += bytes(align(offset, size) - offset)
-
-    def uint32(self, value: int) -> None:
-        self.align(4)
-        self.buf += struct.pack("<I", value)
-
-    def string(self, text: str) -> None:
-        data = text.encode("utf-8")
-        self.uint32(len(data) + 1)
-        self.buf += data + b"\0"
-
-    def stamp(self) -> int:
-        """Space for a builtin_interfaces/Time; returns its offset."""
-        self.align(4)
-        offset = len(self.buf)
-        self.buf += bytes(8)
-        return offset
-
-    def float64s(self, count: int) -> int:
-        """Space for ``count`` contiguous float64 values; returns their offset."""
-        if count:
-            self.align(8)
-        offset = len(self.buf)
-        self.buf += bytes(8 * count)
-        return offset
-
-    def template(self) -> U8:
-        return np.frombuffer(bytes(self.buf), dtype=np.uint8)
-
-
-def _check_rows(rows: U8, n: int, size: int) -> None:
-    if rows.dtype != np.uint8 or rows.shape != (n, size):
-        raise ValueError(f"rows must be uint8 of shape {(n, size)}, got {rows.dtype} {rows.shape}")
-
-
-def _float_bytes(values: NDArray[np.float64], n: int, width: int) -> U8:
-    """float64 values (n, ...) as little-endian bytes (n, width)."""
-    return np.ascontiguousarray(values, dtype="<f8").reshape(n, -1).view(np.uint8).reshape(n, width)
-
-
 class JointStateEncoder:
     """``sensor_msgs/msg/JointState`` messages for one fixed list of joint names.
 
@@ -127,7 +72,7 @@ class JointStateEncoder:
 
     def __init__(self, names: Sequence[str], *, frame_id: str = "") -> None:
         self.names = tuple(names)
-        layout = _Layout()
+        layout = Layout()
         self._stamp = layout.stamp()
         layout.string(frame_id)
         layout.uint32(len(self.names))
@@ -169,12 +114,12 @@ class JointStateEncoder:
             raise ValueError(
                 f"positions {np.shape(positions)} and velocities {np.shape(velocities)} must be {(n, j)}"
             )
-        _check_rows(rows, n, self.size)
+        check_rows(rows, n, self.size)
         rows[:, self._stamp : self._stamp + 8] = stamps_from_ns(time_ns)
         if j:
             width = 8 * j
-            rows[:, self._position : self._position + width] = _float_bytes(positions, n, width)
-            rows[:, self._velocity : self._velocity + width] = _float_bytes(velocities, n, width)
+            rows[:, self._position : self._position + width] = float_bytes(positions, n, width)
+            rows[:, self._velocity : self._velocity + width] = float_bytes(velocities, n, width)
 
 
 class TFMessageEncoder:
@@ -189,7 +134,7 @@ class TFMessageEncoder:
             raise ValueError(f"{len(parents)} parents but {len(children)} children")
         self.parents = tuple(parents)
         self.children = tuple(children)
-        layout = _Layout()
+        layout = Layout()
         layout.uint32(len(self.children))
         self._stamps: list[int] = []
         self._values: list[int] = []
@@ -230,7 +175,7 @@ class TFMessageEncoder:
                 f"translation {np.shape(translation)} and rotation {np.shape(rotation)} "
                 f"must be {(n, k, 3)} and {(n, k, 4)}"
             )
-        _check_rows(rows, n, self.size)
+        check_rows(rows, n, self.size)
         if k:
             stamps = stamps_from_ns(time_ns)
             values = np.empty((n, k, 7), dtype="<f8")

@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from tfrec.conventions import NS_PER_S
 from tfrec.errors import WriteError
+from tfrec.formats.ros._layout import Layout, check_rows, float_bytes
 
 __all__ = [
     "ROS1_TIME_LIMIT_NS",
@@ -70,49 +71,6 @@ def ros1_times(time_ns: NDArray[np.int64]) -> U8:
     return packed.view(np.uint8).reshape(len(time_ns), 8)
 
 
-class _Layout:
-    """Builds a ROS 1 template and records where the variable fields sit."""
-
-    def __init__(self) -> None:
-        self.buf = bytearray()
-
-    def uint32(self, value: int) -> int:
-        offset = len(self.buf)
-        self.buf += struct.pack("<I", value)
-        return offset
-
-    def string(self, text: str) -> None:
-        data = text.encode("utf-8")
-        self.buf += struct.pack("<I", len(data)) + data
-
-    def header(self, frame_id: str) -> tuple[int, int]:
-        """A ``std_msgs/Header`` with seq 0 and an empty stamp; returns the offsets of seq and stamp."""
-        seq = self.uint32(0)
-        stamp = len(self.buf)
-        self.buf += bytes(8)
-        self.string(frame_id)
-        return seq, stamp
-
-    def float64s(self, count: int) -> int:
-        """Space for ``count`` contiguous float64 values; returns their offset."""
-        offset = len(self.buf)
-        self.buf += bytes(8 * count)
-        return offset
-
-    def template(self) -> U8:
-        return np.frombuffer(bytes(self.buf), dtype=np.uint8)
-
-
-def _check_rows(rows: U8, n: int, size: int) -> None:
-    if rows.dtype != np.uint8 or rows.shape != (n, size):
-        raise ValueError(f"rows must be uint8 of shape {(n, size)}, got {rows.dtype} {rows.shape}")
-
-
-def _float_bytes(values: NDArray[np.float64], n: int, width: int) -> U8:
-    """float64 values (n, ...) as little-endian bytes (n, width)."""
-    return np.ascontiguousarray(values, dtype="<f8").reshape(n, -1).view(np.uint8).reshape(n, width)
-
-
 class Ros1JointStateEncoder:
     """``sensor_msgs/JointState`` messages (ROS 1) for one fixed list of joint names.
 
@@ -125,8 +83,10 @@ class Ros1JointStateEncoder:
 
     def __init__(self, names: Sequence[str], *, frame_id: str = "") -> None:
         self.names = tuple(names)
-        layout = _Layout()
-        self._seq, self._stamp = layout.header(frame_id)
+        layout = Layout(ros1=True)
+        seq, self._stamp = layout.header(frame_id)
+        assert seq is not None
+        self._seq = seq
         layout.uint32(len(self.names))
         for name in self.names:
             layout.string(name)
@@ -181,14 +141,14 @@ class Ros1JointStateEncoder:
             raise ValueError(
                 f"positions {np.shape(positions)} and velocities {np.shape(velocities)} must be {(n, j)}"
             )
-        _check_rows(rows, n, self.size)
+        check_rows(rows, n, self.size)
         rows[:, self._stamp : self._stamp + 8] = ros1_times(time_ns)
         seq = (np.arange(n, dtype=np.int64) + first_seq) % 2**32
         rows[:, self._seq : self._seq + 4] = seq.astype("<u4").view(np.uint8).reshape(n, 4)
         if j:
             width = 8 * j
-            rows[:, self._position : self._position + width] = _float_bytes(positions, n, width)
-            rows[:, self._velocity : self._velocity + width] = _float_bytes(velocities, n, width)
+            rows[:, self._position : self._position + width] = float_bytes(positions, n, width)
+            rows[:, self._velocity : self._velocity + width] = float_bytes(velocities, n, width)
 
 
 class Ros1TFMessageEncoder:
@@ -207,7 +167,7 @@ class Ros1TFMessageEncoder:
             raise ValueError(f"{len(parents)} parents but {len(children)} children")
         self.parents = tuple(parents)
         self.children = tuple(children)
-        layout = _Layout()
+        layout = Layout(ros1=True)
         layout.uint32(len(self.children))
         self._stamps: list[int] = []
         self._values: list[int] = []
@@ -250,7 +210,7 @@ class Ros1TFMessageEncoder:
                 f"translation {np.shape(translation)} and rotation {np.shape(rotation)} "
                 f"must be {(n, k, 3)} and {(n, k, 4)}"
             )
-        _check_rows(rows, n, self.size)
+        check_rows(rows, n, self.size)
         stamps = ros1_times(time_ns)
         if k:
             values = np.empty((n, k, 7), dtype="<f8")
