@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tfrec.formats.ros.cdr import (
+from tfrec.formats.ros.encode import (
     JointStateEncoder,
     TFMessageEncoder,
     align,

@@ -18,14 +18,9 @@ from hypothesis import strategies as st
 
 from tfrec.conventions import DEFAULT_START_TIME_NS, NS_PER_S
 from tfrec.errors import RecordingError
+from tfrec.formats.ros.encode import JointStateEncoder, TFMessageEncoder, check_ros1_times, encode_string
 from tfrec.formats.ros.types import TF_MESSAGE_DEFINITION, ros1_message_definition
 from tfrec.formats.rosbag1 import Ros1BagSink, Ros1BagWriter
-from tfrec.formats.rosbag1._ros1_encode import (
-    Ros1JointStateEncoder,
-    Ros1TFMessageEncoder,
-    check_ros1_times,
-    encode_ros1_string,
-)
 from tfrec.kinematics.fk import Transforms, iter_dynamic_chunks, static_transforms
 
 if TYPE_CHECKING:
@@ -96,7 +91,7 @@ def test_joint_state_matches_rosbags(names: list[str], stamps: list[int], first_
     values = data.draw(st.lists(floats, min_size=2 * n * j, max_size=2 * n * j))
     positions = np.array(values[: n * j], dtype=np.float64).reshape(n, j)
     velocities = np.array(values[n * j :], dtype=np.float64).reshape(n, j)
-    encoder = Ros1JointStateEncoder(names)
+    encoder = JointStateEncoder(names, ros1=True)
     rows = encoder.encode(np.array(stamps, dtype=np.int64), positions, velocities, first_seq=first_seq)
     assert rows.shape == (n, encoder.size)
     for i in range(n):
@@ -111,7 +106,7 @@ def test_tf_message_matches_rosbags(names: list[str], stamps: list[int], data: s
     children = [name[::-1] + "ç" for name in names]
     values = data.draw(st.lists(floats, min_size=7 * n * k, max_size=7 * n * k))
     block = np.array(values, dtype=np.float64).reshape(n, k, 7)
-    rows = Ros1TFMessageEncoder(names, children).encode(np.array(stamps, dtype=np.int64), block[..., :3],
+    rows = TFMessageEncoder(names, children, ros1=True).encode(np.array(stamps, dtype=np.int64), block[..., :3],
                                                         block[..., 3:])
     for i in range(n):
         assert rows[i].tobytes() == reference_tf(stamps[i], names, children, block[i, :, :3], block[i, :, 3:])
@@ -120,17 +115,17 @@ def test_tf_message_matches_rosbags(names: list[str], stamps: list[int], data: s
 @given(text=st.text())
 def test_string_matches_rosbags(text: str) -> None:
     msg = store().types["std_msgs/msg/String"](data=text)
-    assert encode_ros1_string(text) == bytes(store().serialize_ros1(msg, "std_msgs/msg/String"))
+    assert encode_string(text, ros1=True) == bytes(store().serialize_ros1(msg, "std_msgs/msg/String"))
 
 
 def test_stamps_after_2038_are_unsigned() -> None:
-    rows = Ros1JointStateEncoder([]).encode(np.array([LAST_NS]), np.zeros((1, 0)), np.zeros((1, 0)))
+    rows = JointStateEncoder([], ros1=True).encode(np.array([LAST_NS]), np.zeros((1, 0)), np.zeros((1, 0)))
     assert rows[0, 4:12].tobytes() == struct.pack("<II", 2**32 - 1, NS_PER_S - 1)
 
 
 def test_special_floats_keep_their_bits() -> None:
     values = np.array([[np.nan, np.inf, -0.0, 5e-324]])
-    rows = Ros1JointStateEncoder(["a", "b", "c", "d"]).encode(np.array([T0]), values, -values)
+    rows = JointStateEncoder(["a", "b", "c", "d"], ros1=True).encode(np.array([T0]), values, -values)
     decoded = store().deserialize_ros1(rows[0].tobytes(), "sensor_msgs/msg/JointState")
     assert decoded.position.tobytes() == values[0].tobytes()
 
@@ -138,7 +133,7 @@ def test_special_floats_keep_their_bits() -> None:
 @pytest.mark.parametrize(("stamp", "problem"), [(-1, "before 1970"), (LAST_NS + 1, "past ROS 1's last time")])
 def test_encoders_refuse_times_outside_ros1(stamp: int, problem: str) -> None:
     with pytest.raises(RecordingError, match=problem):
-        Ros1TFMessageEncoder(["a"], ["b"]).encode(np.array([stamp]), np.zeros((1, 1, 3)), np.zeros((1, 1, 4)))
+        TFMessageEncoder(["a"], ["b"], ros1=True).encode(np.array([stamp]), np.zeros((1, 1, 3)), np.zeros((1, 1, 4)))
     with pytest.raises(RecordingError, match=problem):
         check_ros1_times(0, stamp)
 
@@ -411,8 +406,8 @@ def test_batches_cut_chunks_like_single_writes(
 def test_long_write_is_flat(tmp_path: Path) -> None:
     """100,000 messages (50,000 samples of two connections) in batches: the writer holds one
     chunk and an index of a few bytes per chunk, never the recording."""
-    encoder = Ros1JointStateEncoder([f"joint{i}" for i in range(10)])
-    tf = Ros1TFMessageEncoder([f"link{i}" for i in range(10)], [f"link{i + 1}" for i in range(10)])
+    encoder = JointStateEncoder([f"joint{i}" for i in range(10)], ros1=True)
+    tf = TFMessageEncoder([f"link{i}" for i in range(10)], [f"link{i + 1}" for i in range(10)], ros1=True)
     samples, batch = 50_000, 2_000
     msgdef, md5sum = ros1_message_definition("sensor_msgs/JointState")
     tf_def, tf_md5 = ros1_message_definition("tf2_msgs/TFMessage")
@@ -453,9 +448,9 @@ def test_times_out_of_order_are_indexed_in_order(tmp_path: Path) -> None:
     with Ros1BagWriter(tmp_path / "order.bag") as writer:
         a, _, _ = add_three(writer)
         for i, time_ns in enumerate(times):
-            writer.write(a, time_ns, encode_ros1_string(str(i)))
+            writer.write(a, time_ns, encode_string(str(i), ros1=True))
     assert [(time_ns, raw) for _, time_ns, raw in rosbags_messages(tmp_path / "order.bag")] == [
-        (time_ns, encode_ros1_string(str(i))) for i, time_ns in sorted(enumerate(times), key=lambda item: item[1])
+        (time_ns, encode_string(str(i), ros1=True)) for i, time_ns in sorted(enumerate(times), key=lambda item: item[1])
     ]
 
 
@@ -490,7 +485,7 @@ def test_an_exception_leaves_the_bag_without_index(tmp_path: Path, marm: Robot, 
     with pytest.raises(KeyboardInterrupt), Ros1BagWriter(path, chunk_bytes=1000) as writer:
         a, _, _ = add_three(writer)
         for i in range(100):
-            writer.write(a, T0 + i, encode_ros1_string("x" * 100))
+            writer.write(a, T0 + i, encode_string("x" * 100, ros1=True))
         raise KeyboardInterrupt
     data = path.read_bytes()
     assert struct.unpack("<Q", fields(data, 13)[0]["index_pos"])[0] == 0  # rosbag: "reindex"

@@ -10,7 +10,7 @@ Channels, in id order:
 
 The writer is tfrec's own (the small records come from :mod:`mcap.records`): a chunk's Message
 records have a fixed size for fixed joint and frame names, so a chunk is one numpy array filled by
-strided writes (:mod:`tfrec.formats.ros.cdr`), and its message index is arithmetic. Nothing depends on the
+strided writes (:mod:`tfrec.formats.ros.encode`), and its message index is arithmetic. Nothing depends on the
 wall clock, so the same inputs give the same bytes. See docs/recording-format.md.
 """
 
@@ -52,7 +52,7 @@ from tfrec.formats.mcap.records import (
     OP_STATISTICS,
     RECORD,
 )
-from tfrec.formats.ros.cdr import JointStateEncoder, TFMessageEncoder, encode_string
+from tfrec.formats.ros.encode import JointStateEncoder, TFMessageEncoder, encode_string
 from tfrec.formats.ros.types import typestore
 from tfrec.formats.rosbag2.metadata import QOS_LATCHED, QOS_VOLATILE, bag_info, qos_yaml, yaml_dump
 

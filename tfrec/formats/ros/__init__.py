@@ -3,4 +3,4 @@ rosbags' type stores and deserializers (:mod:`.types`)."""
 
 from __future__ import annotations
 
-__all__ = ["cdr", "decode", "types"]
+__all__ = ["decode", "encode", "types"]

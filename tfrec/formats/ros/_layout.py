@@ -2,7 +2,7 @@
 
 A JointState or TFMessage with fixed joint or frame names has the same bytes in every message but
 the stamps and float64 values. :class:`Layout` writes one message's template and records where
-those fields sit; the encoders (:mod:`tfrec.formats.ros.cdr` for ROS 2, :mod:`tfrec.formats.rosbag1`'s
+those fields sit; the encoders (:mod:`tfrec.formats.ros.encode` for ROS 2, :mod:`tfrec.formats.rosbag1`'s
 for ROS 1) then copy whole chunks of stamps and values in as strided blocks.
 
 The two serializations differ in three places: CDR starts with a 4-byte encapsulation header and

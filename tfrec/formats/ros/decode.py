@@ -8,7 +8,7 @@ length whose other bytes all equal the template is then decoded as one (N, size)
 one numpy slice per field. Any other message (different names, a different layout) goes
 through a per-message deserializer supplied by the caller (rosbags'), so nothing is lost.
 
-Pure numpy, with the CDR rules of :mod:`tfrec.formats.ros.cdr`: the readers supply the bytes and the fallback
+Pure numpy, with the CDR rules of :mod:`tfrec.formats.ros.encode`: the readers supply the bytes and the fallback
 deserializer.
 """
 
@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.formats.ros.cdr import CDR_HEADER, align, ns_from_stamps
+from tfrec.formats.ros.encode import CDR_HEADER, align, ns_from_stamps
 
 __all__ = [
     "JointStateAccumulator",

@@ -158,7 +158,7 @@ def index_data_records(index: dict[int, tuple[Any, Any]]) -> tuple[bytes, NDArra
     Args:
         index: connection id → (int64 times buffer, int64 offsets buffer) of its messages in the chunk.
     """
-    from tfrec.formats.rosbag1._ros1_encode import ros1_times
+    from tfrec.formats.ros.encode import ros1_times
 
     counts = np.empty((len(index), 2), dtype="<u4")
     records = []

@@ -30,8 +30,8 @@ from numpy.typing import NDArray
 from tfrec.errors import ReadError
 from tfrec.formats._collect import Collector, ReadOptions, count_differences
 from tfrec.formats._compression import decompress
-from tfrec.formats.ros.cdr import ns_from_stamps
 from tfrec.formats.ros.decode import RawMessages
+from tfrec.formats.ros.encode import ns_from_stamps
 from tfrec.formats.ros.types import ros1_typestore, topic_deserializer
 from tfrec.formats.rosbag1.reader import (
     COMPRESSIONS,

@@ -21,7 +21,7 @@ from typing import IO
 from tfrec.errors import ReadError, one_line
 from tfrec.formats._collect import Collector, ReadOptions, ReadStopped, read_error_line, with_article
 from tfrec.formats._compression import MAX_CHUNK_BYTES, decompress, salvage
-from tfrec.formats.ros.cdr import ns_from_stamps
+from tfrec.formats.ros.encode import ns_from_stamps
 from tfrec.formats.ros.types import ros1_typestore, topic_deserializer
 from tfrec.recording import Recording, TopicStats
 

@@ -22,13 +22,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tfrec.conventions import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC
+from tfrec.formats.ros.encode import JointStateEncoder, TFMessageEncoder, check_ros1_times, encode_string
 from tfrec.formats.ros.types import ros1_message_definition
-from tfrec.formats.rosbag1._ros1_encode import (
-    Ros1JointStateEncoder,
-    Ros1TFMessageEncoder,
-    check_ros1_times,
-    encode_ros1_string,
-)
 from tfrec.formats.rosbag1.writer import CALLERID, DEFAULT_CHUNK_BYTES, Ros1BagWriter
 
 if TYPE_CHECKING:
@@ -66,8 +61,8 @@ class Ros1BagSink:
     def __init__(self, path: str | Path, *, compression: str = "none", chunk_bytes: int = DEFAULT_CHUNK_BYTES) -> None:
         self._writer = Ros1BagWriter(path, compression=compression, chunk_bytes=chunk_bytes)
         self._state = "new"
-        self._joint_states: Ros1JointStateEncoder | None = None
-        self._tf: Ros1TFMessageEncoder | None = None
+        self._joint_states: JointStateEncoder | None = None
+        self._tf: TFMessageEncoder | None = None
         self._last_sample_ns = -1
 
     def begin(self, *, robot_description: str, static: Transforms, start_time_ns: int) -> None:
@@ -90,8 +85,8 @@ class Ros1BagSink:
             msgdef, md5sum = ros1_message_definition(msgtype)
             self._writer.add_connection(topic, msgtype, msgdef=msgdef, md5sum=md5sum, latching=latching,
                                         callerid=CALLERID)
-        self._writer.write(_CONN_DESCRIPTION, start_time_ns, encode_ros1_string(robot_description))
-        tf_static = Ros1TFMessageEncoder(static.parents, static.children).encode(
+        self._writer.write(_CONN_DESCRIPTION, start_time_ns, encode_string(robot_description, ros1=True))
+        tf_static = TFMessageEncoder(static.parents, static.children, ros1=True).encode(
             np.array([start_time_ns], dtype=np.int64), static.translation, static.rotation
         )
         self._writer.write(_CONN_TF_STATIC, start_time_ns, tf_static[0].tobytes())
@@ -126,8 +121,8 @@ class Ros1BagSink:
         if len(stamp_ns) == 0:
             return
         if self._joint_states is None or self._tf is None:
-            self._joint_states = Ros1JointStateEncoder(joint_names)
-            self._tf = Ros1TFMessageEncoder(transforms.parents, transforms.children)
+            self._joint_states = JointStateEncoder(joint_names, ros1=True)
+            self._tf = TFMessageEncoder(transforms.parents, transforms.children, ros1=True)
         if tuple(joint_names) != self._joint_states.names:
             raise ValueError("joint names changed between chunks")
         if transforms.parents != self._tf.parents or transforms.children != self._tf.children:

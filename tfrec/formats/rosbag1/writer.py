@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 
 from tfrec.conventions import NS_PER_S
 from tfrec.errors import WriteError, display_path
+from tfrec.formats.ros.encode import ROS1_TIME_LIMIT_NS, ros1_times
 from tfrec.formats.rosbag1._records import (
     CONN_AT,
     LENGTH_AT,
@@ -56,7 +57,6 @@ from tfrec.formats.rosbag1._records import (
     time_bytes,
     u32,
 )
-from tfrec.formats.rosbag1._ros1_encode import ROS1_TIME_LIMIT_NS, ros1_times
 
 if TYPE_CHECKING:
     from concurrent.futures import Future, ThreadPoolExecutor
