@@ -17,7 +17,7 @@ from enum import Enum
 from pathlib import Path
 from typing import Any
 
-from tfrec.description._launch_files import MAX_NESTING, decode, read_bounded
+from tfrec.description._launch_files import MAX_NESTING, Element, decode, read_bounded, where
 from tfrec.errors import DescriptionError, display_path
 
 MAX_INCLUDE_DEPTH = 32
@@ -375,3 +375,38 @@ def child_ns(ns: str, sub: str | None) -> str:
     joined = sub if sub.startswith("/") else ns + sub
     parts = [p for p in joined.split("/") if p]
     return "/" + "".join(p + "/" for p in parts)
+
+
+class ElementReader:
+    """What the ROS 1 and ROS 2 readers share about an element: where it is, its attributes with their
+    substitutions resolved, and whether its ``if``/``unless`` lets it in."""
+
+    deferred: DeferredValues
+
+    def _resolve(self, text: str, scope: Any, at: str) -> str:
+        """``text`` with its substitutions resolved (the reader's own syntax)."""
+        raise NotImplementedError
+
+    def _at(self, elem: Element, scope: Any) -> str:
+        return where(scope.file, elem.line)
+
+    def _attr(self, elem: Element, name: str, scope: Any) -> str:
+        if name not in elem.attrs:
+            raise DescriptionError(f"{self._at(elem, scope)}: <{elem.tag}> has no {name}=")
+        return self._resolve(elem.attrs[name], scope, self._at(elem, scope))
+
+    def _opt(self, elem: Element, name: str, scope: Any) -> str | None:
+        return self._attr(elem, name, scope) if name in elem.attrs else None
+
+    def _enabled(self, elem: Element, scope: Any) -> bool:
+        at = self._at(elem, scope)
+        if "if" in elem.attrs and "unless" in elem.attrs:
+            raise DescriptionError(f"{at}: <{elem.tag}> has both if= and unless=")
+        key = "if" if "if" in elem.attrs else "unless" if "unless" in elem.attrs else None
+        if key is None:
+            return True
+        value = self.deferred.plain(self._resolve(elem.attrs[key], scope, at), at)
+        truth = {"true": True, "1": True, "false": False, "0": False}.get(value.strip().lower())
+        if truth is None:
+            raise DescriptionError(f"{at}: {key}=\"{elem.attrs[key]}\" is '{value}', not true, false, 1 or 0")
+        return truth if key == "if" else not truth

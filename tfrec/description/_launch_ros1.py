@@ -26,6 +26,7 @@ from tfrec.description._launch_common import (
     DeferredValues,
     DescriptionKind,
     DescriptionSource,
+    ElementReader,
     Failure,
     LaunchModel,
     Node,
@@ -53,7 +54,6 @@ from tfrec.description._launch_files import (
     decode,
     parse_xml,
     read_bounded,
-    where,
 )
 from tfrec.description.packages import PackageFinder
 from tfrec.errors import DescriptionError, display_path
@@ -112,7 +112,7 @@ def _collect(text: str) -> list[tuple[int, int, str]]:
     return spans
 
 
-class Ros1Reader:
+class Ros1Reader(ElementReader):
     """Reads one roslaunch XML file and its includes into a :class:`LaunchModel`."""
 
     def __init__(self, *, finder: PackageFinder, environ: Mapping[str, str], yaml_loader: YamlLoader | None,
@@ -229,29 +229,8 @@ class Ros1Reader:
 
     # ---- elements ------------------------------------------------------------------------------
 
-    def _at(self, elem: Element, scope: _Scope) -> str:
-        return where(scope.file, elem.line)
-
-    def _attr(self, elem: Element, name: str, scope: _Scope) -> str:
-        if name not in elem.attrs:
-            raise DescriptionError(f"{self._at(elem, scope)}: <{elem.tag}> has no {name}=")
-        return self.resolve(elem.attrs[name], scope, self._at(elem, scope))
-
-    def _opt(self, elem: Element, name: str, scope: _Scope) -> str | None:
-        return self._attr(elem, name, scope) if name in elem.attrs else None
-
-    def _enabled(self, elem: Element, scope: _Scope) -> bool:
-        at = self._at(elem, scope)
-        if "if" in elem.attrs and "unless" in elem.attrs:
-            raise DescriptionError(f"{at}: <{elem.tag}> has both if= and unless=")
-        key = "if" if "if" in elem.attrs else "unless" if "unless" in elem.attrs else None
-        if key is None:
-            return True
-        value = self.deferred.plain(self.resolve(elem.attrs[key], scope, at), at)
-        truth = {"true": True, "1": True, "false": False, "0": False}.get(value.lower())
-        if truth is None:
-            raise DescriptionError(f"{at}: {key}=\"{elem.attrs[key]}\" is '{value}', not true, false, 1 or 0")
-        return truth if key == "if" else not truth
+    def _resolve(self, text: str, scope: _Scope, at: str) -> str:
+        return self.resolve(text, scope, at)
 
     def _children(self, parent: Element, scope: _Scope) -> None:
         for elem in parent.children:
