@@ -355,3 +355,7 @@ def test_writing_is_streamed(marm_rec: Recording, tmp_path: Path) -> None:
         assert len(reader.chunk_infos) > 5
         assert reader.message_count == 2 * 6001 + 2
     assert np.isclose(read_recording(tmp_path / "long.bag").duration_ns / 1e9, 60.0)
+    for source in (long, tmp_path / "long.bag"):  # chunks after the cut are not read
+        result = convert(source, tmp_path / "first.mcap", start_s=2.0, end_s=5.0, force=True)
+        assert result.report is not None and result.report.written["/joint_states"] == 301
+        assert read_recording(tmp_path / "first.mcap").topics["/tf"].count == 301

@@ -44,8 +44,9 @@ class Derivation:
         prefix: its frame prefix.
         joints: the moving joints whose TF is computed (none: only fixed frames are added).
         joint_topic: the joint states it reads (``/joint_states``, ``/robot1/joint_states``).
-        tf_topic: where the computed /tf goes (the robot's namespace's ``/tf``).
-        static_topic: where the fixed frames go, latched (its ``/tf_static``).
+        tf_topic: where the computed /tf goes: the /tf the robot's TF is read from (its
+            namespace's, or the root's for robots sharing /tf with prefixed frames).
+        static_topic: where the fixed frames go, latched: the /tf_static beside it.
         static: the fixed frames not recorded: (parent, child) → (translation, rotation).
         description_topic: its ``/robot_description``.
         description: a description given instead of the recorded one (``robot``), or None.
@@ -153,7 +154,7 @@ def plan_derivations(summary: Recording, *, mode: bool | None, robot: Robot | No
         derive = bool(moving or fixed) if mode else (mode is None and bool(moving))
         if derive or robot is not None:
             out.append(Derivation(r.key, model, prefix, moving if derive else (),
-                                  r.joint_states_namespace + JOINT_STATES, r.namespace + TF, r.namespace + TF_STATIC,
+                                  r.joint_states_namespace + JOINT_STATES, r.tf_namespace + TF, r.tf_namespace + TF_STATIC,
                                   fixed if derive else {}, r.namespace + ROBOT_DESCRIPTION,
                                   robot.urdf if robot is not None else None))
     if mode and not found:

@@ -187,7 +187,8 @@ def convert(
                                f"({(end - origin) / NS_PER_S:g} s)")
     derivations = [] if tf_from_joints is False else plan_derivations(summary, mode=tf_from_joints, robot=robot,
                                                                         namespace=ns)
-    selected = _selection(summary, topics=topics, exclude=exclude, namespace=ns)
+    produced = {topic for d in derivations for topic in (d.tf_topic, d.static_topic, d.description_topic)}
+    selected = _selection(summary, topics=topics, exclude=exclude, namespace=ns, produced=produced)
     with AtomicOutputs(replace=force) as outputs:
         temp = outputs.path(path, directory=kind == "rosbag2")
         writer = open_output(temp, kind=kind, compression=compression, name=path.name)
@@ -205,8 +206,9 @@ def convert(
 
 
 def _selection(summary: Recording, *, topics: Collection[str] | None, exclude: Collection[str],
-               namespace: str | None) -> _Selected:
-    """What is written, from the options; a topic named that the recording does not have warns.
+               namespace: str | None, produced: set[str]) -> _Selected:
+    """What is written, from the options; a topic named that the recording does not have (and the
+    copy does not write either: ``produced``) warns.
 
     Raises:
         ConvertError: a `namespace` that holds no topic.
@@ -222,7 +224,7 @@ def _selection(summary: Recording, *, topics: Collection[str] | None, exclude: C
                                f"namespaces: {listed})")
         for r in find_robots(summary, namespace=namespace):
             shared |= {r.tf_namespace + "/tf", r.tf_namespace + "/tf_static", r.joint_states_namespace + "/joint_states"}
-    recorded = set(summary.topics)
+    recorded = set(summary.topics) | produced
     absent = sorted(t for t in (chosen or set()) | left if t not in recorded)
     if absent:
         warnings.warn(f"{summary.path}: no {', '.join(absent)} in the recording", stacklevel=3)

@@ -103,6 +103,7 @@ class Copier:
         self._latched: dict[int, tuple[int, bytes]] = {}  # conn → (log time, message)
         self._begun = False
         self._ros1 = writer.encoding == "ros1"
+        source.until_ns = hi  # chunks wholly after the cut need not be read
 
     def run(self) -> CopyReport:
         """Copy every batch, then report.

@@ -239,6 +239,8 @@ class McapMessages(MessageSource):
         """One chunk record's messages; a damaged chunk is noted and gives none."""
         try:
             head = chunk_fields(body)
+            if self.until_ns is not None and head.plausible() and head.start > self.until_ns:
+                return None  # every message in it is past what is wanted
             if len(head.records) != head.length:
                 raise ValueError("its records run past its end")
             records = decompress(head.compression, head.records, head.size, supported=COMPRESSIONS)

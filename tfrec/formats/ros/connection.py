@@ -116,10 +116,13 @@ class MessageSource:
             Publishers that are the same in every respect share one id.
         problems: what was lost of a damaged file, one phrase each.
         messages: messages read so far.
+        until_ns: a hint: messages logged after it are not wanted, so a chunk that holds none
+            before it may be left unread (its messages are not counted); None: every message.
     """
 
     where: str
     format: str
+    until_ns: int | None = None
     connections: dict[int, Connection] = field(default_factory=dict)
     problems: list[str] = field(default_factory=list)
     messages: int = 0

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 
 from tfrec.errors import ReadError
 from tfrec.formats._compression import MAX_CHUNK_BYTES, decompress, salvage
+from tfrec.formats.ros.cdr import ns_from_stamps
 from tfrec.formats.ros.connection import Connection, MessageBatch, MessageSource
 from tfrec.formats.ros.decode import RawMessages
 from tfrec.formats.rosbag1.index import message_spans
@@ -187,6 +188,8 @@ class Ros1Messages(MessageSource):
 
     def _chunk(self, fields: dict[str, bytes], data: bytes, entries: dict[int, NDArray[np.void]], start: int, *,
                cut: bool) -> MessageBatch | None:
+        if self.until_ns is not None and entries and not cut and _first_ns(entries) > self.until_ns:
+            return None  # its index says every message in it is past what is wanted
         try:
             compression = fields["compression"].decode("ascii")
             size = uint32_field(fields, "size")
@@ -262,6 +265,12 @@ class Ros1Messages(MessageSource):
         return MessageBatch.of(np.array(conns, np.int64), np.array(times, np.int64), None,
                                RawMessages(np.frombuffer(view, dtype=np.uint8), np.array(starts, np.int64),
                                            np.array(stops, np.int64))), problem
+
+
+def _first_ns(entries: dict[int, NDArray[np.void]]) -> int:
+    """The earliest time of a chunk's index data entries (ns)."""
+    times = [ns_from_stamps(e["sec"].astype(np.int64), e["nsec"].astype(np.int64)).min() for e in entries.values() if len(e)]
+    return int(min(times)) if times else -1
 
 
 def _record(stream: IO[bytes], size: int, *, cut_ok: bool = False) -> tuple[dict[str, bytes], int, int]:

@@ -57,7 +57,8 @@ class Sqlite3Messages(MessageSource):
                 db = connect_read_only(file)
                 try:
                     ids = self._topics(db)
-                    cursor = db.execute("SELECT topic_id, timestamp, data FROM messages ORDER BY timestamp, id")
+                    until = "" if self.until_ns is None else f" WHERE timestamp <= {int(self.until_ns)}"
+                    cursor = db.execute(f"SELECT topic_id, timestamp, data FROM messages{until} ORDER BY timestamp, id")
                     for batch in self._rows(cursor, ids):
                         read += len(batch)
                         yield batch
