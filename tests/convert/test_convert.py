@@ -359,3 +359,30 @@ def test_writing_is_streamed(marm_rec: Recording, tmp_path: Path) -> None:
         result = convert(source, tmp_path / "first.mcap", start_s=2.0, end_s=5.0, force=True)
         assert result.report is not None and result.report.written["/joint_states"] == 301
         assert read_recording(tmp_path / "first.mcap").topics["/tf"].count == 301
+
+
+@pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
+@pytest.mark.parametrize("mode", ["FILE", "MESSAGE"])
+def test_compressed_rosbag2_inputs(tmp_path: Path, marm_rec: Recording, storage: str, mode: str) -> None:
+    """rosbag2 folders compressed file by file or message by message convert like any other."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
+
+    from tests.recording_helpers import _Messages, _typestore, recording_messages
+
+    store = _typestore(False)
+    bag = tmp_path / "zipped"
+    writer = Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3)
+    writer.set_compression(CompressionMode[mode], CompressionFormat.ZSTD)
+    with writer:
+        connections: dict[str, Any] = {}
+        for topic, msgtype, time_ns, msg in recording_messages(marm_rec, _Messages(store, False)):
+            if topic not in connections:
+                connections[topic] = writer.add_connection(topic, msgtype, typestore=store)
+            writer.write(connections[topic], time_ns, bytes(store.serialize_cdr(msg, msgtype)))
+    convert(bag, tmp_path / "plain.bag", start_s=1.0)
+    rec = read_recording(tmp_path / "plain.bag")
+    assert rec.topics["/joint_states"].count == 51 and rec.topics["/tf_static"].count == 1  # latched by convention
+    assert rec.joint_states is not None and marm_rec.joint_states is not None
+    np.testing.assert_array_equal(rec.joint_states.positions, marm_rec.joint_states.positions[-51:])
+    assert rosbags_latching(tmp_path / "plain.bag")["/tf_static"]

@@ -14,15 +14,17 @@ subscriber of the running system would have received. TF computed from joint sta
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
+from tfrec.conventions import ROBOT_DESCRIPTION, TF_STATIC, robot_topic_kind
 from tfrec.convert.joints import Derivation
 from tfrec.errors import ConvertError
 from tfrec.formats.output import MessageWriter
-from tfrec.formats.ros.connection import MessageBatch, MessageSource, raw_messages
+from tfrec.formats.ros.connection import Connection, MessageBatch, MessageSource, raw_messages
+from tfrec.formats.rosbag2.metadata import qos_durability
 from tfrec.formats.translate import Translation, Untranslatable, standard_connection, string_message, translation
 
 __all__ = ["Copier", "CopyReport"]
@@ -68,11 +70,20 @@ class _Plan:
 
     topic: str
     selected: bool
+    latched: bool = False
     translation: Translation | None = None
     reason: str = ""
     out: int = -1
     replaced: bool = False
     derivations: list[Derivation] = field(default_factory=list)
+
+
+def _latched_by_convention(connection: Connection) -> bool:
+    """A ROS 2 /tf_static or /robot_description (of any namespace) whose file gives no durability: latched,
+    as tf2's static broadcaster and robot_state_publisher always publish them."""
+    kind = robot_topic_kind(connection.topic)
+    return (kind is not None and kind[1] in (TF_STATIC, ROBOT_DESCRIPTION) and not connection.ros1
+            and qos_durability(connection.qos) is None)
 
 
 class Copier:
@@ -136,7 +147,9 @@ class Copier:
         if plan is not None:
             return plan
         c = self.source.connections[conn]
-        plan = self._plans[conn] = _Plan(c.topic, self.selected(c.topic))
+        if not c.latched and _latched_by_convention(c):
+            c = replace(c, latched=True, qos="")
+        plan = self._plans[conn] = _Plan(c.topic, self.selected(c.topic), c.latched)
         plan.derivations = [d for d in self.derivations if d.joints and d.joint_topic == c.topic
                             and c.msgtype == "sensor_msgs/msg/JointState"]
         plan.replaced = any(d.description is not None and d.description_topic == c.topic for d in self.derivations)
@@ -197,7 +210,7 @@ class Copier:
         """Keep the last message before the cut of each latched connection (written at the cut)."""
         for conn in np.unique(batch.conn[before]).tolist():
             plan = self._plans[conn]
-            if not (self.source.connections[conn].latched and plan.selected and plan.translation is not None):
+            if not (plan.latched and plan.selected and plan.translation is not None):
                 continue
             last = int(np.flatnonzero(before & (batch.conn == conn))[-1])
             time_ns = int(batch.log_time[last])
