@@ -127,7 +127,7 @@ def test_sigterm_ends_a_replay_save_blocked_on_a_full_disk(small_disk: Path, tmp
         except subprocess.TimeoutExpired:
             process.kill()
             pytest.fail("SIGTERM did not end tfrec replay --save on a full disk")
-    assert code in (2, 143)
+    assert code in (2, 143, -15)  # -15: the signal came before tfrec set its handler (a slow start)
 
 
 def test_a_read_only_folder_is_one_line(read_only: Path, capsys: Any) -> None:

@@ -28,7 +28,7 @@ __all__ = ["main", "main_exit"]
 
 
 def _build_parser() -> argparse.ArgumentParser:
-    from tfrec.cli import _diff, _info, _inspect, _plot, _record, _replay
+    from tfrec.cli import _convert, _diff, _info, _inspect, _plot, _record, _replay
 
     parser = Parser(
         prog=PROG,
@@ -36,13 +36,14 @@ def _build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="examples:\n  tfrec record robots/mbot.xacro --traj sine     (then: rerun recordings/<name>.rrd)\n"
                "  tfrec replay --check recordings/<name>.mcap\n"
-               "  tfrec diff golden.mcap new.mcap --plot diff.png\n\n"
+               "  tfrec diff golden.mcap new.mcap --plot diff.png\n"
+               "  tfrec convert robot.bag robot.mcap --start 60\n\n"
                "'tfrec COMMAND --help' describes each command. Without an activated virtual environment, type "
                "the commands as .venv/bin/tfrec and .venv/bin/rerun.",
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for command in (_inspect, _record, _info, _diff, _replay, _plot):
+    for command in (_inspect, _record, _info, _diff, _replay, _convert, _plot):
         command.add_parser(sub)
     return parser
 

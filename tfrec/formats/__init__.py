@@ -11,6 +11,10 @@ format each:
 - :mod:`~tfrec.formats.rosbag2`: rosbag2 folders (``metadata.yaml``, QoS, sqlite3);
 - :mod:`~tfrec.formats.rrd`: Rerun recordings: entity paths, geometry, the sink, the reader, the viewer.
 
+For ``tfrec convert``, :mod:`~tfrec.formats.messages` opens any recording's messages raw, chunk by chunk,
+:mod:`~tfrec.formats.translate` carries them between ROS 1 and ROS 2, and :mod:`~tfrec.formats.output`
+writes them (MCAP, rosbag2 folder, ROS 1 bag).
+
 The only package that imports mcap, rosbags, rerun, pyarrow, yaml, zstandard and lz4 (each
 lazily or inside its format's modules, so importing :mod:`tfrec.formats` stays cheap).
 """

@@ -67,7 +67,9 @@ __all__ = [
     "TOPICS",
     "McapSink",
     "check_time_range",
+    "chunk_compressor",
     "message_definition",
+    "serialize_records",
 ]
 
 DEFAULT_CHUNK_BYTES = 1 << 20
@@ -115,7 +117,13 @@ _ZSTD_BLOCK = 16 * 1024
 """Uncompressed bytes per zstd block: the most a cut inside a zstd chunk loses."""
 
 
-def _compressor(compression: str) -> tuple[str, Callable[[bytes], bytes]]:
+def chunk_compressor(compression: str) -> tuple[str, Callable[[bytes], bytes]]:
+    """The chunk compression field and compressor of ``zstd`` (level 3, a block every 16 KiB so a
+    cut file reads up to the cut), ``lz4`` (frame format) or ``none``.
+
+    Raises:
+        WriteError: another compression.
+    """
     if compression == "zstd":
         import zstandard
 
@@ -140,8 +148,8 @@ def _compressor(compression: str) -> tuple[str, Callable[[bytes], bytes]]:
     raise WriteError(f"compression '{compression}' is not one of {', '.join(COMPRESSIONS)}")
 
 
-def _serialize(*records: Any) -> bytes:
-    """mcap records (:mod:`mcap.records`) as bytes."""
+def serialize_records(*records: Any) -> bytes:
+    """mcap's records (:mod:`mcap.records`) as bytes."""
     from mcap.data_stream import RecordBuilder
 
     builder = RecordBuilder()
@@ -186,7 +194,7 @@ class McapSink:
         if chunk_bytes < 1:
             raise ValueError(f"chunk size must be positive, got {chunk_bytes}")
         self._stream = stream
-        self._compression, self._compress = _compressor(compression)
+        self._compression, self._compress = chunk_compressor(compression)
         self._chunk_bytes = chunk_bytes
         self._file_name = file_name
         self._offset = 0
@@ -239,7 +247,7 @@ class McapSink:
                 metadata={"offered_qos_profiles": qos_yaml([qos]), "topic_type_hash": type_hash},
             )
             self._channels.append(channel)
-        self._write(MCAP_MAGIC + _serialize(Header(profile=PROFILE, library=LIBRARY), *self._schemas, *self._channels))
+        self._write(MCAP_MAGIC + serialize_records(Header(profile=PROFILE, library=LIBRARY), *self._schemas, *self._channels))
 
         if static.translation.shape[0] != 1:
             raise ValueError(f"static transforms must have N = 1, got {static.translation.shape[0]}")
@@ -443,9 +451,9 @@ class McapSink:
              for channel, (topic, msgtype, qos) in enumerate(TOPICS, start=1)],
             message_count=self.message_count, start_ns=start, end_ns=self._end_ns, file_name=self._file_name,
         )
-        metadata = _serialize(Metadata(name="rosbag2", metadata={"serialized_metadata": yaml_dump(self._bag_info)}))
+        metadata = serialize_records(Metadata(name="rosbag2", metadata={"serialized_metadata": yaml_dump(self._bag_info)}))
         metadata_index = MetadataIndex(offset=self._offset, length=len(metadata), name="rosbag2")
-        self._write(metadata + _serialize(DataEnd(data_section_crc=0)))
+        self._write(metadata + serialize_records(DataEnd(data_section_crc=0)))
 
         statistics = Statistics(
             message_count=self.message_count, schema_count=len(self._schemas), channel_count=len(self._channels),
@@ -463,17 +471,17 @@ class McapSink:
             (OP_METADATA_INDEX, [metadata_index]),
         ):
             if records:
-                group = _serialize(*records)
+                group = serialize_records(*records)
                 offsets.append(SummaryOffset(
                     group_opcode=opcode, group_start=summary_start + len(summary), group_length=len(group),
                 ))
                 summary += group
         summary_offset_start = summary_start + len(summary)
-        summary += _serialize(*offsets)
+        summary += serialize_records(*offsets)
         crc = zlib.crc32(summary)
         crc = zlib.crc32(struct.pack("<BQQQ", OP_FOOTER, 8 + 8 + 4, summary_start, summary_offset_start), crc)
         footer = Footer(summary_start=summary_start, summary_offset_start=summary_offset_start, summary_crc=crc)
-        self._write(summary + _serialize(footer) + MCAP_MAGIC)
+        self._write(summary + serialize_records(footer) + MCAP_MAGIC)
         self._stream.flush()
 
     def _write(self, data: bytes) -> None:

@@ -28,6 +28,7 @@ __all__ = [
     "MessageLayout",
     "RawMessages",
     "TFAccumulator",
+    "match_layout",
     "message_layout",
     "stamp_ns",
     "transforms_of",
@@ -49,6 +50,9 @@ class MessageLayout:
         names: frame pairs (parent, child) of a TFMessage, or joint names of a JointState.
         ros1: ROS 1 serialization (unsigned seconds) rather than CDR (signed).
         template: the message the layout was learnt from.
+        values: the byte ranges [start, stop) that carry values, in message order: each header
+            stamp and each block of float64 values (empty blocks included) — what a message of
+            this kind keeps between ROS 1 and CDR (ROS 1's header ``seq`` is not one of them).
     """
 
     size: int
@@ -58,6 +62,7 @@ class MessageLayout:
     names: tuple[Any, ...]
     ros1: bool
     template: NDArray[np.uint8]
+    values: tuple[tuple[int, int], ...] = ()
 
 
 class _Walker:
@@ -71,6 +76,7 @@ class _Walker:
         self.base = 0 if ros1 else len(CDR_HEADER)
         self.pos = self.base
         self.variable: list[tuple[int, int]] = []
+        self.values: list[tuple[int, int]] = []
 
     def _take(self, size: int) -> int:
         start = self.pos
@@ -105,6 +111,7 @@ class _Walker:
         self.align(4)
         stamp = self._take(8)
         self.variable.append((stamp, self.pos))
+        self.values.append((stamp, self.pos))
         return stamp, self.string()
 
     def float64s(self, count: int) -> int:
@@ -112,6 +119,7 @@ class _Walker:
             self.align(8)
         start = self._take(8 * count)
         self.variable.append((start, self.pos))
+        self.values.append((start, self.pos))
         return start
 
     def layout(self, stamps: list[int], floats: list[int], names: list[Any]) -> MessageLayout:
@@ -124,7 +132,7 @@ class _Walker:
         if cursor < len(self.data):
             fixed.append((cursor, len(self.data)))
         return MessageLayout(len(self.data), tuple(fixed), tuple(stamps), tuple(floats), tuple(names), self.ros1,
-                             np.frombuffer(self.data, dtype=np.uint8))
+                             np.frombuffer(self.data, dtype=np.uint8), tuple(self.values))
 
 
 def message_layout(kind: str, data: bytes | memoryview, *, ros1: bool) -> MessageLayout:
@@ -200,7 +208,9 @@ class RawMessages(Sequence[memoryview]):
             rows: NDArray[np.uint8] = np.lib.stride_tricks.as_strided(
                 self.buffer[int(starts[0]):], shape=(len(starts), size), strides=(step, 1), writeable=False)
             return rows
-        gathered: NDArray[np.uint8] = self.buffer[starts[:, np.newaxis] + np.arange(size)]
+        windows = np.lib.stride_tricks.as_strided(self.buffer, shape=(len(self.buffer) - size + 1, size),
+                                                  strides=(1, 1), writeable=False)
+        gathered: NDArray[np.uint8] = windows[starts]  # a copy, one row at a time (no index per byte)
         return gathered
 
 
@@ -232,6 +242,18 @@ def _split(
     others = np.ones(len(datas), dtype=bool)
     others[good] = False
     return rows[ok], good, np.flatnonzero(others).tolist()
+
+
+def match_layout(
+    layout: MessageLayout, datas: Sequence[bytes | memoryview]
+) -> tuple[NDArray[np.uint8] | None, NDArray[np.intp], list[int]]:
+    """The messages of ``datas`` that have ``layout`` (its length, and its fixed bytes exactly).
+
+    Returns:
+        (their rows as an (n, size) array — a view of the buffer when they lie evenly spaced in one —,
+        their indices, the indices of the others).
+    """
+    return _split(layout, datas)
 
 
 def _stamps(rows: NDArray[np.uint8], offset: int, ros1: bool) -> NDArray[np.int64]:

@@ -50,7 +50,7 @@ from tfrec.formats.rosbag1.reader import (
 )
 from tfrec.recording import Recording, TopicStats
 
-__all__ = ["read_rosbag1"]
+__all__ = ["message_spans", "read_rosbag1"]
 
 _ENTRY = np.dtype([("sec", "<u4"), ("nsec", "<u4"), ("offset", "<u4")])
 """An index data record's entry (version 1): a message's time and its byte in the decompressed chunk."""
@@ -285,6 +285,17 @@ def _messages(buffer: NDArray[np.uint8], offsets: NDArray[np.int64],
             if stops[-1] <= size and not (stops[:-1] > offsets[1:]).any():
                 return times, starts, stops
     return _one_by_one(buffer, offsets, conn)
+
+
+def message_spans(buffer: NDArray[np.uint8], offsets: NDArray[np.int64],
+                  conn: int) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]] | None:
+    """The (time, data start, data end) of the message records of connection ``conn`` at
+    ``offsets`` (sorted) in a chunk's records ``buffer``, found with numpy as the index reader
+    finds them; None when an offset holds no message record of the connection."""
+    try:
+        return _messages(buffer, offsets, conn)
+    except _Unusable:
+        return None
 
 
 def _field_position(header: bytes, name: str) -> int | None:

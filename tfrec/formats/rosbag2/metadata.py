@@ -27,6 +27,7 @@ __all__ = [
     "BagMetadata",
     "bag_info",
     "bag_without_metadata",
+    "offered_qos_profiles",
     "one_line",
     "qos_durability",
     "qos_yaml",
@@ -254,6 +255,35 @@ def one_line(text: str) -> str:
 
 
 _DURABILITY = {0: "system_default", 1: "transient_local", 2: "volatile", 3: "unknown", 4: "best_available"}
+_ENUMS = {
+    "history": {0: "system_default", 1: "keep_last", 2: "keep_all", 3: "unknown"},
+    "reliability": {0: "system_default", 1: "reliable", 2: "best_effort", 3: "unknown", 4: "best_available"},
+    "durability": _DURABILITY,
+    "liveliness": {0: "system_default", 1: "automatic", 2: "manual_by_node", 3: "manual_by_topic", 4: "unknown",
+                   5: "best_available"},
+}
+"""The QoS enums as rosbag2 of Humble and older wrote them (numbers), and as Jazzy's metadata version 9 names them."""
+
+
+def offered_qos_profiles(text: str, *, latched: bool) -> list[dict[str, Any]]:
+    """Offered QoS profiles as metadata version 9 writes them, from rosbag2's YAML text of any
+    version (Humble's numbered enums are named); a missing or unreadable text gives the profile
+    tfrec records with: :data:`QOS_LATCHED` when ``latched``, else :data:`QOS_VOLATILE`."""
+    try:
+        profiles = load_yaml(text, where="offered_qos_profiles") if text else None
+    except ValueError:
+        profiles = None
+    if not isinstance(profiles, list) or not profiles or not all(isinstance(p, dict) for p in profiles):
+        return [copy.deepcopy(QOS_LATCHED if latched else QOS_VOLATILE)]
+    out = []
+    for profile in profiles:
+        named = dict(profile)
+        for key, names in _ENUMS.items():
+            value = named.get(key)
+            if isinstance(value, int) and not isinstance(value, bool):
+                named[key] = names.get(value, "unknown")
+        out.append(named)
+    return out
 
 
 def qos_durability(offered_qos_profiles: str) -> str | None:

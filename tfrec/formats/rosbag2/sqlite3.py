@@ -33,14 +33,14 @@ from tfrec.formats.ros.types import topic_deserializer
 from tfrec.formats.rosbag2.metadata import qos_durability
 from tfrec.recording import TopicStats
 
-__all__ = ["Damaged", "read_sqlite3_into", "salvage_sqlite3_into"]
+__all__ = ["Damaged", "connect_read_only", "open_cut_database", "read_sqlite3_into", "salvage_sqlite3_into"]
 
 
 class Damaged(Exception):
     """SQLite cannot read a database (or stopped inside it): read it with :func:`salvage_sqlite3_into`."""
 
 
-def _connect(file: Path) -> sqlite3.Connection:
+def connect_read_only(file: Path) -> sqlite3.Connection:
     """A read-only connection: to the database and its write-ahead log where they can be opened,
     else (a read-only folder without the log's shared-memory file) to the database file alone."""
     try:
@@ -93,7 +93,7 @@ def read_sqlite3_into(files: Sequence[Path], collector: Collector, *, where: str
     """
     for file in files:
         try:
-            db = _connect(file)
+            db = connect_read_only(file)
         except sqlite3.Error as err:
             raise Damaged(f"{file.name}: {err}") from err
         try:
@@ -168,7 +168,7 @@ def _decode(db: sqlite3.Connection, topic_id: int, name: str, collector: Collect
 # -- a damaged database ---------------------------------------------------------------------------
 
 
-def _open_cut_database(file: Path, copy: Path) -> tuple[sqlite3.Connection, str]:
+def open_cut_database(file: Path, copy: Path) -> tuple[sqlite3.Connection, str]:
     """A damaged ``.db3``, copied to ``copy`` with the page count in its header lowered to the
     pages the file holds (else SQLite refuses the whole file as malformed), opened; and what was
     wrong with it."""
@@ -206,7 +206,7 @@ def salvage_sqlite3_into(files: Sequence[Path], collector: Collector, *, where: 
     for file in files:
         with tempfile.TemporaryDirectory(prefix="tfrec-") as scratch:
             try:
-                db, note = _open_cut_database(file, Path(scratch) / file.name)
+                db, note = open_cut_database(file, Path(scratch) / file.name)
             except OSError as err:
                 raise ReadError(f"{where}: cannot read {file.name}: {err.strerror or err}") from err
             try:

@@ -1,0 +1,365 @@
+"""MCAP output of any topics (``tfrec convert``): serialized messages written as they are given.
+
+:class:`McapWriter` is :class:`~tfrec.formats.mcap.writer.McapSink`'s file layout for messages it
+does not build itself: a schema per message definition and a channel per connection (offered QoS
+and type hash in the channel metadata, as rosbag2's MCAP plugin writes them), written before the
+first chunk that uses them; chunks of about ``chunk_bytes`` uncompressed, each followed by its
+message index records; the ``rosbag2`` metadata record; the summary. Messages of a fixed size
+come as one (n, size) array and become their records with a handful of numpy operations;
+chunks are compressed on worker threads (zstd and lz4 release the GIL) while the next one fills.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+import threading
+import zlib
+from collections import deque
+from collections.abc import Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import IO, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tfrec.errors import WriteError
+from tfrec.formats.mcap.records import (
+    MCAP_MAGIC,
+    MESSAGE_HEAD_SIZE,
+    OP_CHANNEL,
+    OP_CHUNK,
+    OP_CHUNK_INDEX,
+    OP_FOOTER,
+    OP_MESSAGE,
+    OP_MESSAGE_INDEX,
+    OP_METADATA_INDEX,
+    OP_SCHEMA,
+    OP_STATISTICS,
+    RECORD,
+)
+from tfrec.formats.mcap.writer import DEFAULT_CHUNK_BYTES, LIBRARY, PROFILE, chunk_compressor, serialize_records
+from tfrec.formats.ros.connection import Connection
+from tfrec.formats.rosbag2.metadata import bag_info, offered_qos_profiles, qos_yaml, yaml_dump
+
+__all__ = ["McapWriter"]
+
+_WORKERS = 2
+"""Threads compressing chunks: at most this many chunks wait in memory."""
+_HEAD = RECORD.size + MESSAGE_HEAD_SIZE
+"""Bytes of a Message record before its data."""
+
+Buffer = bytes | memoryview
+
+
+class McapWriter:
+    """Writes an MCAP file (profile ``ros2``) of serialized messages on any channels.
+
+    Call :meth:`add_channel` for each connection (before its messages), :meth:`write` for
+    messages in any order, then :meth:`finish`; :meth:`abort` stops the compression threads
+    after an error. The stream must be at its start; it is neither closed nor written after
+    :meth:`finish`.
+
+    Args:
+        stream: a binary stream to write to.
+        compression: chunk compression, ``zstd`` (default), ``lz4`` or ``none``.
+        chunk_bytes: uncompressed bytes after which a chunk is written.
+        file_name: the file's final name, listed in the embedded rosbag2 metadata (``<bag>_0.mcap``).
+
+    Raises:
+        WriteError: an unknown compression.
+    """
+
+    def __init__(self, stream: IO[bytes], *, compression: str = "zstd", chunk_bytes: int = DEFAULT_CHUNK_BYTES,
+                 file_name: str = "") -> None:
+        from mcap.records import Header
+
+        self._stream = stream
+        self._compression, _ = chunk_compressor(compression)  # checks the name
+        self._local = threading.local()
+        self._chunk_bytes = max(1, chunk_bytes)
+        self._file_name = file_name
+        self._offset = 0
+        self._schemas: list[Any] = []
+        self._schema_ids: dict[tuple[str, str, str], int] = {}
+        self._channels: list[Any] = []
+        self._topics: list[tuple[str, str, list[dict[str, Any]], str]] = []  # topic, type, QoS, type hash
+        self._counts: list[int] = []
+        self._start_ns: int | None = None
+        self._end_ns = 0
+        # the open chunk: its records, their length, (times, offsets) per channel, its span
+        self._pieces: list[Buffer] = []
+        self._chunk_len = 0
+        self._index: dict[int, list[tuple[NDArray[np.int64], NDArray[np.int64]]]] = {}
+        self._chunk_span: tuple[int, int] | None = None
+        self._chunk_indexes: list[Any] = []
+        self._pending: deque[tuple[Future[tuple[bytes, int]], int, dict[int, bytes], tuple[int, int]]] = deque()
+        self._pool: ThreadPoolExecutor | None = None
+        self._bag_info: dict[str, Any] = {}
+        self._state = "open"
+        self._write(MCAP_MAGIC + serialize_records(Header(profile=PROFILE, library=LIBRARY)))
+
+    # -- channels -----------------------------------------------------------------------------
+
+    def add_channel(self, connection: Connection) -> int:
+        """Add a channel (and its schema, unless one of the same definition is there); its records
+        are written at once, before any chunk that holds its messages.
+
+        Args:
+            connection: the topic, type, message encoding (``cdr``), definition (``ros2msg`` or
+                ``ros2idl``; without one, a schema of the type's name, encoding ``""``: none is
+                available), offered QoS (any rosbag2 version's YAML: written as version 9
+                names it; without one, reliable and transient_local for a latched topic, else
+                volatile) and type hash.
+
+        Returns:
+            The channel id (1, 2, … in the order of the calls).
+        """
+        from mcap.records import Channel, Schema
+
+        self._check_open()
+        schema_id = 0
+        if connection.msgtype:
+            encoding = (connection.definition_encoding or "ros2msg") if connection.definition else ""  # "": none
+            key = (connection.msgtype, encoding, connection.definition)
+            schema_id = self._schema_ids.get(key, 0)
+            if not schema_id:
+                schema_id = self._schema_ids[key] = len(self._schema_ids) + 1
+                schema = Schema(id=schema_id, name=key[0], encoding=key[1], data=key[2].encode())
+                self._schemas.append(schema)
+                self._write(serialize_records(schema))
+        profiles = offered_qos_profiles(connection.qos, latched=connection.latched)
+        metadata = {"offered_qos_profiles": qos_yaml(profiles)}
+        if connection.type_hash:
+            metadata["topic_type_hash"] = connection.type_hash
+        channel = Channel(id=len(self._channels) + 1, topic=connection.topic, message_encoding=connection.encoding,
+                          schema_id=schema_id, metadata=metadata)
+        self._channels.append(channel)
+        self._topics.append((connection.topic, connection.msgtype, profiles, connection.type_hash))
+        self._counts.append(0)
+        self._write(serialize_records(channel))
+        return int(channel.id)
+
+    # -- messages -----------------------------------------------------------------------------
+
+    def write(self, channel: int, log_time: NDArray[np.int64], data: NDArray[np.uint8] | Sequence[Buffer],
+              publish_time: NDArray[np.int64] | None = None) -> None:
+        """Write N messages of one channel.
+
+        Args:
+            channel: a channel from :meth:`add_channel`.
+            log_time: int64 (N,) log times, ns since the epoch.
+            data: the messages: (N, size) uint8 rows of fixed-size messages (fast), or one by one.
+            publish_time: int64 (N,) publish times; the log times when None.
+
+        Raises:
+            WriteError: a time before 1970 (MCAP times are unsigned), or a write error.
+        """
+        self._check_open()
+        times = np.asarray(log_time, dtype=np.int64).reshape(-1)
+        n = len(times)
+        if n == 0:
+            return
+        publish = times if publish_time is None else np.asarray(publish_time, dtype=np.int64).reshape(-1)
+        if int(min(times.min(), publish.min())) < 0:
+            raise WriteError(f"a {self._topics[channel - 1][0]} message time is before 1970")
+        first_seq = self._counts[channel - 1] + 1
+        self._counts[channel - 1] += n
+        self._start_ns = int(times.min()) if self._start_ns is None else min(self._start_ns, int(times.min()))
+        self._end_ns = max(self._end_ns, int(times.max()))
+        heads = np.empty((n, _HEAD), dtype=np.uint8)
+        heads[:, 0] = OP_MESSAGE
+        heads[:, 9:11] = np.frombuffer(struct.pack("<H", channel), dtype=np.uint8)
+        heads[:, 11:15] = (np.arange(first_seq, first_seq + n, dtype=np.int64) % 2**32).astype("<u4").view(
+            np.uint8).reshape(n, 4)
+        heads[:, 15:23] = times.astype("<u8").view(np.uint8).reshape(n, 8)
+        heads[:, 23:31] = publish.astype("<u8").view(np.uint8).reshape(n, 8)
+        if isinstance(data, np.ndarray):
+            size = data.shape[1]
+            heads[:, 1:9] = np.frombuffer(struct.pack("<Q", MESSAGE_HEAD_SIZE + size), dtype=np.uint8)
+            self._rows(channel, times, np.concatenate([heads, data], axis=1))
+        else:
+            sizes = np.fromiter(map(len, data), dtype=np.int64, count=n)
+            heads[:, 1:9] = (sizes + MESSAGE_HEAD_SIZE).astype("<u8").view(np.uint8).reshape(n, 8)
+            self._messages(channel, times, heads, data, sizes)
+
+    def _rows(self, channel: int, times: NDArray[np.int64], records: NDArray[np.uint8]) -> None:
+        """Fixed-size records, as many per chunk as fit."""
+        n, size = records.shape
+        done = 0
+        while done < n:
+            room = max(1, math.ceil((self._chunk_bytes - self._chunk_len) / size))
+            stop = min(n, done + room)
+            offsets = self._chunk_len + np.arange(stop - done, dtype=np.int64) * size
+            self._add(channel, times[done:stop], offsets, records[done:stop].reshape(-1).data, (stop - done) * size)
+            done = stop
+
+    def _messages(self, channel: int, times: NDArray[np.int64], heads: NDArray[np.uint8], data: Sequence[Buffer],
+                  sizes: NDArray[np.int64]) -> None:
+        """Records of any sizes, as many per chunk as fit."""
+        ends = np.cumsum(sizes + _HEAD)
+        head_bytes = memoryview(heads.tobytes())
+        done = 0
+        while done < len(times):
+            base = int(ends[done - 1]) if done else 0
+            limit = base + self._chunk_bytes - self._chunk_len  # the chunk is written after the record that ends there
+            stop = min(len(times), max(done, int(np.searchsorted(ends, limit, side="left"))) + 1)
+            offsets = self._chunk_len + (ends[done:stop] - sizes[done:stop] - _HEAD) - base
+            pieces: list[Buffer] = []
+            for i in range(done, stop):
+                pieces += (head_bytes[i * _HEAD : (i + 1) * _HEAD], data[i])
+            self._add(channel, times[done:stop], offsets, pieces, int(ends[stop - 1]) - base)
+            done = stop
+
+    def _add(self, channel: int, times: NDArray[np.int64], offsets: NDArray[np.int64], pieces: Buffer | list[Buffer],
+             length: int) -> None:
+        self._index.setdefault(channel, []).append((times, offsets))
+        if isinstance(pieces, list):
+            self._pieces += pieces
+        else:
+            self._pieces.append(pieces)
+        self._chunk_len += length
+        first, last = int(times.min()), int(times.max())
+        span = self._chunk_span
+        self._chunk_span = (first, last) if span is None else (min(span[0], first), max(span[1], last))
+        if self._chunk_len >= self._chunk_bytes:
+            self._flush_chunk()
+
+    # -- chunks -------------------------------------------------------------------------------
+
+    def _flush_chunk(self) -> None:
+        """Queue the open chunk for compression; write the chunks whose compression is done, in order."""
+        if not self._pieces:
+            return
+        indexes: dict[int, bytes] = {}
+        for channel in sorted(self._index):
+            times = np.concatenate([t for t, _ in self._index[channel]])
+            offsets = np.concatenate([o for _, o in self._index[channel]])
+            order = np.lexsort((offsets, times))
+            pairs = np.empty((len(times), 2), dtype="<u8")
+            pairs[:, 0] = times[order]
+            pairs[:, 1] = offsets[order]
+            indexes[channel] = struct.pack("<BQHI", OP_MESSAGE_INDEX, 2 + 4 + pairs.nbytes, channel,
+                                           pairs.nbytes) + pairs.tobytes()
+        body = b"".join(self._pieces)
+        assert self._chunk_span is not None
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(max_workers=_WORKERS, thread_name_prefix="tfrec-mcap")
+        self._pending.append((self._pool.submit(self._compressed, body), len(body), indexes, self._chunk_span))
+        self._pieces, self._chunk_len, self._index, self._chunk_span = [], 0, {}, None
+        while len(self._pending) > _WORKERS:
+            self._write_pending()
+
+    def _compressed(self, body: bytes) -> tuple[bytes, int]:
+        """A chunk compressed, and its CRC (on a worker thread: each has its own compressor, as a
+        zstd compressor must not be used by two threads at once)."""
+        compress = getattr(self._local, "compress", None)
+        if compress is None:
+            compress = self._local.compress = chunk_compressor(self._compression or "none")[1]
+        return compress(body), zlib.crc32(body)
+
+    def _write_pending(self) -> None:
+        from mcap.records import ChunkIndex
+
+        future, size, indexes, (start, end) = self._pending.popleft()
+        compressed, crc = future.result()
+        name = self._compression.encode()
+        chunk_start = self._offset
+        self._write(struct.pack("<BQQQQI", OP_CHUNK, 8 + 8 + 8 + 4 + 4 + len(name) + 8 + len(compressed),
+                                start, end, size, crc) + struct.pack("<I", len(name)) + name
+                    + struct.pack("<Q", len(compressed)))
+        self._write(compressed)
+        chunk_length = self._offset - chunk_start
+        index_start = self._offset
+        index_offsets = {}
+        for channel, record in indexes.items():
+            index_offsets[channel] = self._offset
+            self._write(record)
+        self._chunk_indexes.append(ChunkIndex(
+            message_start_time=start, message_end_time=end, chunk_start_offset=chunk_start,
+            chunk_length=chunk_length, message_index_offsets=index_offsets,
+            message_index_length=self._offset - index_start, compression=self._compression,
+            compressed_size=len(compressed), uncompressed_size=size,
+        ))
+
+    # -- the end ------------------------------------------------------------------------------
+
+    def finish(self) -> None:
+        """Write the last chunk, the ``rosbag2`` metadata record, the summary and the footer.
+
+        Raises:
+            WriteError: a write error.
+        """
+        self._check_open()
+        self._flush_chunk()
+        while self._pending:
+            self._write_pending()
+        self._shutdown()
+        self._write_summary()
+        self._state = "done"
+
+    def abort(self) -> None:
+        """Stop the compression threads (after an error); the caller deletes the file."""
+        self._state = "done"
+        self._pending.clear()
+        self._shutdown()
+
+    def _shutdown(self) -> None:
+        pool, self._pool = self._pool, None
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+    @property
+    def message_count(self) -> int:
+        return sum(self._counts)
+
+    @property
+    def bag_info(self) -> dict[str, Any]:
+        """The rosbag2 BagMetadata embedded by :meth:`finish`, for a bag folder's ``metadata.yaml``."""
+        if self._state != "done" or not self._bag_info:
+            raise RuntimeError("McapWriter.bag_info is known after finish()")
+        return self._bag_info
+
+    def _write_summary(self) -> None:
+        from mcap.records import DataEnd, Footer, Metadata, MetadataIndex, Statistics, SummaryOffset
+
+        start = self._start_ns or 0
+        self._bag_info = bag_info(
+            [(topic, msgtype, channel.message_encoding, profiles, type_hash, count)
+             for (topic, msgtype, profiles, type_hash), channel, count in zip(self._topics, self._channels, self._counts)],
+            message_count=self.message_count, start_ns=start, end_ns=self._end_ns, file_name=self._file_name,
+        )
+        metadata = serialize_records(Metadata(name="rosbag2", metadata={"serialized_metadata": yaml_dump(self._bag_info)}))
+        metadata_index = MetadataIndex(offset=self._offset, length=len(metadata), name="rosbag2")
+        self._write(metadata + serialize_records(DataEnd(data_section_crc=0)))
+        statistics = Statistics(
+            message_count=self.message_count, schema_count=len(self._schemas), channel_count=len(self._channels),
+            attachment_count=0, metadata_count=1, chunk_count=len(self._chunk_indexes), message_start_time=start,
+            message_end_time=self._end_ns,
+            channel_message_counts={channel.id: count for channel, count in zip(self._channels, self._counts)},
+        )
+        summary_start = self._offset
+        summary = b""
+        offsets = []
+        for opcode, records in ((OP_SCHEMA, self._schemas), (OP_CHANNEL, self._channels), (OP_STATISTICS, [statistics]),
+                                (OP_CHUNK_INDEX, self._chunk_indexes), (OP_METADATA_INDEX, [metadata_index])):
+            if records:
+                group = serialize_records(*records)
+                offsets.append(SummaryOffset(group_opcode=opcode, group_start=summary_start + len(summary),
+                                             group_length=len(group)))
+                summary += group
+        summary_offset_start = summary_start + len(summary)
+        summary += serialize_records(*offsets)
+        crc = zlib.crc32(summary)
+        crc = zlib.crc32(struct.pack("<BQQQ", OP_FOOTER, 8 + 8 + 4, summary_start, summary_offset_start), crc)
+        footer = Footer(summary_start=summary_start, summary_offset_start=summary_offset_start, summary_crc=crc)
+        self._write(summary + serialize_records(footer) + MCAP_MAGIC)
+        self._stream.flush()
+
+    def _check_open(self) -> None:
+        if self._state != "open":
+            raise RuntimeError("McapWriter used after finish() or abort()")
+
+    def _write(self, data: Buffer) -> None:
+        self._stream.write(data)
+        self._offset += len(data)

@@ -1,0 +1,455 @@
+"""Messages carried between ROS 1 and ROS 2 for ``tfrec convert``: types, definitions, bytes.
+
+:func:`translation` says how one :class:`~tfrec.formats.ros.connection.Connection` is written in a
+serialization (``cdr`` or ``ros1``): kept as it is when the serialization stays, else converted
+the way rosbags' ``rosbags.convert`` converts it —
+
+- the type store is built from the file's own message definitions (``get_types_from_msg``,
+  ``get_types_from_idl``; a connection without one falls back to ROS 2 Humble's or ROS 1 Noetic's
+  store), with ``std_msgs/Header`` as the target has it (ROS 1's has ``seq``);
+- the target's definition and hash are generated from it (``generate_msgdef``: the ROS 1 text and
+  md5sum, or the ROS 2 text and ``hash_rihs01``); ``tf/tfMessage`` becomes ``tf2_msgs/TFMessage``;
+- the messages are converted byte to byte (``ros1_to_cdr``, ``cdr_to_ros1``), without building
+  message objects; a ROS 1 ``seq`` the target lacks is dropped, one it needs is 0.
+
+TF and joint messages (``tf2_msgs/TFMessage``, ``sensor_msgs/JointState``) of a fixed layout —
+the same frame or joint names in every message, as robot_state_publisher and joint state
+publishers send them — are translated in bulk: one message is converted by rosbags, the byte
+ranges that carry values (stamps, float64 blocks) are paired between the two layouts, and every
+message of that layout becomes a row of the target template with those ranges copied in
+(:mod:`tfrec.formats.ros.decode` finds the layouts). The result is the same bytes as rosbags'.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from functools import lru_cache, partial
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tfrec.formats.ros.connection import Connection
+from tfrec.formats.ros.decode import MessageLayout, RawMessages, match_layout, message_layout
+from tfrec.formats.ros.encode import TFMessageEncoder, encode_string
+from tfrec.formats.ros.types import TF_MESSAGE_DEFINITION, deserializer, typestore
+from tfrec.formats.rosbag2.metadata import QOS_LATCHED, QOS_VOLATILE, qos_yaml
+
+__all__ = [
+    "Translation",
+    "Untranslatable",
+    "joint_states_in_order",
+    "standard_connection",
+    "string_message",
+    "tf_message_rows",
+    "translation",
+]
+
+RENAMED = {"tf/msg/tfMessage": "tf2_msgs/msg/TFMessage"}
+"""Types a ROS 2 target names otherwise: ROS 1's old TF type is tf2's (the same wire format)."""
+FAST_KINDS = {"tf2_msgs/msg/TFMessage": "tf", "sensor_msgs/msg/JointState": "joint_states"}
+"""Types translated in bulk when their layout is fixed (the kinds of :func:`tfrec.formats.ros.decode.message_layout`)."""
+
+Payload = NDArray[np.uint8] | Sequence[bytes | memoryview]
+"""Messages for a writer: (n, size) rows of fixed-size messages, or the messages one by one."""
+
+
+class Untranslatable(Exception):
+    """A connection whose messages cannot be carried to the other serialization; ``reason`` says why."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
+# -- type stores -------------------------------------------------------------------------------------
+
+
+def _closure(store: Any, msgtype: str) -> dict[str, Any]:
+    """``msgtype``'s field definitions and those of every type it uses, from ``store``."""
+    out: dict[str, Any] = {}
+    todo = [msgtype]
+    while todo:
+        name = todo.pop()
+        if name in out or name.startswith("builtin_interfaces/"):
+            continue
+        out[name] = store.fielddefs[name]
+        for _, desc in out[name][1]:
+            sub = desc[1][0] if desc[0] in (3, 4) else desc  # ARRAY, SEQUENCE: their element
+            if sub[0] == 2:  # NAME
+                todo.append(sub[1])
+    return out
+
+
+def _types(msgtype: str, definition: str, definition_encoding: str, ros1: bool) -> dict[str, Any]:
+    """The field definitions of a type and the types it uses: from the file's definition, else the
+    distro's store (Noetic's for ROS 1, with ``tf2_msgs/TFMessage``; Humble's for ROS 2).
+
+    Raises:
+        Untranslatable: a definition that does not parse, or none and a type the distro does not know.
+    """
+    from rosbags.typesys import get_types_from_idl, get_types_from_msg
+    from rosbags.typesys.base import TypesysError
+
+    try:
+        if definition_encoding == "ros2idl" and definition:
+            separator = "=" * 80 + "\n"
+            parts = [part.split("\n", 1)[1] for part in definition.split(separator)[1:]] \
+                if definition.startswith(separator + "IDL: ") else [definition]
+            found: dict[str, Any] = {}
+            for part in parts:
+                found.update(get_types_from_idl(part))
+        elif definition:
+            found = dict(get_types_from_msg(definition, msgtype))
+        else:
+            store = typestore(ros1=ros1)
+            if ros1 and msgtype == "tf2_msgs/msg/TFMessage":
+                found = dict(get_types_from_msg(TF_MESSAGE_DEFINITION, msgtype))
+                found.update(_closure(store, "geometry_msgs/msg/TransformStamped"))
+            elif msgtype in store.fielddefs:
+                found = _closure(store, msgtype)
+            else:
+                distro = "ROS 1 Noetic" if ros1 else "ROS 2 Humble"
+                raise Untranslatable(f"the file has no message definition of {msgtype}, and {distro} does not know it")
+    except (TypesysError, ValueError, IndexError, KeyError) as err:
+        first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        raise Untranslatable(f"its message definition does not parse (rosbags: {first[:80]})") from err
+    if msgtype not in found:
+        raise Untranslatable(f"its message definition does not define {msgtype}")
+    return found
+
+
+def _store(types: dict[str, Any], *, ros1_header: bool, rename: tuple[str, str] | None = None) -> Any:
+    """A type store of ``types``, with ``std_msgs/msg/Header`` as ROS 1 (with ``seq``) or ROS 2 has it."""
+    from rosbags.typesys import Stores, get_typestore
+
+    found = dict(types)
+    found["std_msgs/msg/Header"] = typestore(ros1=ros1_header).fielddefs["std_msgs/msg/Header"]
+    if rename is not None:
+        found[rename[1]] = found[rename[0]]
+    store = get_typestore(Stores.EMPTY)
+    store.register(found)
+    return store
+
+
+@dataclass(frozen=True)
+class _TypePlan:
+    """A type carried to the other serialization: its name there, definition, hash, and the
+    byte-to-byte converter."""
+
+    msgtype: str
+    definition: str
+    type_hash: str
+    convert: Callable[[bytes | memoryview], bytes | memoryview]
+
+
+@lru_cache(maxsize=256)
+def _plan(msgtype: str, definition: str, definition_encoding: str, ros1: bool) -> _TypePlan:
+    """How a type of a ROS 1 (``ros1``) or ROS 2 file is carried to the other serialization.
+
+    Raises:
+        Untranslatable: see :func:`_types`; or a definition that uses types it does not define.
+    """
+    from rosbags.typesys.base import TypesysError
+
+    types = _types(msgtype, definition, definition_encoding, ros1)
+    try:
+        if not ros1:  # CDR → ROS 1
+            text, md5sum = _store(types, ros1_header=True).generate_msgdef(msgtype, ros_version=1)
+            return _TypePlan(msgtype, text, md5sum,
+                             partial(_store(types, ros1_header=False).cdr_to_ros1, typename=msgtype))
+        name = RENAMED.get(msgtype, msgtype)
+        store = _store(types, ros1_header=False, rename=(msgtype, name) if name != msgtype else None)
+        text, _ = store.generate_msgdef(name, ros_version=2)
+        return _TypePlan(name, text, store.hash_rihs01(name), partial(store.ros1_to_cdr, typename=name))
+    except (TypesysError, KeyError, ValueError) as err:
+        first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        raise Untranslatable(f"its message definition is incomplete (rosbags: {first[:80]})") from err
+
+
+# -- connections ------------------------------------------------------------------------------------
+
+
+@dataclass
+class Translation:
+    """How a connection's messages are written in a serialization.
+
+    Attributes:
+        source: the connection read.
+        target: the connection written (its type, definition, hash, latching or QoS).
+        convert: one message from the source's serialization to the target's; None: as it is.
+        kind: ``tf`` or ``joint_states`` for messages translated in bulk when their layout is fixed.
+        failed: messages that could not be converted (left out), and ``reason``, the first error.
+        note: something to tell about the connection (a definition replaced), or ``""``.
+    """
+
+    source: Connection
+    target: Connection
+    convert: Callable[[bytes | memoryview], bytes | memoryview] | None
+    kind: str | None = None
+    failed: int = 0
+    reason: str = ""
+    note: str = ""
+    _layout: _Layout | None = field(default=None, repr=False)
+    _tried: bool = field(default=False, repr=False)
+
+    def apply(self, data: RawMessages) -> tuple[Payload, NDArray[np.intp] | None]:
+        """The messages as the target serializes them.
+
+        Returns:
+            (the messages, the indices of those kept — None when all are; a message rosbags
+            cannot convert is left out and counted in :attr:`failed`).
+        """
+        if self.convert is None:
+            return data, None
+        if self.kind is not None:
+            rows, good, rest = self._fixed(data)
+            if rows is not None and not rest:
+                return rows, None
+        else:
+            rows, good, rest = None, np.zeros(0, np.intp), list(range(len(data)))
+        out: list[bytes | memoryview | None] = [None] * len(data)
+        if rows is not None:
+            for k, i in enumerate(good.tolist()):
+                out[i] = rows[k].data
+        for i in rest:
+            out[i] = self._one(data[i])
+        kept = [i for i, message in enumerate(out) if message is not None]
+        if len(kept) == len(out):
+            return out, None  # type: ignore[return-value]  # none is None
+        return [out[i] for i in kept], np.array(kept, dtype=np.intp)  # type: ignore[misc]
+
+    def _one(self, message: bytes | memoryview) -> bytes | memoryview | None:
+        from rosbags.serde import SerdeError
+
+        assert self.convert is not None
+        try:
+            return self.convert(message)
+        except (SerdeError, struct.error, IndexError, KeyError, ValueError, UnicodeDecodeError) as err:
+            self.failed += 1
+            self.reason = self.reason or f"{type(err).__name__}: {err}"
+            return None
+
+    def _fixed(self, data: RawMessages) -> tuple[NDArray[np.uint8] | None, NDArray[np.intp], list[int]]:
+        """The messages of the learnt layout translated in bulk, their indices, and the others' indices."""
+        if not self._tried and len(data):
+            self._learn(data[0])
+        if self._layout is None:
+            return None, np.zeros(0, np.intp), list(range(len(data)))
+        rows, good, rest = match_layout(self._layout.source, data)
+        if len(rest) * 2 > len(data):  # most messages have another layout: learn it
+            self._learn(data[rest[len(rest) // 2]])
+            if self._layout is None:
+                return None, np.zeros(0, np.intp), list(range(len(data)))
+            rows, good, rest = match_layout(self._layout.source, data)
+        if rows is None or not len(rows):
+            return None, good, rest
+        out = self._layout.translate(rows)
+        if bytes(self._convert_checked(rows[-1].tobytes())) != out[-1].tobytes():  # the layout must not lie
+            self._layout = None
+            return None, np.zeros(0, np.intp), list(range(len(data)))
+        return out, good, rest
+
+    def _convert_checked(self, message: bytes) -> bytes | memoryview:
+        assert self.convert is not None
+        return self.convert(message)
+
+    def _learn(self, message: bytes | memoryview) -> None:
+        self._tried = True
+        assert self.kind is not None and self.convert is not None
+        try:
+            source = message_layout(self.kind, message, ros1=self.source.ros1)
+            target = message_layout(self.kind, bytes(self.convert(message)), ros1=self.target.ros1)
+        except (ValueError, UnicodeDecodeError, struct.error, IndexError, KeyError):
+            self._layout = None
+            return
+        pairs = list(zip(source.values, target.values))
+        if len(source.values) != len(target.values) or any(a[1] - a[0] != b[1] - b[0] for a, b in pairs):
+            self._layout = None
+            return
+        self._layout = _Layout(source, target.template, pairs)
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """A fixed source layout, the target's template, and the value ranges paired between them."""
+
+    source: MessageLayout
+    template: NDArray[np.uint8]
+    pairs: list[tuple[tuple[int, int], tuple[int, int]]]
+
+    def translate(self, rows: NDArray[np.uint8]) -> NDArray[np.uint8]:
+        out = np.empty((len(rows), len(self.template)), dtype=np.uint8)
+        out[:] = self.template
+        for (a, b), (c, d) in self.pairs:
+            if b > a:
+                out[:, c:d] = rows[:, a:b]
+        return out
+
+
+def translation(connection: Connection, *, encoding: str, sample: bytes | memoryview | None = None) -> Translation:
+    """How ``connection``'s messages are written serialized as ``encoding`` (``cdr`` or ``ros1``).
+
+    Args:
+        connection: the connection read.
+        encoding: the output's serialization.
+        sample: one of its messages: when the file's definition does not decode it and the
+            distro's does, the distro's is used (:attr:`Translation.note` says so).
+
+    Raises:
+        Untranslatable: the serialization changes and the type cannot be carried over (a
+            serialization that is neither CDR nor ROS 1, no definition for an unknown type, a
+            definition that does not parse).
+    """
+    note = ""
+    if sample is not None and connection.definition and connection.encoding in ("cdr", "ros1"):
+        connection, note = _fitting(connection, sample)
+    if connection.encoding == encoding or (encoding == "cdr" and connection.encoding != "ros1"):
+        return Translation(connection, _completed(connection), None, note=note)  # an MCAP holds any encoding
+    if {connection.encoding, encoding} != {"cdr", "ros1"}:
+        raise Untranslatable(f"it is serialized as '{connection.encoding}', which tfrec carries only as it is "
+                             "(into an MCAP)")
+    if not connection.msgtype:
+        raise Untranslatable("it has no message type")
+    if "/srv/" in connection.msgtype:
+        raise Untranslatable("a service event: ROS 1 bags record no services")
+    plan = _plan(connection.msgtype, connection.definition, connection.definition_encoding, connection.ros1)
+    if encoding == "ros1":
+        target = Connection(connection.topic, plan.msgtype, "ros1", plan.definition, "ros1msg", connection.latched,
+                            "", plan.type_hash)
+    else:
+        qos = qos_yaml([QOS_LATCHED if connection.latched else QOS_VOLATILE])
+        target = Connection(connection.topic, plan.msgtype, "cdr", plan.definition, "ros2msg", connection.latched,
+                            qos, plan.type_hash)
+    return Translation(connection, target, plan.convert, FAST_KINDS.get(plan.msgtype), note=note)
+
+
+def _decodes(connection: Connection, sample: bytes | memoryview) -> bool:
+    """Whether the connection's definition (its distro's without one) decodes ``sample``."""
+    from rosbags.serde import SerdeError
+    from rosbags.typesys.base import TypesysError
+
+    try:
+        store = _store(_types(connection.msgtype, connection.definition, connection.definition_encoding,
+                              connection.ros1), ros1_header=connection.ros1)
+        decode = store.deserialize_ros1 if connection.ros1 else store.deserialize_cdr
+        decode(sample, connection.msgtype)
+    except (Untranslatable, TypesysError, SerdeError, struct.error, IndexError, KeyError, ValueError,
+            UnicodeDecodeError):
+        return False
+    return True
+
+
+def _fitting(connection: Connection, sample: bytes | memoryview) -> tuple[Connection, str]:
+    """The connection with a definition that decodes its messages, and a note when it is not the file's."""
+    if _decodes(connection, sample):
+        return connection, ""
+    plain = replace(connection, definition="", definition_encoding="", type_hash="")
+    if _decodes(plain, sample):
+        distro = "ROS 1 Noetic" if connection.ros1 else "ROS 2 Humble"
+        return plain, f"the message definition in the file does not decode its messages; {distro}'s is used"
+    return connection, "the message definition in the file does not decode its messages (they are copied as they are)"
+
+
+def _completed(connection: Connection) -> Connection:
+    """A connection kept as it is, with the definition its distro gives when the file has none."""
+    if connection.definition or connection.encoding not in ("cdr", "ros1") or not connection.msgtype:
+        return connection
+    try:
+        store = _distro_store(connection.msgtype, connection.ros1)
+    except Untranslatable:
+        return connection
+    if connection.ros1:
+        text, md5sum = store.generate_msgdef(connection.msgtype, ros_version=1)
+        return replace(connection, definition=text, definition_encoding="ros1msg", type_hash=md5sum)
+    text, _ = store.generate_msgdef(connection.msgtype, ros_version=2)
+    return replace(connection, definition=text, definition_encoding="ros2msg",
+                   type_hash=connection.type_hash or store.hash_rihs01(connection.msgtype))
+
+
+@lru_cache(maxsize=256)
+def _distro_store(msgtype: str, ros1: bool) -> Any:
+    """A store of a type the distro knows (for a file that does not define it)."""
+    return _store(_types(msgtype, "", "", ros1), ros1_header=ros1)
+
+
+# -- what convert adds: TF, descriptions ------------------------------------------------------------
+
+
+def standard_connection(topic: str, msgtype: str, *, encoding: str, latched: bool, callerid: str = "") -> Connection:
+    """A connection of a standard type (``tf2_msgs/msg/TFMessage``, ``std_msgs/msg/String``) as tfrec
+    records it: ROS 2 Humble's definition and type hash with reliable QoS (transient_local when
+    ``latched``), or ROS 1 Noetic's definition and md5sum with ``latching``."""
+    if encoding == "ros1":
+        from tfrec.formats.ros.types import ros1_message_definition
+
+        text, md5sum = ros1_message_definition(msgtype)
+        return Connection(topic, msgtype, "ros1", text, "ros1msg", latched, "", md5sum, callerid)
+    from tfrec.formats.mcap.writer import message_definition
+
+    text, type_hash = message_definition(msgtype)
+    return Connection(topic, msgtype, "cdr", text, "ros2msg", latched,
+                      qos_yaml([QOS_LATCHED if latched else QOS_VOLATILE]), type_hash)
+
+
+def string_message(text: str, *, ros1: bool) -> bytes:
+    """A ``std_msgs/String`` message, ROS 1 or CDR."""
+    return encode_string(text, ros1=ros1)
+
+
+def tf_message_rows(parents: Sequence[str], children: Sequence[str], time_ns: NDArray[np.int64],
+                    translation: NDArray[np.float64], rotation: NDArray[np.float64], *, ros1: bool) -> NDArray[np.uint8]:
+    """``tf2_msgs/TFMessage`` messages (N, size) of fixed frames, CDR or ROS 1, each transform
+    stamped with its message's stamp, as robot_state_publisher publishes them."""
+    return TFMessageEncoder(parents, children, ros1=ros1).encode(time_ns, translation, rotation)
+
+
+def joint_states_in_order(data: RawMessages, *, ros1: bool,
+                          layout: MessageLayout | None = None) -> tuple[NDArray[np.int64], tuple[str, ...], NDArray[np.float64]]:
+    """The header stamps, joint names and positions of ``sensor_msgs/JointState`` messages, in
+    their order: a message's row is NaN for a joint it does not name (or gives no position of).
+
+    Args:
+        data: the messages.
+        ros1: ROS 1 serialization rather than CDR.
+        layout: the fixed layout most messages have (else learnt from the first).
+
+    Raises:
+        ReadError: a message that is no JointState.
+    """
+    from tfrec.formats.ros.decode import stamp_ns
+    from tfrec.formats.ros.encode import ns_from_stamps
+
+    n = len(data)
+    if layout is None and n:
+        try:
+            layout = message_layout("joint_states", data[0], ros1=ros1)
+        except (ValueError, UnicodeDecodeError):
+            layout = None
+    rows, good, rest = (None, np.zeros(0, np.intp), list(range(n))) if layout is None else match_layout(layout, data)
+    names: dict[str, int] = {name: k for k, name in enumerate(layout.names)} if layout is not None else {}
+    decoded = []
+    if rest:
+        decode = deserializer("sensor_msgs/msg/JointState", ros1=ros1)
+        for i in rest:
+            msg = decode(data[i])
+            decoded.append((i, stamp_ns(msg.header.stamp), list(msg.name), np.asarray(msg.position, np.float64)))
+            for name in msg.name:
+                names.setdefault(name, len(names))
+    stamps = np.zeros(n, np.int64)
+    positions = np.full((n, len(names)), np.nan)
+    if rows is not None and len(rows) and layout is not None:
+        raw = np.ascontiguousarray(rows[:, layout.stamps[0] : layout.stamps[0] + 8]).view("<u4")
+        sec = raw[:, 0].astype(np.int64) if ros1 else raw[:, 0].view("<i4").astype(np.int64)
+        stamps[good] = ns_from_stamps(sec, raw[:, 1].astype(np.int64))
+        if layout.floats[0] >= 0 and layout.names:
+            at = layout.floats[0]
+            block = np.ascontiguousarray(rows[:, at : at + 8 * len(layout.names)]).view("<f8")
+            positions[np.ix_(good, np.arange(len(layout.names)))] = block
+    for i, stamp, message_names, position in decoded:
+        stamps[i] = stamp
+        for name, value in zip(message_names, position.tolist()):
+            positions[i, names[name]] = value
+    return stamps, tuple(names), positions
