@@ -77,7 +77,11 @@ def add_parser(sub: Any) -> None:
                    "  tfrec diff before.mcap after.mcap --plot diff.png\n"
                    "  tfrec diff arm.xacro arm-v2.xacro --rrd diff.rrd\n"
                    "  tfrec diff arm.xacro arm.xacro hand:=true --traj sweep\n"
-                   "  tfrec diff robot_log.mcap arm-v2.xacro")
+                   "  tfrec diff robot_log.mcap arm-v2.xacro\n"
+                   "  tfrec diff goldens/ tonight/ --report diff.parquet --jobs 8     (folders: pairs by relative path)")
+    from tfrec.cli._fleet import add_engine_arguments
+
+    add_engine_arguments(diff)
     diff.set_defaults(handler=_cmd_diff)
 
 
@@ -105,10 +109,29 @@ def split_inputs(tokens: list[str]) -> tuple[tuple[str, dict[str, str]], tuple[s
     return (a, parse_xacro_args(args_a)), (b, parse_xacro_args(args_b))
 
 
+def _folder_of_recordings(path: str) -> bool:
+    """A folder that is not itself one rosbag2 recording (no metadata.yaml): ``tfrec diff DIR_A DIR_B``
+    pairs the recordings in two of them by relative path."""
+    from pathlib import Path
+
+    folder = Path(path)
+    return folder.is_dir() and not (folder / "metadata.yaml").is_file()
+
+
 def _cmd_diff(ns: argparse.Namespace) -> int:
     from tfrec.diff.inputs import is_recording_path
 
     (a, args_a), (b, args_b) = split_inputs(ns.inputs)
+    if _folder_of_recordings(a) and _folder_of_recordings(b) and not args_a and not args_b:
+        from tfrec.cli._fleet import run_diff_folders
+
+        for given, flag in ((ns.rrd, "rrd"), (ns.plot, "plot"), (ns.traj, "traj"), (ns.joints, "joints"),
+                            (ns.json or None, "json")):
+            if given is not None:
+                raise DiffError(f"`{flag}` compares two recordings; {a} and {b} are folders of recordings "
+                                "(use `report` for the results)")
+        ns.a, ns.b = a, b
+        return run_diff_folders(ns)
     if ns.rrd is not None:
         from pathlib import Path
 

@@ -1,0 +1,109 @@
+"""What the fleet tests share: a folder of small recordings with known verdicts, and tasks that
+kill their worker (importable by pool and Ray workers, as ``tests.fleet.helpers``)."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from tests.recording_helpers import load_robot, write_mcap, write_rosbag2
+from tfrec.fleet import Row
+from tfrec.formats.reader import read_recording
+from tfrec.recording import FrameSeries, JointStates
+from tfrec.trajectory.generators import make_trajectory
+
+EXPECTED = {
+    "marm/sine.mcap": ("pass", set()),
+    "marm/random.mcap": ("pass", set()),
+    "mbot/sine.mcap": ("pass", set()),
+    "bad/truncated.mcap": ("fail", {"read"}),
+    "bad/garbage.mcap": ("error", set()),
+    "bad/mismatch.mcap": ("fail", {"resim"}),
+    "bad/zero_stamps.mcap": ("fail", {"stamps"}),
+    "bad/gap_bag": ("fail", {"rate"}),
+    "bad/odd.dat": ("error", set()),
+}
+"""Each recording of :func:`make_fleet`, relative to its folder: (verdict, checks of its findings)."""
+
+
+def _mismatched(urdf: str) -> str:
+    """marm's URDF with joint2's origin moved by 1 cm along z."""
+    at = urdf.index('name="joint2"')
+    origin = urdf.index('xyz="-0.1 0 0"', at)
+    return urdf[:origin] + 'xyz="-0.1 0 0.01"' + urdf[origin + len('xyz="-0.1 0 0"'):]
+
+
+def _with_gap(folder: Path, source: Path, lost: slice) -> None:
+    """A rosbag2 bag of ``source`` without the /joint_states and /tf samples of ``lost``."""
+    rec = read_recording(source)
+    js = rec.joint_states
+    assert js is not None
+    keep = np.ones(len(js), dtype=np.bool_)
+    keep[lost] = False
+    rec.joint_states = JointStates(js.time_ns[keep], js.names, js.positions[keep])
+    rec.tf = {pair: FrameSeries(s.time_ns[keep], s.translation[keep], s.rotation[keep]) for pair, s in rec.tf.items()}
+    write_rosbag2(rec, folder, storage="mcap")
+
+
+def make_fleet(folder: Path, *, duration_s: float = 2.0, rate_hz: float = 50.0) -> Path:
+    """A folder of small recordings whose verdicts are :data:`EXPECTED` (plus ``notes.txt``,
+    which is not looked at)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        marm, mbot = load_robot("marm"), load_robot("mbot")
+        for sub in ("marm", "mbot", "bad"):
+            (folder / sub).mkdir(parents=True, exist_ok=True)
+        sine = make_trajectory(marm, "sine", duration_s=duration_s, rate_hz=rate_hz)
+        good = write_mcap(folder / "marm" / "sine.mcap", marm, sine)
+        write_mcap(folder / "marm" / "random.mcap", marm,
+                   make_trajectory(marm, "random", duration_s=duration_s, rate_hz=rate_hz, seed=1))
+        write_mcap(folder / "mbot" / "sine.mcap", mbot,
+                   make_trajectory(mbot, "sine", duration_s=duration_s, rate_hz=rate_hz))
+        write_mcap(folder / "bad" / "mismatch.mcap", marm, sine, description=_mismatched(marm.urdf))
+        write_mcap(folder / "bad" / "zero_stamps.mcap", marm, sine, start_time_ns=0)
+        _with_gap(folder / "bad" / "gap_bag", good, slice(40, 60))
+    data = good.read_bytes()
+    (folder / "bad" / "truncated.mcap").write_bytes(data[: len(data) * 2 // 3])
+    (folder / "bad" / "garbage.mcap").write_bytes(np.random.default_rng(0).bytes(5000))
+    (folder / "bad" / "odd.dat").write_bytes(b"\x00\x01 not a recording" * 10)
+    (folder / "notes.txt").write_text("not a recording\n")
+    return folder
+
+
+def copy_fleet(source: Path, target: Path) -> Path:
+    """A copy of a :func:`make_fleet` folder (file times kept)."""
+    shutil.copytree(source, target)
+    return target
+
+
+# -- tasks for the engine tests (top level: workers import them by name) ---------------------------
+
+
+def ok(key: str, seconds: float = 0.0) -> list[Row]:
+    """A task that passes, after ``seconds``."""
+    time.sleep(seconds)
+    return [Row(file=key, detail="ok")]
+
+
+def die_once(key: str, marker: str) -> list[Row]:
+    """A task whose worker is killed (SIGKILL) the first time, and that passes the second."""
+    if not os.path.exists(marker):
+        Path(marker).write_text(str(os.getpid()))
+        os.kill(os.getpid(), signal.SIGKILL)
+    return [Row(file=key, detail="survived")]
+
+
+def die_always(key: str) -> list[Row]:
+    """A task whose worker exits with code 137 (as after the OOM killer's SIGKILL in a shell) every time."""
+    os._exit(137)
+
+
+def buggy(key: str) -> list[Row]:
+    """A task that meets a bug."""
+    return [Row(file=key, detail=str(1 / 0))]

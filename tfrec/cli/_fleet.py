@@ -1,0 +1,160 @@
+"""``tfrec check PATH…`` and ``tfrec diff DIR_A DIR_B``: many recordings, one task per file, on a local
+process pool or a Ray cluster (:mod:`tfrec.fleet`), with a report and a progress bar."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Callable, Sequence
+from typing import Any, TextIO
+
+from tfrec.cli._common import number, tolerance
+from tfrec.conventions import CHECK_POS_TOL, CHECK_ROT_TOL
+
+__all__ = ["add_engine_arguments", "add_parser", "run_diff_folders"]
+
+
+def add_engine_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options a fleet run shares: where it runs and where its report goes."""
+    group = parser.add_argument_group("many recordings")
+    group.add_argument("--jobs", metavar="N", type=int, default=None,
+                       help="worker processes on this machine (default: all cores)")
+    group.add_argument("--engine", choices=("pool", "ray"), default="pool",
+                       help="pool: a local process pool (default); ray: Ray tasks on a cluster (pip install "
+                            "'tfrec-robotics[ray]')")
+    group.add_argument("--address", metavar="ADDR", default=None,
+                       help="the Ray cluster to use (default: RAY_ADDRESS, else a local one)")
+    group.add_argument("--report", metavar="OUT", default=None,
+                       help="one row per recording and finding: OUT.parquet or OUT.jsonl (DuckDB, Polars, pandas)")
+    group.add_argument("--resume", action="store_true",
+                       help="skip recordings whose rows are in --report and that are unchanged since")
+
+
+def add_parser(sub: Any) -> None:
+    """Add ``tfrec check`` to ``sub`` (argparse subparsers)."""
+    check = sub.add_parser(
+        "check", help="check many recordings (files, folders, globs): re-simulated TF and health, one verdict each",
+        description="Check every recording under the paths (files, rosbag2 folders, globs, folders searched "
+                    "recursively): TF re-simulated from its joint states and its own /robot_description (or "
+                    "--robot), as `tfrec replay --check` does, plus what a fleet needs — stamps non-zero and "
+                    "increasing, steady rates (no gap over --gap-periods periods), frames missing, a description "
+                    "present. One verdict per recording; exit 0 all pass, 1 any finding, 2 when nothing could be "
+                    "read.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="examples:\n  tfrec check bags/ --report night.parquet\n"
+               "  tfrec check 'bags/**/*.mcap' --robot arm_v2.xacro --jobs 8\n"
+               "  tfrec check /data/bags --engine ray --address 10.0.0.5:6379 --report r.parquet --resume",
+    )
+    check.add_argument("paths", metavar="PATH", nargs="+", help="recordings, rosbag2 folders, globs or folders")
+    check.add_argument("--robot", metavar=("FILE", "name:=value"), nargs="+",
+                       help="check against this description instead of each recording's /robot_description")
+    check.add_argument("--package-path", metavar="DIR", action="append", default=[],
+                       help="a package, or a folder of packages, for $(find pkg) in --robot (repeatable)")
+    check.add_argument("--strict-xacro", action="store_true", help="refuse legacy macro calls in --robot")
+    check.add_argument("--pos-tol", metavar="M", type=tolerance, default=CHECK_POS_TOL,
+                       help=f"translation tolerance (default {number(CHECK_POS_TOL)})")
+    check.add_argument("--rot-tol", metavar="RAD", type=tolerance, default=CHECK_ROT_TOL,
+                       help=f"rotation tolerance (default {number(CHECK_ROT_TOL)})")
+    check.add_argument("--gap-periods", metavar="N", type=float, default=None,
+                       help="a gap longer than N periods of a stream's rate is a finding (default 5)")
+    add_engine_arguments(check)
+    check.set_defaults(handler=_cmd_check)
+
+
+def _cmd_check(ns: argparse.Namespace) -> int:
+    from tfrec.fleet import DEFAULT_GAP_PERIODS, check_tasks, find_recordings
+
+    recordings = find_recordings(ns.paths)
+    tasks = check_tasks(
+        recordings, robot_path=ns.robot[0] if ns.robot else None, robot_args=tuple(ns.robot[1:]) if ns.robot else (),
+        package_paths=ns.package_path, strict_xacro=ns.strict_xacro, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol,
+        gap_periods=DEFAULT_GAP_PERIODS if ns.gap_periods is None else ns.gap_periods,
+    )
+    return _run(ns, tasks, what="recordings")
+
+
+def run_diff_folders(ns: argparse.Namespace) -> int:
+    """``tfrec diff DIR_A DIR_B``: pair the recordings by relative path and diff each pair."""
+    from tfrec.fleet import diff_tasks, pair_recordings
+
+    tasks = diff_tasks(pair_recordings(ns.a, ns.b), pos_tol=ns.pos_tol, rot_tol=ns.rot_tol, joint_tol=ns.joint_tol,
+                       topics=ns.topics, absolute=ns.absolute)
+    return _run(ns, tasks, what="pairs")
+
+
+def _run(ns: argparse.Namespace, tasks: Sequence[Any], *, what: str) -> int:
+    """Run the tasks, write the report, draw the bar; the exit code: 0 all pass, 1 any finding, 2 nothing read."""
+    from tfrec.errors import FleetError
+    from tfrec.fleet import PASS, SUMMARY, Progress, Row, resume, run, tally
+
+    kept: list[dict[str, Any]] = []
+    if ns.resume:
+        if ns.report is None:
+            raise FleetError("`resume` needs `report`: the report of the run it resumes")
+        from tfrec.formats.report import read_report
+
+        tasks, kept = resume(tasks, read_report(ns.report, missing_ok=True))
+    before = tally(kept)
+    bar = _Bar(sys.stderr, total=len(tasks) + before.done, what=what)
+    failing: list[str] = []
+
+    def on_result(rows: list[Row], progress: Progress) -> None:
+        if writer is not None:
+            writer.write(row.to_dict() for row in rows)
+        for row in rows:
+            if row.check == SUMMARY and row.verdict != PASS:
+                failing.append(f"{row.verdict.upper()} {row.file}: {row.detail}")
+        bar(progress, before)
+
+    writer = None
+    started = time.monotonic()
+    try:
+        if ns.report is not None:
+            from tfrec.formats.report import ReportWriter
+
+            with ReportWriter(ns.report) as writer:
+                writer.write(kept)
+                progress = run(tasks, jobs=ns.jobs, engine=ns.engine, address=ns.address, on_result=on_result)
+        else:
+            progress = run(tasks, jobs=ns.jobs, engine=ns.engine, address=ns.address, on_result=on_result)
+    finally:
+        bar.close()
+    for line in failing:
+        print(line)
+    passed, failed = progress.passed + before.passed, progress.failed + before.failed
+    errors, total = progress.errors + before.errors, progress.total + before.total
+    skipped = f" ({before.done} unchanged, from the report)" if before.done else ""
+    print(f"{total} {what}: {passed} pass, {failed} fail, {errors} error{skipped} in {time.monotonic() - started:.1f} s"
+          + (f"; report: {ns.report}" if ns.report else ""))
+    if total == 0 or errors == total:
+        return 2
+    return 0 if passed == total else 1 if (failed or errors) else 0
+
+
+class _Bar:
+    """A progress bar with the counts of pass, fail and error, on stderr when it is a terminal."""
+
+    def __init__(self, stream: TextIO, *, total: int, what: str, clock: Callable[[], float] = time.monotonic) -> None:
+        self._stream = stream
+        self._enabled = stream.isatty()
+        self._total = total
+        self._what = what
+        self._shown = False
+
+    def __call__(self, progress: Any, before: Any) -> None:
+        if not self._enabled:
+            return
+        self._shown = True
+        done = progress.done + before.done
+        width = 30
+        filled = int(width * done / max(self._total, 1))
+        self._stream.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{self._total} {self._what}: "
+                           f"{progress.passed + before.passed} pass, {progress.failed + before.failed} fail, "
+                           f"{progress.errors + before.errors} error")
+        self._stream.flush()
+
+    def close(self) -> None:
+        if self._shown:
+            self._stream.write("\n")
+            self._stream.flush()
