@@ -110,12 +110,20 @@ def split_inputs(tokens: list[str]) -> tuple[tuple[str, dict[str, str]], tuple[s
 
 
 def _folder_of_recordings(path: str) -> bool:
-    """A folder that is not itself one rosbag2 recording (no metadata.yaml): ``tfrec diff DIR_A DIR_B``
-    pairs the recordings in two of them by relative path."""
+    """A folder that is not itself one rosbag2 recording: ``tfrec diff DIR_A DIR_B`` pairs the recordings
+    in two of them by relative path."""
     from pathlib import Path
 
-    folder = Path(path)
-    return folder.is_dir() and not (folder / "metadata.yaml").is_file()
+    from tfrec.errors import ReadError
+    from tfrec.formats import recording_format
+
+    if not Path(path).is_dir():
+        return False
+    try:
+        recording_format(path)  # a rosbag2 bag (with its metadata.yaml, or split files of one bag)
+    except ReadError:
+        return True
+    return False
 
 
 def _cmd_diff(ns: argparse.Namespace) -> int:

@@ -55,7 +55,10 @@ class Pair:
 
 
 def _is_bag_folder(path: Path) -> bool:
-    return (path / "metadata.yaml").is_file()
+    """A rosbag2 bag: a folder with its metadata.yaml, or the split files of one bag without it."""
+    from tfrec.formats.rosbag2.metadata import bag_without_metadata
+
+    return (path / "metadata.yaml").is_file() or bag_without_metadata(path) is not None
 
 
 def _taken(file: Path) -> bool:

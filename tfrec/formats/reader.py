@@ -85,8 +85,8 @@ def recording_format(path: str | os.PathLike[str]) -> str:
     if file.is_dir():
         if (file / "metadata.yaml").is_file() or bag_without_metadata(file) is not None:
             return "rosbag2"
-        raise ReadError(f"{where}: a folder without metadata.yaml and without .mcap or .db3 files "
-                        "(not a rosbag2 bag)")
+        raise ReadError(f"{where}: a folder without metadata.yaml and without the split files of one bag "
+                        "(name_0.mcap, name_1.mcap… or .db3): not a rosbag2 bag")
     if not file.exists():
         raise ReadError(f"{where}: no such file or folder")
     try:

@@ -236,16 +236,19 @@ _STORAGES = {".mcap": "mcap", ".db3": "sqlite3"}
 
 def bag_without_metadata(folder: Path) -> BagMetadata | None:
     """A rosbag2 folder whose metadata.yaml is missing (what ``ros2 bag reindex`` rebuilds): its
-    ``.mcap`` (or ``.db3``) files, in the order of their split index (``bag_0``, ``bag_1``…), as
-    one bag; None when the folder holds neither."""
+    ``.mcap`` (or ``.db3``) files named as rosbag2 names the files of one bag — one stem, split indexes
+    0, 1, 2… (``bag_0.mcap``, ``bag_1.mcap``) — in that order, as one bag; None for any other folder
+    (a folder of separate recordings, ``a.mcap`` and ``b.mcap``, is not a bag)."""
     for suffix, storage in _STORAGES.items():
         files = [file for file in folder.iterdir() if file.suffix == suffix and file.is_file()]
-        if files:
-            def split_index(file: Path) -> tuple[int, str]:
-                number = file.stem.rpartition("_")[2]
-                return (int(number) if number.isdigit() else -1, file.name)
-
-            return BagMetadata(storage, tuple(sorted(files, key=split_index)), "")
+        if not files:
+            continue
+        parts = [file.stem.rpartition("_") for file in files]
+        stems = {stem for stem, sep, number in parts if sep and number.isdigit()}
+        indexes = sorted(int(number) for _, _, number in parts if number.isdigit())
+        if len(stems) != 1 or indexes != list(range(len(files))):
+            return None
+        return BagMetadata(storage, tuple(sorted(files, key=lambda file: int(file.stem.rpartition("_")[2]))), "")
     return None
 
 
