@@ -41,3 +41,5 @@ def test_format_libraries_only_in_formats_and_xacro_only_in_description() -> Non
                 top = name.split(".")[0]
                 assert top not in formats_only or inside == "formats", f"{path} imports {name}"
                 assert top != "xacro" or inside == "description", f"{path} imports {name}"
+                assert top != "matplotlib" or inside == "plots", f"{path} imports {name}"
+                assert top != "ray" or inside == "fleet", f"{path} imports {name}"
