@@ -7,6 +7,7 @@ every Ray process of the machine, other users' too).
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import shutil
@@ -156,8 +157,12 @@ def two_nodes() -> Iterator[tuple[str, tuple[int, int]]]:
     temp = Path(tempfile.mkdtemp(prefix="tfrec-ray-"))  # short: Ray's socket paths live under it
     port = _free_port()
     address = f"127.0.0.2:{port}"
-    processes = [_ray_start(["--head", "--port", str(port), "--include-dashboard", "false", "--temp-dir", str(temp),
-                             "--ray-client-server-port", str(_free_port())], "127.0.0.2", 0, temp / "head.log")]
+    head = ["--head", "--port", str(port), "--include-dashboard", "false", "--temp-dir", str(temp)]
+    if importlib.util.find_spec("grpc") is not None:
+        # With ray[client]'s grpc present the head also serves Ray Client, on 10001 unless told otherwise;
+        # without it, Ray refuses the option (and serves no client).
+        head += ["--ray-client-server-port", str(_free_port())]
+    processes = [_ray_start(head, "127.0.0.2", 0, temp / "head.log")]
     sessions = {processes[0].pid}
     try:
         deadline = time.monotonic() + 120

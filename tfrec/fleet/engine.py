@@ -211,7 +211,7 @@ def run(
         jobs: worker processes of the pool, or CPUs of a local Ray cluster (default: all cores
             of this machine); a Ray cluster at ``address`` uses all of its CPUs.
         engine: ``pool`` or ``ray``.
-        address: the Ray cluster to run on (``host:port``, ``ray://host:port``, ``auto``);
+        address: the Ray cluster to run on (``host:port``, ``ray://host:port`` (needs ray[client]), ``auto``);
             default ``RAY_ADDRESS``, else a local cluster for the run. Ray only.
         on_result: called in this process with each task's rows and the counts so far.
         retries: how many times a task whose worker died runs again before it is an ``error`` row.
