@@ -7,16 +7,21 @@ the pages the file still has, its ``messages`` table in row order up to the firs
 
 from __future__ import annotations
 
+import contextlib
+import functools
+import io
 import os
 import sqlite3
 import struct
 import tempfile
+import threading
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 from tfrec.errors import ReadError, one_line
 from tfrec.formats._collect import DECODE_BATCH, Collector, read_error_line
+from tfrec.formats._compression import MAX_CHUNK_BYTES, decompress, inflate_at_most
 from tfrec.formats.ros.types import topic_deserializer, typestore
 from tfrec.formats.rosbag1.reader import read_rosbag1_records, ros1_compression
 from tfrec.formats.rosbag2.metadata import BagMetadata, qos_durability
@@ -34,7 +39,8 @@ def read_rosbags(path: Path, fmt: str, wanted: frozenset[str], meta: BagMetadata
     """Read a bag with rosbags; a ROS 1 or sqlite3 bag that it refuses as far as it is readable."""
     where = os.fspath(path)
     try:
-        recording = _read_anyreader(path, fmt, wanted)
+        with _bounded_decompression():
+            recording = _read_anyreader(path, fmt, wanted)
     except _Refused as err:
         refused = str(err)
         if fmt == "rosbag1":
@@ -109,6 +115,90 @@ def _read_anyreader(path: Path, fmt: str, wanted: frozenset[str]) -> Recording:
     return collector.finish()
 
 
+@contextlib.contextmanager
+def _bounded_decompression() -> Iterator[None]:
+    """rosbags inflates whatever a bag holds, whatever its size: a 5 kB bz2 chunk of a ROS 1 bag to 4 GiB of
+    zeros, a zstd chunk of a rosbag2 MCAP past what it declares, a zstd message or file of a compressed rosbag2
+    bag. While it reads, its decompressors are tfrec's bounded ones (:mod:`tfrec.formats._compression`): a chunk
+    never past what it declares or :data:`MAX_CHUNK_BYTES`, a message or ROS 1 chunk (no size declared to
+    rosbags) never past :data:`MAX_CHUNK_BYTES`, a compressed file never past :data:`MAX_FILE_RATIO` times its
+    size. What inflates past is a ValueError: damaged data."""
+    import rosbags.rosbag1.reader as ros1_reader
+    import rosbags.rosbag2.reader as ros2_reader
+    import rosbags.rosbag2.storage_mcap as mcap_storage
+
+    with _PATCH_LOCK:
+        saved = dict(ros1_reader.decompressors), dict(mcap_storage.DECOMPRESSORS), vars(ros2_reader)["zstd"]
+        ros1_reader.decompressors.update({kind: functools.partial(_at_most, kind) for kind in ("bz2", "lz4")})
+        mcap_storage.DECOMPRESSORS.update({kind: functools.partial(_as_declared, kind) for kind in ("lz4", "zstd")})
+        vars(ros2_reader)["zstd"] = _BoundedZstd  # its per-message and per-file decompression
+        try:
+            yield
+        finally:
+            ros1_reader.decompressors.clear()
+            ros1_reader.decompressors.update(saved[0])
+            mcap_storage.DECOMPRESSORS.clear()
+            mcap_storage.DECOMPRESSORS.update(saved[1])
+            vars(ros2_reader)["zstd"] = saved[2]
+
+
+_PATCH_LOCK = threading.RLock()
+"""One bag at a time in rosbags' patched decompressors (their tables are module-level)."""
+
+MAX_FILE_RATIO = 1000
+"""A file of a rosbag2 bag compressed per file may inflate to at most this many times its size, or 64 MiB
+(zstd makes 4 GiB of zeros out of 131 kB, a ratio of 32,000; recorded messages compress less than 100-fold).
+rosbags inflates such a file into a temporary folder before reading it: this bounds the disk it fills."""
+
+
+def _at_most(kind: str, data: bytes) -> bytes:
+    return bytes(inflate_at_most(kind, data, MAX_CHUNK_BYTES))
+
+
+def _as_declared(kind: str, data: bytes, size: int) -> bytes:
+    return bytes(decompress(kind, data, size, limit=MAX_CHUNK_BYTES))
+
+
+class _BoundedZstd:
+    """What rosbags' rosbag2 reader uses of its ``zstd`` module, bounded."""
+
+    @staticmethod
+    def decompress(data: bytes) -> bytes:
+        return bytes(inflate_at_most("zstd", data, MAX_CHUNK_BYTES))
+
+    @staticmethod
+    def open(stream: BinaryIO, mode: str = "rb") -> _BoundedReader:
+        import zstandard
+
+        size = os.fstat(stream.fileno()).st_size
+        return _BoundedReader(zstandard.ZstdDecompressor().stream_reader(stream), max(64 << 20, MAX_FILE_RATIO * size))
+
+
+class _BoundedReader(io.RawIOBase):
+    """A zstd stream that raises ValueError past ``limit`` bytes of output."""
+
+    def __init__(self, reader: Any, limit: int) -> None:
+        super().__init__()
+        self._reader, self._limit, self._count = reader, limit, 0
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buffer: Any) -> int:
+        import zstandard
+
+        try:
+            data = self._reader.read(len(buffer))
+        except zstandard.ZstdError as err:
+            raise ValueError(f"zstd: {err}") from err
+        self._count += len(data)
+        if self._count > self._limit:
+            raise ValueError(f"a compressed file inflates to more than {self._limit:,} bytes "
+                             f"(at most {MAX_FILE_RATIO} times its size)")
+        buffer[:len(data)] = data
+        return len(data)
+
+
 def _messages(reader: Any, where: str) -> Iterator[tuple[Any, int, bytes]]:
     """``reader.messages()``, with what rosbags raises on damaged data turned into :class:`_Refused`."""
     messages = reader.messages()
@@ -129,7 +219,7 @@ def _rosbags_errors() -> tuple[type[Exception], ...]:
     from rosbags.rosbag2 import ReaderError as Reader2Error
 
     return (AnyReaderError, Reader1Error, Reader2Error, sqlite3.DatabaseError, EOFError, RuntimeError, OSError,
-            *_DAMAGED_DATA)
+            MemoryError, *_DAMAGED_DATA)
 
 
 def _refusal(where: str, err: Exception) -> Exception:
@@ -142,6 +232,8 @@ def _refusal(where: str, err: Exception) -> Exception:
         return _Refused(f"a damaged chunk ({text})")
     if isinstance(err, (EOFError, RuntimeError)):  # a chunk that does not decompress (bz2, lz4)
         return _Refused(f"a damaged chunk ({type(err).__name__}: {text})")
+    if isinstance(err, MemoryError):  # rosbags reads as many bytes as a length field says, before looking
+        return _Refused("damaged data (a length field asks for more memory than there is)")
     if isinstance(err, _DAMAGED_DATA):
         return _Refused(f"damaged data ({type(err).__name__}{': ' + text if text else ''})")
     return _Refused(text)

@@ -186,7 +186,7 @@ class _McapReader:
             elif opcode == OP_HEADER:
                 self.profile, self.library = parse_header(self.read(length, what))
                 if self.profile not in ("ros2", ""):
-                    raise ReadError(f"{self.where}: MCAP profile '{self.profile}', not ros2")
+                    raise ReadError(f"{self.where}: MCAP profile {self.profile!r}, not ros2")
             elif opcode == OP_MESSAGE_INDEX and self._indexing is not None:
                 body = self.read(length, what)  # count what the damaged chunk held
                 if len(body) >= 6:

@@ -1,16 +1,19 @@
 """Reading tfrec's Rerun recording (``.rrd``) into a :class:`~tfrec.recording.Recording`.
 
-Through Rerun's own reader (``rerun.chunk.RrdReader``), with the entity paths and the timeline
-of :mod:`tfrec.formats.rrd.paths`: ``/tf/<joint>`` and ``/tf_static/<joint>`` (Transform3D with
-parent and child frames), ``/joints/<joint>`` (Scalars) and ``/robot_description``
-(TextDocument). Rerun stores transforms as float32, joint positions as float64. An ``.rrd``
+Through Rerun's own reader (``rerun.chunk.RrdReader``, run in a child process: it aborts the process on
+some damaged files), with the entity paths and the timeline of :mod:`tfrec.formats.rrd.paths`:
+``/tf/<joint>`` and ``/tf_static/<joint>`` (Transform3D with parent and child frames), ``/joints/<joint>``
+(Scalars) and ``/robot_description`` (TextDocument). Rerun stores transforms as float32, joint positions as float64. An ``.rrd``
 has no topics: its entities are listed under the topics they stand for.
 """
 
 from __future__ import annotations
 
 import os
-import warnings
+import signal
+import struct
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -35,8 +38,6 @@ def read_rrd(path: Path, wanted: frozenset[str]) -> Recording:
         ReadError: Rerun cannot read the file (damaged or not an RRD).
     """
     import pyarrow as pa
-    import rerun as rr
-    from rerun.chunk import RrdReader
 
     from tfrec.formats.rrd import paths as rerun_paths
 
@@ -47,18 +48,11 @@ def read_rrd(path: Path, wanted: frozenset[str]) -> Recording:
     static: dict[tuple[str, str], tuple[Array, Array]] = {}
     description: str | None = None
     timeline = rerun_paths.TIMELINE
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", getattr(rr, "RerunWarning", UserWarning))
-            chunks = list(RrdReader(path).stream())
-    except (RuntimeError, ValueError, OSError) as err:
-        raise ReadError(f"{where}: unreadable Rerun recording: {err}") from err
-    for chunk in chunks:
-        top, names = rerun_paths.parse_entity(str(chunk.entity_path))
+    for entity_path, batch in _read_chunks(path):
+        top, names = rerun_paths.parse_entity(entity_path)
         if top not in (rerun_paths.TF_ROOT, rerun_paths.TF_STATIC_ROOT, rerun_paths.JOINTS_ROOT,
                        rerun_paths.DESCRIPTION_ROOT):
             continue
-        batch = chunk.to_record_batch()
         columns = {name: batch.column(i) for i, name in enumerate(batch.schema.names)}
         if top == rerun_paths.DESCRIPTION_ROOT:
             text = columns.get("TextDocument:text")
@@ -133,6 +127,46 @@ def read_rrd(path: Path, wanted: frozenset[str]) -> Recording:
         recording.start_ns = int(min(t[0] for t in times))
         recording.end_ns = int(max(t[-1] for t in times))
     return recording
+
+
+def _read_chunks(path: Path) -> list[tuple[str, Any]]:
+    """(entity path, pyarrow RecordBatch) of every chunk of an ``.rrd``, decoded by Rerun in a child process
+    (:mod:`tfrec.formats.rrd._read_child`): Rerun's reader aborts the process on some damaged files.
+
+    Raises:
+        ReadError: Rerun refused the file, or its reader crashed on it.
+    """
+    import pyarrow as pa
+
+    from tfrec.formats.rrd import _read_child
+
+    where = os.fspath(path)
+    try:
+        child = subprocess.run([sys.executable, _read_child.__file__, os.fspath(path)], capture_output=True,
+                               check=False, env={**os.environ, "RUST_LOG": "off", "RUST_BACKTRACE": "0"})
+    except OSError as err:
+        raise ReadError(f"{where}: cannot start Rerun's reader: {err.strerror or err}") from err
+    if child.returncode == _read_child.REFUSED:
+        reason = " ".join(child.stderr.decode(errors="replace").split()) or "no reason given"
+        raise ReadError(f"{where}: unreadable Rerun recording: {reason}")
+    if child.returncode != 0:
+        how = (f"killed by {signal.Signals(-child.returncode).name}" if child.returncode < 0
+               else f"exit code {child.returncode}")
+        raise ReadError(f"{where}: unreadable Rerun recording: Rerun's reader crashed on it ({how}); the file is "
+                        "damaged")
+    chunks: list[tuple[str, Any]] = []
+    data = memoryview(child.stdout)
+    pos = 0
+    try:
+        while pos < len(data):
+            (size,) = struct.unpack_from("<Q", data, pos)
+            batch = pa.ipc.open_stream(pa.py_buffer(data[pos + 8:pos + 8 + size])).read_next_batch()
+            pos += 8 + size
+            entity = (batch.schema.metadata or {}).get(_read_child.ENTITY_PATH, b"").decode(errors="replace")
+            chunks.append((entity, batch))
+    except (pa.ArrowInvalid, struct.error) as err:
+        raise ReadError(f"{where}: unreadable Rerun recording: {err}") from err
+    return chunks
 
 
 def _one_per_row(column: Any, width: int) -> tuple[Array, NDArray[np.bool_]]:
