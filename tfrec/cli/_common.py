@@ -48,8 +48,8 @@ def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--allow-path", metavar="DIR", action="append", default=[],
-        help="a folder (or file) xacro may read besides the input's workspace, the packages found and "
-             "--package-path folders (repeatable; see docs/security.md)",
+        help="a folder (or file) xacro and launch files may read besides the input's workspace, the packages "
+             "found and --package-path folders (repeatable; see docs/security.md)",
     )
     parser.add_argument(
         "--strict-xacro", action="store_true",
