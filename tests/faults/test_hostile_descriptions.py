@@ -1,7 +1,8 @@
-"""Hostile descriptions through the command line (issue 11), end to end: meshes that leave their package, a mesh
-that is a link to /etc/passwd, a FIFO or /dev/zero; colcon ``--symlink-install`` packages; /etc/passwd never in
-a URDF, an error line or a recording; malformed xacro elements, deep XML and other encodings as one line or a
-robot. (tests/description/test_sandbox.py checks the sandbox itself, element by element.)"""
+"""Hostile descriptions and CSV trajectories through the command line (issue 11), end to end: meshes that leave
+their package, a mesh that is a link to /etc/passwd, a FIFO or /dev/zero; colcon ``--symlink-install`` packages;
+/etc/passwd never in a URDF, an error line or a recording, launch files included; malformed xacro elements, deep
+XML and other encodings as one line or a robot; an endless CSV line. (tests/description/test_sandbox.py checks the
+sandbox itself, element by element.)"""
 
 from __future__ import annotations
 
@@ -225,3 +226,20 @@ def test_a_launch_file_reads_only_where_a_description_may(tmp_path: Path, launch
     assert err.count("\n") == 1 and re.search(message, err), err
     assert PASSWD_LINE.decode() not in out + err
     assert tfrec("inspect", str(write(package / "launch" / "ok.launch", OK_TEXTFILE)))[0] == 0
+
+
+# ---- CSV trajectories ------------------------------------------------------------------------------------------
+
+
+def test_an_endless_csv_line_is_one_line_in_bounded_memory(tmp_path: Path) -> None:
+    """A 100 MB line went to numpy's parser whole: 1.2 GB resident, a MemoryError under 1 GiB."""
+    from tests.conftest import ROBOTS
+
+    csv = tmp_path / "endless.csv"
+    with open(csv, "w") as stream:
+        stream.write("time,joint1\n0,")
+        stream.writelines("1" * 1_000_000 for _ in range(100))
+    outcome = run_tfrec(["record", str(ROBOTS / "marm.xacro"), "--traj", str(csv), "-o", "out.mcap", "--no-rrd"],
+                        cwd=tmp_path, isolated=True)
+    assert not contract_violations(outcome), outcome.stderr
+    assert outcome.stderr == f"tfrec: error: {csv}:2: cannot read CSV: field larger than field limit (131072)\n"
