@@ -201,7 +201,7 @@ def csv_text(draw: st.DrawFn, text: str, *, max_ops: int = 3) -> bytes:
             for each in rows:
                 del each[c:c + 1]
         elif kind == "long-line":
-            rows.insert(r, ["0." + "1" * draw(st.sampled_from([1000, 100_000, 2_000_000]))])
+            rows.insert(r, ["0." + "1" * draw(st.sampled_from([1000, 100_000, 2_000_000, 100_000_000]))])
         elif kind == "blank":
             rows.insert(r, [])
         elif kind == "many-rows" and len(rows) > 1:

@@ -104,7 +104,7 @@ def inflate_at_most(
         except zstandard.ZstdError as err:
             raise ValueError(f"zstd: {err}") from err
         if size > limit:
-            raise ValueError(f"it inflates to {size:,} bytes (its zstd frame says), more than the {limit:,} allowed")
+            raise ValueError(f"it inflates to {size:,} bytes (its zstd frame says), more than the {limit:,} bytes allowed")
         if size >= 0:
             return decompress(compression, data, size, limit=limit)
     out = _inflate(compression, data, limit)
