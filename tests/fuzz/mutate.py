@@ -329,9 +329,9 @@ def mutated_mcap(draw: st.DrawFn, data: bytes) -> bytes:
                 kind = "body"
         if kind == "inside":
             body = bytes(out[begin + 9:end])
-            (clen,) = struct.unpack_from("<I", body, 28)
+            clen = struct.unpack_from("<I", body, 28)[0] if len(body) >= 40 else len(body)
             rstart = 32 + clen + 8
-            inner = _records(body, rstart, len(body))
+            inner = _records(body, rstart, len(body)) if rstart <= len(body) else []
             if not inner or _rebuild_chunk(body, b"") is None:
                 kind = "body"
             else:

@@ -9,6 +9,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -18,6 +19,10 @@ from tests.fuzz.harness import check_run, fuzz_settings
 from tests.fuzz.mutate import csv_text, xml_text
 
 SHORT = ["--duration", "0.3", "--rate", "10"]
+
+# hypothesis warns when it would quote a strategy's arguments (a seed file) in a message: they are saved as files
+pytestmark = pytest.mark.filterwarnings("ignore:Generating overly large repr:hypothesis.errors.HypothesisWarning")
+
 
 
 def _commands(seed: DescriptionSeed) -> list[tuple[list[str], tuple[int, ...], list[str]]]:

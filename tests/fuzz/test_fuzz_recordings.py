@@ -8,12 +8,17 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
 from tests.fuzz.conftest import RecordingSeed, link_tree, replace_file, workdir
 from tests.fuzz.harness import check_run, fuzz_settings
 from tests.fuzz.mutate import apply_sql, mutated_bytes, mutated_mcap, mutated_ros1_bag, mutated_sqlite_bag, yaml_text
+
+# hypothesis warns when it would quote a strategy's arguments (a seed file) in a message: they are saved as files
+pytestmark = pytest.mark.filterwarnings("ignore:Generating overly large repr:hypothesis.errors.HypothesisWarning")
+
 
 
 def _commands(target: str) -> list[tuple[list[str], tuple[int, ...], list[str]]]:
