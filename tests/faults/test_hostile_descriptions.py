@@ -12,6 +12,7 @@ import os
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from tests.fuzz.harness import PASSWD_LINE, contract_violations, run_tfrec
@@ -243,3 +244,40 @@ def test_an_endless_csv_line_is_one_line_in_bounded_memory(tmp_path: Path) -> No
                         cwd=tmp_path, isolated=True)
     assert not contract_violations(outcome), outcome.stderr
     assert outcome.stderr == f"tfrec: error: {csv}:2: cannot read CSV: field larger than field limit (131072)\n"
+
+
+# ---- numbers ---------------------------------------------------------------------------------------------------
+
+UNLIMITED = ('<robot name="slider"><link name="a"/><link name="b"/><joint name="p" type="prismatic"><parent link="a"/>'
+             '<child link="b"/><axis xyz="1 0 0"/><limit lower="-1.79769e+308" upper="1.79769e+308" effort="1" '
+             'velocity="1"/></joint></robot>')
+"""A prismatic joint whose limits are ±DBL_MAX, as exporters write an unlimited one."""
+
+
+@pytest.mark.parametrize("traj", ["center", "random"])
+def test_limits_of_dbl_max_move_within_float64(tmp_path: Path, traj: str) -> None:
+    """--traj random drew between them with numpy's uniform, whose range overflowed: OverflowError, a traceback."""
+    from tfrec.formats import read_recording
+
+    path = write(tmp_path / "slider.urdf", UNLIMITED)
+    code, _, err = tfrec("record", str(path), "--traj", traj, "-o", str(tmp_path / "s.mcap"), "--no-rrd",
+                         "--duration", "1")
+    assert code == 0 and "warning" not in err, err
+    recording = read_recording(tmp_path / "s.mcap")
+    assert recording.joint_states is not None and np.isfinite(recording.joint_states.positions).all()
+    assert all(np.isfinite(series.translation).all() for series in recording.tf.values())
+
+
+@pytest.mark.parametrize("traj", ["sine", "sweep"])
+def test_limits_too_far_apart_to_move_between_are_one_line(tmp_path: Path, traj: str) -> None:
+    """sine's half-range overflowed to a NaN position (after a numpy warning); sweep's segment lengths to NaN, and
+    the joint silently did not move."""
+    path = write(tmp_path / "slider.urdf", UNLIMITED)
+    code, _, err = tfrec("record", str(path), "--traj", traj, "-o", str(tmp_path / "s.mcap"), "--no-rrd",
+                         "--duration", "1")
+    assert code == 2
+    assert err == ("tfrec: error: joint 'p': its limits [-1.79769e+308, 1.79769e+308] are too far apart to move "
+                   "between in float64; hold it still with --set\n")
+    assert not (tmp_path / "s.mcap").exists()
+    assert tfrec("record", str(path), "--traj", traj, "--set", "p=0.5", "-o", str(tmp_path / "s.mcap"), "--no-rrd",
+                 "--duration", "1")[0] == 0

@@ -33,6 +33,8 @@ def _commands(seed: DescriptionSeed) -> list[tuple[list[str], tuple[int, ...], l
         (["inspect", entry, *args, "--json"], (0,), []),
         (["record", entry, *args, "-o", "out.mcap", "--no-rrd", "--compression", "none", *SHORT], (0,), ["out.mcap"]),
         (["record", entry, *args, "-o", "out.bag", "--no-rrd", *SHORT], (0,), ["out.bag"]),
+        *[(["record", entry, *args, "-o", "out.mcap", "--no-rrd", "--traj", traj, "--compression", "none", *SHORT],
+           (0,), ["out.mcap"]) for traj in ("center", "random", "sweep")],
         (["diff", entry, *args, entry, *args, *SHORT], (0, 1), []),
     ]
     if seed.rrd:

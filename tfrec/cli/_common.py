@@ -159,6 +159,7 @@ _FLAGS = {
     "robot": "--robot",
     "bag": "--bag DIR",
     "frame_prefix": "--frame-prefix",
+    "overrides": "--set",
 }
 """Library parameters whose flag is not ``--`` + the name with dashes."""
 
