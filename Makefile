@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 PIP    := $(BIN)/python -m pip --disable-pip-version-check -q
 
-.PHONY: demo test lint bench clean screenshots
+.PHONY: demo test fuzz lint bench clean screenshots
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -33,6 +33,12 @@ demo: $(VENV)/.installed
 
 test: $(VENV)/.installed-test
 	$(BIN)/python -m pytest -q
+
+# The long fuzz run (docs/security.md): tests/fuzz with TFREC_FUZZ_EXAMPLES random mutations per target (default
+# 300), each run of tfrec in its own process under a 1 GiB address-space limit and a timeout. `make test` runs a
+# short fixed-seed slice of the same targets. Inputs that break the contract are saved in .fuzz-failures/.
+fuzz: $(VENV)/.installed-test
+	TFREC_FUZZ=long $(BIN)/python -m pytest -q -p no:cacheprovider tests/fuzz
 
 # ruff (with the layout's import bans), mypy --strict, and import-linter's layer and cycle contracts
 lint: $(VENV)/.installed-lint

@@ -19,7 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tests.formats.unbounded_reference import decompress, salvage
-from tfrec.formats._compression import MAX_CHUNK_BYTES
+from tfrec.formats._compression import MAX_CHUNK_BYTES, inflate_at_most
 from tfrec.formats._compression import decompress as decompress_bounded
 from tfrec.formats._compression import salvage as salvage_bounded
 
@@ -118,6 +118,17 @@ def test_salvaging_a_bomb_stops_at_the_limit(bombs: dict[str, bytes], kind: str)
     assert bytes(cut) == bytes(1000)
 
 
+@pytest.mark.parametrize("kind", ["zstd", "zstd-unsized", "lz4", "bz2"])
+def test_inflating_at_most_stops_a_bomb_at_the_limit(bombs: dict[str, bytes], kind: str) -> None:
+    """What nothing declares the size of (a ROS 1 chunk as rosbags reads it, a rosbag2 message compressed on its
+    own) is refused as soon as it passes the limit; a zstd frame that states 4 GiB without any work."""
+    seconds = 0.1 if kind == "zstd" else 3.0
+    with bounded_memory(50_000_000 * 13 // 10, seconds=seconds), pytest.raises(
+            ValueError, match=r"^it inflates to (4,294,967,296 bytes \(its zstd frame says\), )?more than the "
+                              r"50,000,000 bytes allowed$"):
+        inflate_at_most(kind.split("-")[0], bombs[kind], 50_000_000)
+
+
 # ---- within bounds: exactly what the unbounded functions give -----------------------------
 
 COMPRESSORS: dict[str, Callable[[bytes], bytes]] = {
@@ -132,6 +143,13 @@ def records(size: int) -> bytes:
     """Something like a chunk's records: a compressible pattern with random bytes in it."""
     pattern = b"\x05\x00\x00\x00/tf_static" + os.urandom(24)
     return (pattern * (size // len(pattern) + 1))[:size]
+
+
+@pytest.mark.parametrize("kind", list(COMPRESSORS))
+@pytest.mark.parametrize("size", [0, 1, 1000, 300_000, 3 * MiB])
+def test_inflating_at_most_round_trips(kind: str, size: int) -> None:
+    data = records(size)
+    assert bytes(inflate_at_most(kind.split("-")[0], COMPRESSORS[kind](data), 3 * MiB)) == data
 
 
 @pytest.mark.parametrize("kind", list(COMPRESSORS))

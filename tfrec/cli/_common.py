@@ -49,8 +49,8 @@ def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--allow-path", metavar="DIR", action="append", default=[],
-        help="a folder (or file) xacro may read besides the input's workspace, the packages found and "
-             "--package-path folders (repeatable; see docs/security.md)",
+        help="a folder (or file) xacro and launch files may read besides the input's workspace, the packages "
+             "found and --package-path folders (repeatable; see docs/security.md)",
     )
     parser.add_argument(
         "--strict-xacro", action="store_true",
@@ -174,6 +174,7 @@ _FLAGS = {
     "robot": "--robot",
     "bag": "--bag DIR",
     "frame_prefix": "--frame-prefix",
+    "overrides": "--set",
 }
 """Library parameters whose flag is not ``--`` + the name with dashes."""
 

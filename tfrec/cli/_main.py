@@ -50,7 +50,15 @@ def _build_parser() -> argparse.ArgumentParser:
 
 def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
                   file: TextIO | None = None, line: str | None = None) -> None:
-    print(f"{PROG}: warning: {as_flags(str(message))}", file=sys.stderr)
+    print(f"{PROG}: warning: {_printable(as_flags(str(message)))}", file=sys.stderr)
+
+
+def _printable(message: str) -> str:
+    """A message on one line whatever it quotes: a control character from an input (a newline in an MCAP's
+    profile or a topic name, a terminal escape sequence, a right-to-left override) is shown escaped."""
+    if message.isprintable():
+        return message
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in message)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -69,7 +77,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             return int(ns.handler(ns))
         except TfrecError as err:
-            print(f"{PROG}: error: {as_flags(str(err))}", file=sys.stderr)
+            print(f"{PROG}: error: {_printable(as_flags(str(err)))}", file=sys.stderr)
             return 2
         except _Terminated:
             print(f"{PROG}: terminated", file=sys.stderr)

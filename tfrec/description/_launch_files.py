@@ -4,10 +4,14 @@ declarations refused, ROS 2 YAML launch files turned into the same element tree,
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import xml.parsers.expat
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from tfrec.description._confine import ReadRoots
 from tfrec.errors import DescriptionError, display_path
 
 MAX_LAUNCH_BYTES = 10 * 1024 * 1024
@@ -36,13 +40,31 @@ class Element:
         return "".join(self.text_parts)
 
 
+_ROOTS: contextvars.ContextVar[ReadRoots | None] = contextvars.ContextVar("launch_read_roots", default=None)
+
+
+@contextlib.contextmanager
+def confined(roots: ReadRoots) -> Iterator[None]:
+    """Within the block, :func:`read_bounded` reads only what ``roots`` allows: a launch file names files to
+    include and load (``<include file>``, ``<rosparam file>``, parameter files) as xacro does, so they are held
+    to the same places (:mod:`tfrec.description._confine`)."""
+    token = _ROOTS.set(roots)
+    try:
+        yield
+    finally:
+        _ROOTS.reset(token)
+
+
 def read_bounded(path: Path, *, site: str | None, what: str = "launch file") -> bytes:
-    """The bytes of a file of at most :data:`MAX_LAUNCH_BYTES`.
+    """The bytes of a file of at most :data:`MAX_LAUNCH_BYTES` (and, within :func:`confined`, one it allows).
 
     Args:
         site: ``file:line`` of the element that names this file, or None for the file given.
     """
     prefix = f"{site}: {what} " if site else ""
+    roots = _ROOTS.get()
+    if site is not None and roots is not None and not roots.allows(path):
+        raise DescriptionError(f"{prefix}refused: {roots.refusal(path)}")
     if not path.is_file():
         raise DescriptionError(f"{prefix}{display_path(path)}: " + ("not a file" if path.exists() else "no such file"))
     try:

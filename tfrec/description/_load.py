@@ -142,11 +142,18 @@ def load_launch(
     Raises:
         DescriptionError: one line naming the launch file (or the description) and what is wrong.
     """
+    from tfrec.description._confine import ReadRoots
+    from tfrec.description._launch_files import confined
     from tfrec.description.launch import DescriptionKind, read_launch
 
     finder = PackageFinder(package_paths, near=path)
-    launch = read_launch(path, args=args, finder=finder, yaml_loader=_yaml_loader())
+    roots = ReadRoots(path, finder=finder, package_paths=package_paths, allow_paths=allow_paths)
+    with confined(roots):  # what it includes and loads: the places a description may read
+        launch = read_launch(path, args=args, finder=finder, yaml_loader=_yaml_loader())
     source = launch.description
+    if source.file is not None and not roots.allows(source.file):
+        raise DescriptionError(f"{display_path(path)}: robot_description from {source.file} refused: "
+                               f"{roots.refusal(source.file)}")
     if source.kind is DescriptionKind.URDF_TEXT:
         robot = parse_urdf(source.text or "", source=f"{display_path(path)}: robot_description", user_lines=False)
     else:

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
-__all__ = ["MAX_CHUNK_BYTES", "decompress", "salvage"]
+__all__ = ["MAX_CHUNK_BYTES", "decompress", "inflate_at_most", "salvage"]
 
 MAX_CHUNK_BYTES = 512 * 1024 * 1024
 """A suggested ``limit`` for one chunk's records. Writers cut chunks at a few MiB (rosbag2's MCAP
@@ -79,6 +79,37 @@ def decompress(
         raise ValueError(f"its records inflate to more than the {declared_size:,} bytes declared")
     if len(out) != declared_size:
         raise ValueError(f"its records decompress to {len(out):,} bytes, not {declared_size:,}")
+    return out
+
+
+def inflate_at_most(
+    compression: str,
+    data: bytes | memoryview,
+    limit: int = MAX_CHUNK_BYTES,
+) -> bytes | memoryview:
+    """All of ``data`` decompressed where nothing declares its size (a ROS 1 chunk as rosbags reads it,
+    one message of a rosbag2 bag compressed per message): refused as soon as it inflates past ``limit``.
+
+    Raises:
+        ValueError: an unknown compression; data that inflates past ``limit``, or that does not decompress.
+    """
+    _check_supported(compression, None)
+    if compression in _UNCOMPRESSED:
+        return data
+    if compression == "zstd":
+        import zstandard
+
+        try:
+            size = zstandard.frame_content_size(data)
+        except zstandard.ZstdError as err:
+            raise ValueError(f"zstd: {err}") from err
+        if size > limit:
+            raise ValueError(f"it inflates to {size:,} bytes (its zstd frame says), more than the {limit:,} bytes allowed")
+        if size >= 0:
+            return decompress(compression, data, size, limit=limit)
+    out = _inflate(compression, data, limit)
+    if len(out) > limit:
+        raise ValueError(f"it inflates to more than the {limit:,} bytes allowed")
     return out
 
 

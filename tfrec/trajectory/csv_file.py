@@ -21,7 +21,7 @@ import os
 import re
 import stat
 import warnings
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 
 import numpy as np
 from numpy.typing import NDArray
@@ -144,6 +144,10 @@ MAX_CSV_BYTES = 128 << 20
 _BLOCK_CHARS = 4 << 20
 """Characters of the body numpy parses at a time."""
 
+_MAX_LINE_CHARS = 1 << 20
+"""A line longer than this is not given to numpy (which needs several times a line's size to parse it): it is
+read by :mod:`csv`, whose fields are at most 128 KiB."""
+
 _PLAIN = re.compile(r"[0-9eE+\-.,\t \n]*")
 """The characters of a body of plain numbers, which numpy parses as :func:`_number` would."""
 
@@ -198,6 +202,8 @@ def _fast_values(text: str, start: int, columns: int) -> NDArray[np.float64] | N
     while at < len(text):
         end = text.find("\n", min(at + _BLOCK_CHARS, len(text)))
         end = len(text) if end < 0 else end + 1
+        if end - at > _BLOCK_CHARS + _MAX_LINE_CHARS:
+            return None  # an endless line
         block = text[at:end]
         at = end
         if not block.strip():
@@ -221,7 +227,7 @@ def _exact_values(text: str, start: int, header_line: int, name: str,
     numbers and values. Raises on the first fault, naming its line."""
     lines: list[int] = []
     rows: list[list[float]] = []
-    reader = csv.reader(io.StringIO(text[start:]))
+    reader = csv.reader(_lines(text, start))  # not a StringIO of the text: it holds 4 bytes a character
     try:
         for row in reader:
             if not any(cell.strip() for cell in row):
@@ -234,6 +240,15 @@ def _exact_values(text: str, start: int, header_line: int, name: str,
     except csv.Error as err:
         raise TrajectoryError(f"{name}:{header_line + reader.line_num}: cannot read CSV: {err}") from err
     return np.array(lines, dtype=np.int64), np.array(rows, dtype=np.float64).reshape(len(rows), len(columns))
+
+
+def _lines(text: str, start: int) -> Iterator[str]:
+    """The lines of ``text`` from ``start``, each with its ``\\n``."""
+    while start < len(text):
+        end = text.find("\n", start)
+        end = len(text) if end < 0 else end + 1
+        yield text[start:end]
+        start = end
 
 
 def _row_lines(text: str, start: int, header_line: int) -> NDArray[np.int64]:

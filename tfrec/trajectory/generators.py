@@ -207,7 +207,12 @@ def random_trajectory(
         if j in pinned:
             waypoints[:, j] = pinned[j]
         else:
-            waypoints[1:, j] = np.random.default_rng([seed, j]).uniform(lower[j], upper[j], size=count - 1)
+            rng = np.random.default_rng([seed, j])
+            if math.isfinite(float(upper[j]) - float(lower[j])):
+                waypoints[1:, j] = rng.uniform(lower[j], upper[j], size=count - 1)
+            else:  # a range wider than float64 (limits of ±1.8e308 for "unlimited"): in halves
+                middle, half = lower[j] / 2.0 + upper[j] / 2.0, upper[j] / 2.0 - lower[j] / 2.0
+                waypoints[1:, j] = middle + half * rng.uniform(-1.0, 1.0, size=count - 1)
     knot_s = np.arange(count) * period_s
 
     def sample(times: NDArray[np.int64]) -> tuple[Array, Array]:
@@ -239,8 +244,10 @@ def sine_trajectory(
     fraction = np.mod(np.arange(len(lower)) * _GOLDEN, 1.0)
     omega = 2.0 * np.pi / (2.0 * period_s * (1.0 + fraction))
     phase = 2.0 * np.pi * fraction
-    middle = (lower + upper) / 2.0
-    reach = amplitude * (upper - lower) / 2.0
+    with np.errstate(over="ignore"):  # a range wider than float64 (limits of ±1.8e308): taken in halves
+        middle = np.where(np.isfinite(lower + upper), (lower + upper) / 2.0, lower / 2.0 + upper / 2.0)
+        reach = np.where(np.isfinite(upper - lower), amplitude * (upper - lower) / 2.0,
+                         amplitude * (upper / 2.0 - lower / 2.0))
 
     def sample(times: NDArray[np.int64]) -> tuple[Array, Array]:
         angle = np.outer(times * 1e-9, omega) + phase
@@ -278,7 +285,7 @@ def sweep_trajectory(
     segments: list[tuple[int, Floats, Floats]] = []  # (column, knot times, knot positions (K, 1))
     for k, i in enumerate(swept):
         values = np.array([center[i], lower[i], upper[i], center[i]])
-        lengths = np.abs(np.diff(values))
+        lengths = np.abs(np.diff(values / 8.0))  # in proportion only; eighths: limits of ±1.8e308 do not overflow
         if lengths.sum() == 0.0:
             continue
         start = k * slot
@@ -332,9 +339,16 @@ def _trajectory(robot: Robot, time_ns: NDArray[np.int64], sample: Sampler) -> Ge
     lower, upper = np.array([position_range(joint) for joint in robot.actuated_joints]).reshape(-1, 2).T
 
     def clipped(times: NDArray[np.int64]) -> tuple[Array, Array]:
-        positions, velocities = sample(times)
+        with np.errstate(over="ignore", invalid="ignore"):  # refused below
+            positions, velocities = sample(times)
         if positions.shape[1]:
             np.clip(positions, lower, upper, out=positions)
+        bad = np.argwhere(~(np.isfinite(positions) & np.isfinite(velocities)))
+        if bad.size:  # limits so far apart that moving between them takes a speed past float64
+            j = int(bad[0][1])
+            raise TrajectoryError(f"joint '{robot.actuated_joints[j].name}': its limits [{float(lower[j])!r}, "
+                                  f"{float(upper[j])!r}] are too far apart to move between in float64; hold it still "
+                                  "with `overrides`")
         return positions, velocities
 
     return GeneratedTrajectory(tuple(joint.name for joint in robot.actuated_joints), time_ns, clipped)

@@ -177,7 +177,7 @@ class McapMessages(MessageSource):
                     elif opcode == OP_HEADER:
                         profile, _ = parse_header(body)
                         if profile not in ("ros2", ""):
-                            raise ReadError(f"{name}: MCAP profile '{profile}', not ros2")
+                            raise ReadError(f"{name}: MCAP profile {profile!r}, not ros2")
                     else:
                         self._record(memoryview(body), opcode, 0, length)
                 except (struct.error, ValueError, UnicodeDecodeError) as err:

@@ -181,7 +181,7 @@ class McapWalker:
             elif opcode == OP_HEADER:
                 self.profile, self.library = parse_header(self.read(length, what))
                 if self.profile not in ("ros2", ""):
-                    raise ReadError(f"{self.where}: MCAP profile '{self.profile}', not ros2")
+                    raise ReadError(f"{self.where}: MCAP profile {self.profile!r}, not ros2")
             else:
                 self.stream.seek(length, os.SEEK_CUR)
                 self.offset += length

@@ -141,10 +141,29 @@ class _Ros1Reader:
         self.damaged: list[tuple[int, str]] = []  # (byte, problem) of skipped chunks
         self.indexed = False  # the index section's chunk info records were reached
         self.span: tuple[int, int] | None = None  # from the chunk info records
+        # messages on a connection not defined yet (its connection record was in a chunk that was lost; the
+        # index section repeats every connection record): (log time, raw message) by connection id
+        self.orphans: dict[int, list[tuple[int, bytes]]] = {}
 
     @property
     def messages(self) -> int:
         return sum(connection.count for connection in self.connections.values())
+
+    def adopt_orphans(self) -> int:
+        """Give the messages taken before their connection was defined to their connections; returns how
+        many remain on connections the bag never defines (they are dropped)."""
+        lost = 0
+        for conn, messages in self.orphans.items():
+            connection = self.connections.get(conn)
+            if connection is None:
+                lost += len(messages)
+                continue
+            for time_ns, data in messages:
+                connection.add(time_ns)
+                if connection.decoded:
+                    connection.messages.append((time_ns, data))
+        self.orphans = {}
+        return lost
 
     def _read(self, size: int) -> bytes:
         data = self.stream.read(size)
@@ -203,10 +222,12 @@ class _Ros1Reader:
             ValueError: a damaged record, or a message on an unknown connection.
         """
         if op == OP_MESSAGE:
-            connection = self.connections.get(uint32_field(fields, "conn"))
-            if connection is None:
-                raise ValueError(f"a message on unknown connection {uint32_field(fields, 'conn')}")
+            conn = uint32_field(fields, "conn")
+            connection = self.connections.get(conn)
             time_ns = time_field(fields, "time")
+            if connection is None:  # defined later (by the index section) or never
+                self.orphans.setdefault(conn, []).append((time_ns, bytes(data)))
+                return
             connection.add(time_ns)
             if connection.decoded:
                 connection.messages.append((time_ns, bytes(data)))
@@ -326,12 +347,15 @@ def read_rosbag1_records(path: Path, options: ReadOptions, *, refused: str) -> R
                 stop = err
     except OSError as err:
         raise ReadError(f"{where}: cannot read: {err.strerror or err}") from err
+    lost = reader.adopt_orphans()
     if not reader.connections:
         where_stopped = f"; reading stopped at byte {stop.offset:,}: {stop.reason}" if stop is not None else ""
         raise ReadError(f"{where}: cannot read ROS 1 bag: {one_line(refused)}{where_stopped}")
     problems = [reader.damage_summary()] if reader.damaged else []
     if stop is not None:
         problems.append(stop.problem(size))
+    if lost:
+        problems.append(f"{lost:,} messages on connections that no readable record defines were skipped")
     if problems:
         recording.read_error = read_error_line(where, problems, reader.messages)
     recording.details = {"compression": ", ".join(sorted(reader.compressions))}

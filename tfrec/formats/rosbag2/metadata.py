@@ -206,6 +206,7 @@ def read_bag_metadata(folder: Path) -> BagMetadata:
     names = info.get("relative_file_paths")
     if not isinstance(names, list) or not names:
         raise ReadError(f"{meta}: rosbag2_bagfile_information lists no relative_file_paths")
+    _check_topics(info.get("topics_with_message_count"), meta)
     files = tuple(folder / Path(str(name)).name for name in names)
     for file in files:
         if not file.is_file():
@@ -250,6 +251,23 @@ def bag_without_metadata(folder: Path) -> BagMetadata | None:
             return None
         return BagMetadata(storage, tuple(sorted(files, key=lambda file: int(file.stem.rpartition("_")[2]))), "")
     return None
+
+
+def _check_topics(topics: Any, meta: Path) -> None:
+    """The topics of a metadata.yaml, where it lists them, name each topic and its type as text (a list or a
+    number there went through rosbags into tfrec's tables as a key)."""
+    if topics is None:
+        return
+    if not isinstance(topics, list):
+        raise ReadError(f"{meta}: topics_with_message_count is not a list")
+    for k, entry in enumerate(topics):
+        topic = entry.get("topic_metadata") if isinstance(entry, dict) else None
+        if not isinstance(topic, dict):
+            raise ReadError(f"{meta}: topics_with_message_count[{k}] has no topic_metadata mapping")
+        for key in ("name", "type", "serialization_format"):
+            if key in topic and not isinstance(topic[key], str):
+                raise ReadError(f"{meta}: topics_with_message_count[{k}].topic_metadata.{key} is not text: "
+                                f"{type(topic[key]).__name__}")
 
 
 def one_line(text: str) -> str:

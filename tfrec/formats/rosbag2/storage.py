@@ -1,7 +1,7 @@
 """A rosbag2 bag's files as the readers take them: decompressed, and checked against ``metadata.yaml``.
 
 A bag compressed file by file (``compression_mode: file``, ``bag_0.mcap.zstd``) has each file
-decompressed to a temporary copy first, streamed (:func:`plain_files`); one compressed message by
+decompressed to a temporary copy first, streamed and bounded (:func:`plain_files`, :data:`MAX_FILE_RATIO`); one compressed message by
 message has each decoded message decompressed (:func:`message_decompressor`). The messages read
 are checked against ``metadata.yaml``'s ``topics_with_message_count``: a topic whose count differs
 warns with both numbers (:func:`check_metadata_counts`) — a bag whose recorder was killed, a
@@ -11,6 +11,7 @@ metadata file edited by hand, files added or removed.
 from __future__ import annotations
 
 import contextlib
+import os
 import tempfile
 import warnings
 from collections.abc import Callable, Iterator
@@ -22,7 +23,14 @@ from tfrec.formats._compression import MAX_CHUNK_BYTES
 from tfrec.formats.rosbag2.metadata import BagMetadata
 from tfrec.recording import Recording
 
-__all__ = ["check_metadata_counts", "message_decompressor", "plain_files"]
+__all__ = ["MAX_FILE_RATIO", "check_metadata_counts", "message_decompressor", "plain_files"]
+
+MAX_FILE_RATIO = 1000
+"""A file of a bag compressed file by file inflates to at most this many times its size (or
+:data:`MIN_FILE_LIMIT`): zstd makes 4 GiB of zeros out of 131 kB, a ratio of 32,000, while recorded
+messages compress less than 100-fold. This bounds the temporary disk a hostile bag can fill."""
+
+MIN_FILE_LIMIT = 64 << 20
 
 
 @contextlib.contextmanager
@@ -45,7 +53,14 @@ def plain_files(meta: BagMetadata, where: str) -> Iterator[list[Path]]:
             target = Path(scratch) / file.name.removesuffix(".zstd")
             try:
                 with open(file, "rb") as source, open(target, "wb") as out:
-                    zstandard.ZstdDecompressor().copy_stream(source, out)
+                    limit = max(MIN_FILE_LIMIT, MAX_FILE_RATIO * os.fstat(source.fileno()).st_size)
+                    reader, written = zstandard.ZstdDecompressor().stream_reader(source), 0
+                    while block := reader.read(1 << 20):
+                        written += len(block)
+                        if written > limit:
+                            raise ReadError(f"{where}: {file.name} inflates to more than {limit:,} bytes (at most "
+                                            f"{MAX_FILE_RATIO} times its size): a damaged or hostile file")
+                        out.write(block)
             except zstandard.ZstdError as err:
                 raise ReadError(f"{where}: {file.name} does not decompress (zstd: {err})") from err
             except OSError as err:
@@ -70,8 +85,9 @@ def message_decompressor(meta: BagMetadata, where: str) -> Callable[[bytes], byt
 
     def decompress(data: bytes) -> bytes:
         try:  # bounded: zstd ignores max_output_size when the frame states its size, so that is checked first
-            if zstandard.frame_content_size(data) > MAX_CHUNK_BYTES:
-                raise ReadError(f"{where}: a message declares more than {MAX_CHUNK_BYTES:,} bytes")
+            if (declared := zstandard.frame_content_size(data)) > MAX_CHUNK_BYTES:
+                raise ReadError(f"{where}: a compressed message inflates to {declared:,} bytes (its zstd frame "
+                                f"says), more than the {MAX_CHUNK_BYTES:,} a message may have")
             return bytes(decompressor.decompress(data, max_output_size=MAX_CHUNK_BYTES))
         except zstandard.ZstdError as err:
             raise ReadError(f"{where}: a message does not decompress (zstd: {err})") from err

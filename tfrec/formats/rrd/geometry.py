@@ -111,8 +111,13 @@ def _read_mesh(path: Path) -> MeshAsset | str:
     if info.st_size > MAX_MESH_BYTES:
         return f"not readable ({path}: {info.st_size:,} bytes, more than the {MAX_MESH_BYTES >> 20} MiB a mesh may have)"
     try:
-        with open(path, "rb") as stream:
-            data = stream.read(MAX_MESH_BYTES + 1)
+        # what is opened is checked again (a FIFO put in its place would block the open without O_NONBLOCK), and
+        # read for its size: read(MAX_MESH_BYTES) would allocate 256 MiB for every mesh first
+        with open(os.open(path, os.O_RDONLY | os.O_NONBLOCK), "rb") as stream:
+            opened = os.fstat(stream.fileno())
+            if not stat.S_ISREG(opened.st_mode) or opened.st_size > MAX_MESH_BYTES:
+                return f"not readable ({path}: not a regular file of at most {MAX_MESH_BYTES >> 20} MiB)"
+            data = stream.read(opened.st_size + 1)
     except OSError as err:
         return f"not readable ({path}: {err.strerror or err})"
     suffix = path.suffix.lower()

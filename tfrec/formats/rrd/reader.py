@@ -1,6 +1,7 @@
 """Reading tfrec's Rerun recording (``.rrd``) into a :class:`~tfrec.recording.Recording`.
 
-Through Rerun's own reader (``rerun.chunk.RrdReader``), with the entity paths and the timeline
+Through Rerun's own reader (``rerun.chunk.RrdReader``, run in a child process: it aborts the process on
+some damaged files), with the entity paths and the timeline
 of :mod:`tfrec.formats.rrd.paths`: ``/tf/<joint>`` and ``/tf_static/<joint>`` (Transform3D with
 parent and child frames), ``/joints/<joint>`` (Scalars) and ``/robot_description``
 (TextDocument); a replay of several robots has each robot's under its root (``/robot1/tf/…``),
@@ -11,8 +12,12 @@ another application (not ``tfrec``) is refused: its entities mean nothing tfrec 
 
 from __future__ import annotations
 
+import json
 import os
-import warnings
+import signal
+import struct
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -40,8 +45,6 @@ def read_rrd(path: Path, options: ReadOptions) -> Recording:
             tfrec (another application id): what it holds has no ROS meaning tfrec knows.
     """
     import pyarrow as pa
-    import rerun as rr
-    from rerun.chunk import RrdReader
 
     from tfrec.formats.rrd import paths as rerun_paths
 
@@ -50,26 +53,18 @@ def read_rrd(path: Path, options: ReadOptions) -> Recording:
         kind[1] for topic in options.topics if (kind := robot_topic_kind(topic)) is not None)
     recording = Recording(path=where, format="rrd", float32=True)
     timeline = rerun_paths.TIMELINE
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", getattr(rr, "RerunWarning", UserWarning))
-            reader = RrdReader(path)
-            applications = sorted({entry.application_id for entry in reader.recordings()})
-            if applications and rerun_paths.APPLICATION_ID not in applications:
-                raise ReadError(f"{where}: a Rerun recording of {', '.join(repr(a) for a in applications)}, not "
-                                f"written by tfrec: tfrec reads back only its own .rrd files (their entities "
-                                "stand for ROS topics)")
-            chunks = list(reader.stream())
-    except (RuntimeError, ValueError, OSError) as err:
-        raise ReadError(f"{where}: unreadable Rerun recording: {err}") from err
+    applications, chunks = _read_chunks(path)
+    if applications and rerun_paths.APPLICATION_ID not in applications:
+        raise ReadError(f"{where}: a Rerun recording of {', '.join(repr(a) for a in applications)}, not "
+                        f"written by tfrec: tfrec reads back only its own .rrd files (their entities "
+                        "stand for ROS topics)")
     parts: dict[str, _Entities] = {}
-    for chunk in chunks:
-        found = _rooted(str(chunk.entity_path))
+    for entity_path, batch in chunks:
+        found = _rooted(entity_path)
         if found is None:
             continue
         namespace, top, names = found
         entities = parts.setdefault(namespace, _Entities())
-        batch = chunk.to_record_batch()
         columns = {name: batch.column(i) for i, name in enumerate(batch.schema.names)}
         if top == rerun_paths.DESCRIPTION_ROOT:
             text = columns.get("TextDocument:text")
@@ -184,6 +179,49 @@ class _Entities:
         return topics, RobotTopics((description,) if description is not None else (),
                                    joint_states if JOINT_STATES in wanted else None,
                                    tf if TF in wanted else {}, self.static if TF_STATIC in wanted else {})
+
+
+def _read_chunks(path: Path) -> tuple[list[str], list[tuple[str, Any]]]:
+    """The application ids of an ``.rrd``'s recordings, and (entity path, pyarrow RecordBatch) of each of
+    its chunks, decoded by Rerun in a child process (:mod:`tfrec.formats.rrd._read_child`): Rerun's
+    reader aborts the process on some damaged files.
+
+    Raises:
+        ReadError: Rerun refused the file, or its reader crashed on it.
+    """
+    import pyarrow as pa
+
+    from tfrec.formats.rrd import _read_child
+
+    where = os.fspath(path)
+    try:
+        child = subprocess.run([sys.executable, _read_child.__file__, os.fspath(path)], capture_output=True,
+                               check=False, env={**os.environ, "RUST_LOG": "off", "RUST_BACKTRACE": "0"})
+    except OSError as err:
+        raise ReadError(f"{where}: cannot start Rerun's reader: {err.strerror or err}") from err
+    if child.returncode == _read_child.REFUSED:
+        reason = " ".join(child.stderr.decode(errors="replace").split()) or "no reason given"
+        raise ReadError(f"{where}: unreadable Rerun recording: {reason}")
+    if child.returncode != 0:
+        how = (f"killed by {signal.Signals(-child.returncode).name}" if child.returncode < 0
+               else f"exit code {child.returncode}")
+        raise ReadError(f"{where}: unreadable Rerun recording: Rerun's reader crashed on it ({how}); the file is "
+                        "damaged")
+    data = memoryview(child.stdout)
+    chunks: list[tuple[str, Any]] = []
+    try:
+        (size,) = struct.unpack_from("<Q", data, 0)
+        applications = [str(a) for a in json.loads(bytes(data[8:8 + size]))]
+        pos = 8 + size
+        while pos < len(data):
+            (size,) = struct.unpack_from("<Q", data, pos)
+            batch = pa.ipc.open_stream(pa.py_buffer(data[pos + 8:pos + 8 + size])).read_next_batch()
+            pos += 8 + size
+            entity = (batch.schema.metadata or {}).get(_read_child.ENTITY_PATH, b"").decode(errors="replace")
+            chunks.append((entity, batch))
+    except (pa.ArrowInvalid, struct.error, ValueError, TypeError) as err:
+        raise ReadError(f"{where}: unreadable Rerun recording: {err}") from err
+    return applications, chunks
 
 
 def _one_per_row(column: Any, width: int) -> tuple[Array, NDArray[np.bool_]]:

@@ -1,0 +1,25 @@
+"""One fuzz run in its own process (``make fuzz``): tfrec's command line under ``RLIMIT_AS``.
+
+``python -m tests.fuzz._child ARGS...`` is ``tfrec ARGS...`` with the address space limited to
+``TFREC_FUZZ_RLIMIT_AS`` bytes (default 1 GiB): a run that needs more fails with MemoryError (a
+traceback, which the harness reports) instead of taking the machine down.
+"""
+
+from __future__ import annotations
+
+import os
+import resource
+import sys
+
+
+def run() -> None:
+    limit = int(os.environ.get("TFREC_FUZZ_RLIMIT_AS", str(1 << 30)))
+    resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+    from tfrec.cli import main_exit
+
+    sys.argv = ["tfrec", *sys.argv[1:]]
+    main_exit()
+
+
+if __name__ == "__main__":
+    run()
