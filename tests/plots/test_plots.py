@@ -220,3 +220,28 @@ def test_plot_format() -> None:
     assert plot_format("x.PNG") == "png"
     with pytest.raises(PlotError, match=r"x\.dot: a plot is written as \.png, \.svg, \.pdf"):
         plot_format("x.dot")
+
+
+def test_plot_of_a_bag_of_two_namespaced_robots(random_rec: Recording, tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    """/robot1/… and /robot2/…: the root namespace has nothing; --namespace chooses the robot."""
+    from tests.bag_builders import Robot as BagRobot
+    from tests.bag_builders import write_bag
+
+    bag = write_bag(tmp_path / "two.bag", [BagRobot(random_rec, namespace="/robot1"),
+                                           BagRobot(random_rec, namespace="/robot2")], kind="ros1")
+    assert main(["plot", str(bag), "-o", str(tmp_path / "both.svg")]) == 2
+    assert capsys.readouterr().err == (f"tfrec: error: {bag}: 2 robots (/robot1, /robot2): choose one with "
+                                       "--namespace\n")
+    assert main(["plot", str(bag), "-o", str(tmp_path / "nope.svg"), "--namespace", "/nope"]) == 2
+    assert "no robot in namespace '/nope' (namespaces with robot topics: /robot1, /robot2)" in capsys.readouterr().err
+    assert not list(tmp_path.glob("*.svg"))
+    assert main(["plot", str(bag), "-o", str(tmp_path / "robot2.svg"), "--namespace", "robot2"]) == 0
+    text = (tmp_path / "robot2.svg").read_text()
+    assert random_rec.joint_states is not None
+    assert all(f">{name}<" in text for name in random_rec.joint_states.names)
+    assert "position (rad)" in text and "gripper_finger_link1" in text  # limits from /robot2/robot_description
+    # the only robot of a bag is drawn without --namespace
+    one = write_bag(tmp_path / "one.bag", [BagRobot(random_rec, namespace="/robot1")], kind="ros1")
+    assert main(["plot", str(one), "-o", str(tmp_path / "one.svg")]) == 0
+    assert (tmp_path / "one.svg").read_text().count("gripper_finger_link1") == text.count("gripper_finger_link1")

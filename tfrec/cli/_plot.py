@@ -19,7 +19,8 @@ def add_parser(sub: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="examples:\n  tfrec plot recordings/marm.mcap -o marm.png\n"
                "  tfrec plot bag_folder/ -o arm.svg --frames gripper_link tool0\n"
-               "  tfrec plot robot.bag -o robot.pdf --robot robot.urdf",
+               "  tfrec plot robot.bag -o robot.pdf --robot robot.urdf\n"
+               "  tfrec plot two_robots.bag -o robot1.png --namespace /robot1",
     )
     plot.add_argument("file", metavar="FILE", help="a .mcap file, a rosbag2 folder, a ROS 1 .bag or a .rrd")
     plot.add_argument("-o", "--output", metavar="OUT", required=True, help="the picture: OUT.png, .svg or .pdf")
@@ -29,11 +30,15 @@ def add_parser(sub: Any) -> None:
                       help="the description (joint limits and units) when the recording has no /robot_description")
     plot.add_argument("--package-path", metavar="DIR", action="append", default=[],
                       help="a package, or a folder of packages, for $(find pkg) in --robot (repeatable)")
+    plot.add_argument("--namespace", metavar="NS",
+                      help="the robot of this namespace (/robot1; '/' for the root's) when the recording holds "
+                           "several")
     plot.add_argument("--force", action="store_true", help="overwrite an existing OUT")
     plot.set_defaults(handler=_cmd_plot)
 
 
 def _cmd_plot(ns: argparse.Namespace) -> int:
+    from tfrec.conventions import namespace_name
     from tfrec.formats import read_recording
     from tfrec.plots import plot_format, plot_recording, refuse_existing
 
@@ -44,11 +49,12 @@ def _cmd_plot(ns: argparse.Namespace) -> int:
         from tfrec.description import load_description, parse_xacro_args
 
         robot = load_description(ns.robot[0], args=parse_xacro_args(ns.robot[1:]), package_paths=ns.package_path)
-    recording = read_recording(ns.file)
+    namespace = None if ns.namespace is None else namespace_name(ns.namespace)
+    recording = read_recording(ns.file, namespace=namespace)
     if recording.read_error:
         import warnings
 
         warnings.warn(recording.read_error, stacklevel=1)
-    plot_recording(recording, ns.output, robot=robot, frames=ns.frames, force=ns.force)
+    plot_recording(recording, ns.output, robot=robot, frames=ns.frames, namespace=namespace, force=ns.force)
     print(f"wrote {ns.output}", file=sys.stdout)
     return 0

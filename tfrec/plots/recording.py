@@ -8,6 +8,7 @@ from /tf_static and /tf into their root frame, seen from the top (x–y) and fro
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import warnings
 from collections.abc import Sequence
@@ -17,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from tfrec.conventions import robot_topic_kind
 from tfrec.errors import DescriptionError, display_path
 from tfrec.kinematics.fk import Transforms, root_from_link
 from tfrec.model import JointType, Robot
@@ -35,7 +37,7 @@ from tfrec.resample import align, data_start_ns
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-__all__ = ["FramePaths", "default_frames", "frame_paths", "plot_recording"]
+__all__ = ["FramePaths", "default_frames", "frame_paths", "one_robot", "plot_recording"]
 
 Array = NDArray[np.float64]
 
@@ -220,8 +222,41 @@ def _bands(ax: Axes, intervals: dict[tuple[float, float], list[str]], colours: d
             ax.axhline(y, color=colour, linewidth=0.8, linestyle=(0, (4, 3)), alpha=0.8, zorder=1)
 
 
+def one_robot(recording: Recording, namespace: str | None = None) -> Recording:
+    """The recording as the one robot a plot draws: the root namespace's robot topics when it has any
+    (and no ``namespace`` is chosen), else the only robot of the recording (``/robot1/joint_states``,
+    ``/robot1/tf``…, or one of several robots sharing /tf by frame prefix), else the robot of
+    ``namespace`` (``/robot1``; ``""`` the root).
+
+    Raises:
+        PlotError: several robots and no ``namespace`` to choose one, or none in ``namespace``.
+    """
+    from tfrec.robots import find_robots
+
+    if namespace is None and recording.robot_topics(""):
+        return recording
+    robots = [r for r in find_robots(recording, namespace=namespace) if not r.unclaimed]
+    if not robots:
+        if namespace is None:
+            return recording  # nothing to plot: plot_recording says so
+        spaces = sorted({kind[0] for topic, info in recording.topics.items()
+                         if info.count and (kind := robot_topic_kind(topic)) is not None})
+        found = ", ".join(name or "/" for name in spaces) or "none"
+        raise PlotError(f"{recording.path}: no robot in namespace '{namespace or '/'}' (namespaces with robot "
+                        f"topics: {found})")
+    if len(robots) > 1:
+        keys = ", ".join(r.key or "/" for r in robots)
+        raise PlotError(f"{recording.path}: {len(robots)} robots ({keys}): choose one with --namespace"
+                        + (" (they share one namespace: plot one of them with --frames)" if namespace is not None
+                           else ""))
+    found_robot = robots[0]
+    return dataclasses.replace(recording, robot_description=found_robot.description, robot_descriptions=(),
+                               joint_states=found_robot.joint_states, tf=dict(found_robot.tf),
+                               tf_static=dict(found_robot.tf_static), namespaces={})
+
+
 def plot_recording(recording: Recording, path: str | os.PathLike[str], *, robot: Robot | None = None,
-                   frames: Sequence[str] | None = None, force: bool = False) -> None:
+                   frames: Sequence[str] | None = None, namespace: str | None = None, force: bool = False) -> None:
     """Plot a recording's joint states and frame paths to ``path`` (``.png``, ``.svg`` or ``.pdf``).
 
     Args:
@@ -230,13 +265,17 @@ def plot_recording(recording: Recording, path: str | os.PathLike[str], *, robot:
         robot: the model for joint units and limits; default: the recording's /robot_description
             (without either, joints go in one panel without units or limits).
         frames: frames whose paths are drawn; default: the deepest leaves of the TF tree.
+        namespace: the robot to draw when the recording has several (``/robot1``; ``""`` the root
+            namespace's); see :func:`one_robot`.
 
     Raises:
-        PlotError: a bad suffix, a recording with neither /joint_states nor /tf, or an unknown frame.
+        PlotError: a bad suffix, a recording with neither /joint_states nor /tf, an unknown frame,
+            or several robots and no ``namespace``.
         WriteError: the file cannot be written.
     """
     fmt = plot_format(path)
     refuse_existing(path, force=force)
+    recording = one_robot(recording, namespace)
     js = recording.joint_states if recording.joint_states is not None and len(recording.joint_states) else None
     if js is None and not any(len(s) for s in recording.tf.values()):
         raise PlotError(f"{recording.path}: nothing to plot: no /joint_states and no /tf")
