@@ -6,6 +6,8 @@ definition of each.
 
 from __future__ import annotations
 
+import math
+
 __all__ = [
     "CHECK_POS_TOL",
     "CHECK_ROT_TOL",
@@ -17,6 +19,7 @@ __all__ = [
     "DIFF_ROT_TOL",
     "FLOAT32_TOL",
     "JOINT_STATES",
+    "MAX_OFFSET_S",
     "NS_PER_S",
     "RECORDED_TOPICS",
     "ROBOT_DESCRIPTION",
@@ -27,6 +30,7 @@ __all__ = [
     "TF_STATIC",
     "global_topic",
     "namespace_name",
+    "offset_ns",
     "robot_topic_kind",
     "split_topic",
 ]
@@ -105,3 +109,20 @@ def namespace_name(text: str) -> str:
     """A namespace as given by a user (``robot1``, ``/robot1/``, ``/``) in tfrec's form:
     ``/robot1``, and ``""`` for the root namespace."""
     return "" if global_topic(text) == "/" else global_topic(text)
+
+
+MAX_OFFSET_S = 4e9
+"""|offsets| from a recording's start (``start_s``, ``end_s``) are taken up to this (127 years: past
+any recording's end, and within int64 nanoseconds once added to a time since the epoch)."""
+
+
+def offset_ns(seconds: float) -> int:
+    """An offset in seconds from a recording's start as integer nanoseconds, clamped to
+    ±:data:`MAX_OFFSET_S` (``1e308`` is simply past the end).
+
+    Raises:
+        ValueError: NaN.
+    """
+    if math.isnan(seconds):
+        raise ValueError("an offset of NaN seconds")
+    return round(max(-MAX_OFFSET_S, min(MAX_OFFSET_S, seconds)) * NS_PER_S)

@@ -11,6 +11,7 @@ import io
 import os
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -257,6 +258,38 @@ def test_an_endless_csv_line_is_one_line_in_bounded_memory(tmp_path: Path) -> No
     assert outcome.stderr == f"tfrec: error: {csv}:2: cannot read CSV: field larger than field limit (131072)\n"
 
 
+def test_millions_of_short_csv_rows_are_one_line_in_bounded_memory(tmp_path: Path) -> None:
+    """4 million rows of two short cells (39 MB): 340 bytes a row, 1.36 GB resident before the rows were bounded."""
+    from tests.conftest import ROBOTS
+    from tfrec.trajectory.csv_file import MAX_CSV_POSITIONS
+
+    rows = MAX_CSV_POSITIONS // 7 + 1  # marm: 7 actuated joints
+    csv = tmp_path / "rows.csv"
+    csv.write_text("time,joint1\n" + "".join(f"{i},0\n" for i in range(rows)))
+    outcome = run_tfrec(["record", str(ROBOTS / "marm.xacro"), "--traj", str(csv), "-o", "out.mcap", "--no-rrd"],
+                        cwd=tmp_path, isolated=True)
+    assert not contract_violations(outcome), outcome.stderr
+    assert outcome.stderr == (f"tfrec: error: {csv}: {rows:,} rows of 7 joints are more than {MAX_CSV_POSITIONS:,} "
+                              "joint positions, the most a CSV trajectory may hold (it is read whole): split the "
+                              "file, or keep fewer rows\n")
+
+
+def test_velocities_of_a_csv_are_computed_column_by_column_as_before(tmp_path: Path) -> None:
+    from tests.conftest import ROBOTS
+    from tfrec.description import load_description
+    from tfrec.trajectory.csv_file import read_csv_trajectory
+
+    robot = load_description(ROBOTS / "marm.xacro")
+    rng = np.random.default_rng(3)
+    times = np.cumsum(rng.uniform(0.001, 0.05, 300))
+    q = rng.uniform(-1, 1, (300, 2))
+    csv = tmp_path / "t.csv"
+    csv.write_text("time,joint1,joint3\n" + "".join(f"{float(t)!r},{float(a)!r},{float(b)!r}\n" for t, (a, b) in zip(times, q)))
+    trajectory = read_csv_trajectory(csv, robot)
+    whole = np.gradient(trajectory.positions - trajectory.positions[0], trajectory.time_ns, axis=0) * 1e9
+    np.testing.assert_array_equal(trajectory.velocities, whole)
+
+
 # ---- numbers ---------------------------------------------------------------------------------------------------
 
 UNLIMITED = ('<robot name="slider"><link name="a"/><link name="b"/><joint name="p" type="prismatic"><parent link="a"/>'
@@ -287,8 +320,82 @@ def test_limits_too_far_apart_to_move_between_are_one_line(tmp_path: Path, traj:
     code, _, err = tfrec("record", str(path), "--traj", traj, "-o", str(tmp_path / "s.mcap"), "--no-rrd",
                          "--duration", "1")
     assert code == 2
-    assert err == ("tfrec: error: joint 'p': its limits [-1.79769e+308, 1.79769e+308] are too far apart to move "
+    assert err == (f"tfrec: error: {path}: joint 'p': its limits [-1.79769e+308, 1.79769e+308] are too far apart to move "
                    "between in float64; hold it still with --set\n")
     assert not (tmp_path / "s.mcap").exists()
     assert tfrec("record", str(path), "--traj", traj, "--set", "p=0.5", "-o", str(tmp_path / "s.mcap"), "--no-rrd",
                  "--duration", "1")[0] == 0
+
+
+# ---- found by trying tfrec as an attacker would (a review after the fuzz suite) -------------------------------
+
+
+@pytest.mark.parametrize("name, text, message", [
+    ("e.urdf", '<?xml version="1.0" encoding="EBCDIC"?><robot name="r"/>', "unknown encoding: EBCDIC"),
+    ("u7.urdf", '<?xml version="1.0" encoding="utf-7"?><robot name="r"><link name="a"/></robot>',
+     "multi-byte encodings are not supported"),
+    ("e.launch", '<?xml version="1.0" encoding="EBCDIC"?>\n<launch/>', "unknown encoding: EBCDIC"),
+])
+def test_an_xml_encoding_expat_cannot_read_is_one_line(tmp_path: Path, name: str, text: str, message: str) -> None:
+    """expat raised LookupError or ValueError for these declarations: a traceback."""
+    path = write(tmp_path / name, text)
+    code, _, err = tfrec("inspect", str(path))
+    assert code == 2 and err == f"tfrec: error: {path}:1: unsupported XML encoding: {message}\n"
+
+
+def test_joint_errors_of_record_name_the_description(tmp_path: Path) -> None:
+    """Errors about a joint named the joint but not the file (with numpy's overflow warnings before them)."""
+    mimic = write(tmp_path / "mimic.urdf", (
+        '<robot name="r"><link name="a"/><link name="b"/><link name="c"/><joint name="j" type="prismatic"><parent '
+        'link="a"/><child link="b"/><axis xyz="1 0 0"/><limit lower="-1e308" upper="1e308"/></joint><joint name="k" '
+        'type="prismatic"><parent link="a"/><child link="c"/><axis xyz="1 0 0"/><limit lower="-1e308" upper="1e308"/>'
+        '<mimic joint="j" multiplier="1e308"/></joint></robot>'))
+    code, _, err = tfrec("record", str(mimic), "-o", str(tmp_path / "m.mcap"), "--no-rrd")
+    assert code == 2 and err == f"tfrec: error: {mimic}: joint 'k' has position inf at sample 1\n"
+    slider = write(tmp_path / "slider.urdf", UNLIMITED)
+    code, _, err = tfrec("record", str(slider), "--traj", "sweep", "-o", str(tmp_path / "s.mcap"), "--no-rrd")
+    assert code == 2 and err.startswith(f"tfrec: error: {slider}: joint 'p': its limits [-1.79769e+308, 1.79769e+308] "
+                                        "are too far apart to move between in float64") and err.count("\n") == 1
+
+
+def test_a_find_with_two_packages_is_said_once(tmp_path: Path) -> None:
+    path = write(tmp_path / "f.xacro", '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+                                       '<link name="$(find a b)"/></robot>')
+    code, _, err = tfrec("inspect", str(path))
+    assert code == 2 and err == f"tfrec: error: {path}: $(find pkg) accepts exactly one argument [find a b]\n"
+
+
+def test_a_plot_of_frames_at_1e308_m_draws_the_joints(tmp_path: Path) -> None:
+    """matplotlib's margins around 1e308 overflowed: ValueError: Axis limits cannot be NaN or Inf (a traceback)."""
+    far = write(tmp_path / "far.urdf", (
+        '<robot name="r"><link name="a"/><link name="b"/><joint name="j" type="revolute"><parent link="a"/><child '
+        'link="b"/><origin xyz="1e308 1e308 1e308"/><limit lower="-1" upper="1"/></joint></robot>'))
+    slider = write(tmp_path / "slider.urdf", UNLIMITED)
+    for robot in (far, slider):
+        mcap = tmp_path / f"{robot.stem}.mcap"
+        assert tfrec("record", str(robot), "--traj", "random", "-o", str(mcap), "--no-rrd", "--duration", "1")[0] == 0
+        code, _, err = tfrec("plot", str(mcap), "-o", str(tmp_path / f"{robot.stem}.png"))
+        assert code == 0, err
+        assert err == f"tfrec: warning: {mcap}: frame paths not drawn: b reaches more than 1e+100 m from the root\n"
+        assert (tmp_path / f"{robot.stem}.png").stat().st_size > 20_000
+
+
+def test_out_of_memory_and_a_library_that_cannot_load_are_one_line(monkeypatch: pytest.MonkeyPatch,
+                                                                 tmp_path: Path) -> None:
+    """Under an address-space limit (ulimit -v) Rerun's libraries fail to map or an allocation fails: a traceback."""
+    from tests.conftest import ROBOTS
+    from tfrec.cli import _inspect
+
+    def fail(error: BaseException) -> Any:
+        def handler(ns: Any) -> int:
+            raise error
+        return handler
+
+    robot = str(ROBOTS / "marm.xacro")
+    for error, expected in ((MemoryError(), (f"tfrec: error: {robot}: out of memory (the process's memory limit was "
+                                             "reached)\n")),
+                            (ImportError("libarrow.so: failed to map segment", name="lib"),
+                             "tfrec: error: cannot load lib: libarrow.so: failed to map segment\n")):
+        monkeypatch.setattr(_inspect, "_cmd_inspect", fail(error))
+        code, out, err = tfrec("inspect", robot)
+        assert (code, out, err) == (2, "", expected)

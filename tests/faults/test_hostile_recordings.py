@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import os
 import re
 import shutil
 import struct
@@ -434,3 +435,116 @@ def test_a_zstd_bomb_as_a_message_of_a_compressed_rosbag2_bag_is_one_line(tmp_pa
     outcome = bounded(["replay", "--check", str(bag)], tmp_path, codes=(0, 1), seconds=10)
     assert outcome.code == 2
     assert "a compressed message inflates to 4,294,967,296 bytes (its zstd frame says)" in outcome.stderr, outcome.stderr
+
+
+# ---- found by trying tfrec as an attacker would (a review after the fuzz suite) -------------------------------
+
+
+@pytest.fixture
+def sqlite_bag(tmp_path: Path) -> Path:
+    """marm's recording as a rosbag2 folder with sqlite3 storage, written by rosbags."""
+    from tests.bag_builders import Robot, write_bag
+    from tfrec.formats import read_recording
+
+    assert tfrec("record", MARM, "-o", str(tmp_path / "marm.mcap"), "--no-rrd", "--duration", "1")[0] == 0
+    return write_bag(tmp_path / "sq", [Robot(read_recording(tmp_path / "marm.mcap"))], kind="sqlite3")
+
+
+def _db3(bag: Path) -> Path:
+    [db3] = bag.glob("*.db3")
+    return db3
+
+
+@pytest.mark.parametrize("command", [["info"], ["replay", "--check"], ["convert"]])
+def test_a_recursive_view_as_the_messages_table_is_one_line(sqlite_bag: Path, tmp_path: Path,
+                                                           command: list[str]) -> None:
+    """SELECT … FROM messages ran the view's endless recursion: 100 % CPU, and SIGTERM ignored (SQLite does not
+    return to Python while a statement runs) — only SIGKILL ended it."""
+    import sqlite3
+
+    db3 = _db3(sqlite_bag)
+    with contextlib.closing(sqlite3.connect(db3)) as db:
+        db.executescript("DROP TABLE messages; CREATE VIEW messages AS WITH RECURSIVE r(n) AS (SELECT 1 UNION ALL "
+                         "SELECT n + 1 FROM r) SELECT n AS id, 1 AS topic_id, n AS timestamp, x'00' AS data FROM r;")
+    argv = [*command, str(sqlite_bag)] + ([str(tmp_path / "out.mcap")] if command == ["convert"] else [])
+    outcome = bounded(argv, tmp_path, seconds=20)
+    assert outcome.code == 2
+    assert outcome.stderr == (f"tfrec: error: {db3}: its 'messages' is a view, not a table: not a rosbag2 database "
+                              "(tfrec runs no SQL a bag brings)\n")
+
+
+def test_a_virtual_table_as_the_topics_table_is_one_line(sqlite_bag: Path) -> None:
+    import sqlite3
+
+    db3 = _db3(sqlite_bag)
+    with contextlib.closing(sqlite3.connect(db3)) as db:
+        db.executescript("ALTER TABLE topics RENAME TO old_topics; CREATE VIRTUAL TABLE topics USING rtree(id, a, b);")
+    code, _, err = tfrec("info", str(sqlite_bag))
+    assert code == 2 and err == (f"tfrec: error: {db3}: its 'topics' is a virtual table, not a table: not a rosbag2 "
+                                 "database (tfrec runs no SQL a bag brings)\n")
+
+
+def test_timestamps_that_are_not_integers_are_skipped(sqlite_bag: Path) -> None:
+    """SQLite keeps text in an INTEGER column: MIN(timestamp) was 'x', then a TypeError comparing it (a traceback)."""
+    import sqlite3
+
+    with contextlib.closing(sqlite3.connect(_db3(sqlite_bag))) as db:
+        db.execute("UPDATE messages SET timestamp = 'x' WHERE id IN (SELECT id FROM messages "
+                   "WHERE topic_id = (SELECT id FROM topics WHERE name = '/tf') LIMIT 3)")
+        db.commit()
+    for command in (["info"], ["replay", "--check"]):
+        code, _, err = tfrec(*command, str(sqlite_bag))
+        assert code == 0, err
+        assert err.startswith(f"tfrec: warning: {sqlite_bag}: message counts differ from metadata.yaml: /tf: 48 read, "
+                              "51 in metadata.yaml")
+    assert "/tf                 tf2_msgs/msg/TFMessage      48 msgs" in tfrec("info", str(sqlite_bag))[1]
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs on this system")
+@pytest.mark.parametrize("name", ["f.mcap", "f.bag", "f.rrd"])
+def test_a_fifo_given_as_a_recording_is_one_line(tmp_path: Path, name: str) -> None:
+    """Opening a FIFO to read its first bytes waited for a writer forever."""
+    os.mkfifo(tmp_path / name)
+    outcome = bounded(["info", str(tmp_path / name)], tmp_path, seconds=20)
+    assert outcome.code == 2
+    assert outcome.stderr == (f"tfrec: error: {tmp_path / name}: not a regular file (a FIFO, device or socket), not a "
+                              "recording\n")
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/zero") or not hasattr(os, "mkfifo"), reason="no /dev/zero or FIFOs")
+def test_check_of_a_folder_with_a_fifo_and_a_device_is_error_rows(tmp_path: Path) -> None:
+    """check fingerprinted a FIFO by reading it (forever), and /dev/zero behind a link whole (its size is 0)."""
+    folder = tmp_path / "bags"
+    folder.mkdir()
+    os.mkfifo(folder / "fifo.mcap")
+    (folder / "zero.mcap").symlink_to("/dev/zero")
+    outcome = bounded(["check", str(folder)], tmp_path, codes=(0, 1), seconds=60)
+    assert outcome.code == 2
+    for name in ("fifo.mcap", "zero.mcap"):
+        assert f"ERROR {folder / name}: {folder / name}: not a regular file" in outcome.stdout, outcome.stdout
+    assert outcome.stderr.endswith(f"tfrec: error: {folder}: nothing could be read (2 of 2 recordings an error; "
+                                   "see above)\n")
+    assert tfrec("record", MARM, "-o", str(folder / "marm.mcap"), "--no-rrd", "--duration", "1")[0] == 0
+    code, out, err = tfrec("check", str(folder))
+    assert code == 1 and "1 pass, 0 fail, 2 error" in out and "tfrec: error" not in err
+
+
+@pytest.mark.parametrize("argv, code, message", [
+    (["replay", "--check", "--start", "1e308"], 2, "{m}: --start 1e+308 s is beyond the recording's end (1 s)"),
+    (["replay", "--check", "--end", "1e308"], 0, None),
+    (["replay", "--check", "--start", "-inf"], 2, "--start -inf is not a time in seconds >= 0"),
+    (["replay", "--check", "--start", "nan"], 2, "argument --start: nan is not a number of seconds"),
+    (["convert", "--start", "1e308"], 2, "{m}: --start 1e+308 s is beyond the recording's end (1 s)"),
+    (["convert", "--end", "1e308"], 0, None),
+])
+def test_huge_start_and_end_are_past_the_end_not_an_overflow(tmp_path: Path, argv: list[str], code: int,
+                                                             message: str | None) -> None:
+    """round(1e308 * 1e9) is round(inf): OverflowError, a traceback."""
+    mcap = tmp_path / "m.mcap"
+    assert tfrec("record", MARM, "-o", str(mcap), "--no-rrd", "--duration", "1")[0] == 0
+    command, options = argv[:-2], argv[-2:]
+    out = [str(tmp_path / "out.mcap")] if command == ["convert"] else []
+    got, _, err = tfrec(*command, str(mcap), *out, "=".join(options))
+    assert got == code, err
+    if message is not None:
+        assert err.startswith("tfrec: error: " + message.format(m=mcap)) and err.count("\n") == 1, err

@@ -9,9 +9,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn, TextIO
 
-from tfrec.conventions import (
-    NS_PER_S,
-)
+from tfrec.conventions import NS_PER_S, STAMP_LIMIT_NS, STAMP_RANGE
 
 if TYPE_CHECKING:
     from tfrec.description.launch import LaunchRobot
@@ -29,6 +27,7 @@ __all__ = [
     "load_robot",
     "load_robot_and_launch",
     "number",
+    "offset",
     "start_time",
     "tolerance",
 ]
@@ -149,7 +148,23 @@ def start_time(text: str) -> int:
         raise argparse.ArgumentTypeError(f"'{text}' is not a number of seconds")
     if not seconds.is_finite() or seconds < 0:
         raise argparse.ArgumentTypeError(f"{text} is not a time since the epoch in seconds")
+    if seconds >= STAMP_LIMIT_NS // NS_PER_S:
+        raise argparse.ArgumentTypeError(f"{text}: {STAMP_RANGE}")
     return int((seconds * NS_PER_S).to_integral_value(rounding=decimal.ROUND_HALF_EVEN))
+
+
+def offset(text: str) -> float:
+    """argparse type of --start and --end: seconds from the recording's start, a number (not NaN);
+    ``inf`` and ``1e308`` are past any end."""
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number of seconds")
+    if math.isnan(value):
+        raise argparse.ArgumentTypeError(f"{text} is not a number of seconds")
+    return value
 
 
 def tolerance(text: str) -> float:

@@ -87,6 +87,25 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 130
         except BrokenPipeError:
             return 0
+        except MemoryError:  # a limit on the process's memory (ulimit -v, a container) met by a valid input
+            print(f"{PROG}: error: {_printable(_inputs(ns))}out of memory (the process's memory limit was reached)",
+                  file=sys.stderr)
+            return 2
+        except ImportError as err:  # a library that cannot load: not installed, or no address space left to map it
+            print(f"{PROG}: error: cannot load {err.name or 'a library'}: {_printable(' '.join(str(err).split()))}",
+                  file=sys.stderr)
+            return 2
+
+
+def _inputs(ns: argparse.Namespace) -> str:
+    """``FILE: `` for the input of a command (its first), for errors that do not know it."""
+    for name in ("file", "robot", "inputs", "paths"):
+        value = getattr(ns, name, None)
+        if isinstance(value, (list, tuple)):
+            value = value[0] if value else None
+        if isinstance(value, str) and value:
+            return f"{value}: "
+    return ""
 
 
 class _Terminated(KeyboardInterrupt):

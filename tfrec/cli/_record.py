@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import warnings
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Iterator, Sequence
+from typing import TYPE_CHECKING, Any
 
 from tfrec.cli._common import (
     Progress,
@@ -21,7 +22,11 @@ from tfrec.conventions import (
     NS_PER_S,
     ROS1_COMPRESSIONS,
 )
-from tfrec.errors import TrajectoryError, WriteError
+from tfrec.errors import KinematicsError, TrajectoryError, WriteError
+
+if TYPE_CHECKING:
+    from tfrec.description.launch import LaunchRobot
+    from tfrec.model import Robot
 
 __all__ = ["add_parser"]
 
@@ -97,8 +102,6 @@ def _parse_overrides(items: Sequence[str]) -> dict[str, float]:
 
 
 def _cmd_record(ns: argparse.Namespace) -> int:
-    from tfrec.recorder import default_stem, plan_outputs, record
-    from tfrec.trajectory.generators import make_trajectory
     from tfrec.trajectory.types import TrajectoryKind
 
     start_ns = DEFAULT_START_TIME_NS if ns.start_time is None else ns.start_time
@@ -123,6 +126,26 @@ def _cmd_record(ns: argparse.Namespace) -> int:
     frame_prefix = ns.frame_prefix
     if frame_prefix is None:
         frame_prefix = params.frame_prefix if params is not None and params.frame_prefix else ""
+    with _naming_the_robot(ns.robot):
+        return _record_robot(ns, robot, launch, csv, rate, overrides, frame_prefix, start_ns)
+
+
+@contextlib.contextmanager
+def _naming_the_robot(path: str) -> Iterator[None]:
+    """Errors about one of the robot's joints (its limits, a mimic multiplier) name its description too."""
+    try:
+        yield
+    except (TrajectoryError, KinematicsError) as err:
+        if str(err).startswith("joint "):
+            raise type(err)(f"{path}: {err}") from None
+        raise
+
+
+def _record_robot(ns: argparse.Namespace, robot: Robot, launch: LaunchRobot | None, csv: bool, rate: float | None,
+                  overrides: dict[str, float], frame_prefix: str, start_ns: int) -> int:
+    from tfrec.recorder import default_stem, plan_outputs, record
+    from tfrec.trajectory.generators import make_trajectory
+
     trajectory = make_trajectory(
         robot, ns.traj, duration_s=ns.duration, rate_hz=rate, seed=ns.seed, period_s=ns.period,
         amplitude=ns.amplitude, overrides=overrides, soft_limits=not ns.hard_limits, interp=ns.interp,

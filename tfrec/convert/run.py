@@ -25,6 +25,7 @@ from tfrec.conventions import (
     ROS1_COMPRESSIONS,
     global_topic,
     namespace_name,
+    offset_ns,
     split_topic,
 )
 from tfrec.convert.joints import plan_derivations
@@ -179,8 +180,8 @@ def convert(
     origin = log_start_ns(summary)
     lo = hi = None
     if origin is not None:
-        lo = None if start_s is None else origin + round(start_s * NS_PER_S)
-        hi = None if end_s is None else origin + round(end_s * NS_PER_S)
+        lo = None if start_s is None else origin + offset_ns(start_s)
+        hi = None if end_s is None else origin + offset_ns(end_s)
         end = summary.end_ns if summary.end_ns is not None else origin
         if lo is not None and lo > end:
             raise ConvertError(f"{where}: `start_s` {start_s:g} s is beyond the recording's end "

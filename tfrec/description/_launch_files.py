@@ -120,6 +120,8 @@ def parse_xml(data: bytes, path: Path) -> Element:
     except xml.parsers.expat.ExpatError as err:
         raise DescriptionError(f"{where(path, err.lineno)}: malformed XML: "
                                f"{xml.parsers.expat.ErrorString(err.code)}") from None
+    except (LookupError, ValueError) as err:  # an encoding declaration expat cannot read (unknown, multi-byte)
+        raise DescriptionError(f"{where(path, 1)}: unsupported XML encoding: {err}") from None
     root = roots[0]
     if root.tag != "launch":
         hint = ": it is a robot description, pass it as such" if root.tag == "robot" else ""

@@ -100,6 +100,8 @@ def _parse_xml(text: str, where: str) -> tuple[ET.Element, dict[int, int]]:
         raise DescriptionError(
             f"{where}:{err.lineno}:{err.offset}: malformed XML: {xml.parsers.expat.ErrorString(err.code)}"
         ) from err
+    except (LookupError, ValueError) as err:  # an encoding declaration expat cannot read (unknown, multi-byte)
+        raise DescriptionError(f"{where}:1: unsupported XML encoding: {err}") from None
     return builder.close(), lines
 
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import re
 import threading
 import warnings
 import xml.parsers.expat
@@ -277,6 +278,11 @@ def _xacro_message(err: Exception) -> str:
         message = f"{cause.strerror or cause}: {cause.filename}"
     else:
         message = one_line(str(err))
+        # xacro's text of an exception it wraps: "<class 'xacro.…Exception'>: TEXT TEXT"
+        message = re.sub(r"^<class '[\w.]+'>: ", "", message)
+        half = (len(message) - 1) // 2
+        if len(message) % 2 == 1 and message[half] == " " and message[:half] == message[half + 1:]:
+            message = message[:half]
     macros = getattr(err, "macros", None)
     if macros:
         names = [m.body.getAttribute("name") for m in macros if getattr(m, "body", None) is not None]

@@ -67,6 +67,8 @@ def fingerprint(path: str | os.PathLike[str]) -> Fingerprint:
     try:
         if file.is_dir():
             return _folder(file)
+        if file.exists() and not file.is_file():  # a FIFO or device: never read (its check is an error row)
+            return Fingerprint(0, 0, hashlib.sha256(b"special\0" + os.fsencode(file)).hexdigest()[:32])
         try:
             fmt = recording_format(file)
         except TfrecError:

@@ -89,6 +89,8 @@ def recording_format(path: str | os.PathLike[str]) -> str:
                         "(name_0.mcap, name_1.mcap… or .db3): not a rosbag2 bag")
     if not file.exists():
         raise ReadError(f"{where}: no such file or folder")
+    if not file.is_file():  # reading a FIFO would wait forever, a device never end
+        raise ReadError(f"{where}: not a regular file (a FIFO, device or socket), not a recording")
     try:
         with open(file, "rb") as stream:
             head = stream.read(16)

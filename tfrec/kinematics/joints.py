@@ -85,6 +85,7 @@ def apply_mimic(
         if master is None:
             positions[rows, k] = joint.mimic.offset
             continue
-        positions[rows, k] = joint.mimic.multiplier * positions[rows, master] + joint.mimic.offset
-        if velocities is not None:
-            velocities[rows, k] = joint.mimic.multiplier * velocities[rows, master] + 0.0  # no -0.0
+        with np.errstate(over="ignore", invalid="ignore"):  # a multiplier of 1e308: inf, refused by the caller
+            positions[rows, k] = joint.mimic.multiplier * positions[rows, master] + joint.mimic.offset
+            if velocities is not None:
+                velocities[rows, k] = joint.mimic.multiplier * velocities[rows, master] + 0.0  # no -0.0

@@ -41,6 +41,10 @@ __all__ = ["FramePaths", "default_frames", "frame_paths", "one_robot", "plot_rec
 
 Array = NDArray[np.float64]
 
+DRAWABLE = 1e100
+"""The largest magnitude a plot's axes reach (m, rad): a description may put a frame at 1e308 m, where
+matplotlib's margins overflow; what lies beyond is drawn at the edge (joints) or not at all (paths)."""
+
 MAX_DEFAULT_FRAMES = 6
 """Leaves drawn when no frames are chosen: the deepest ones first."""
 
@@ -188,7 +192,7 @@ def _velocities(t: Array, q: Array) -> Array:
     """d q / d t by central differences (one-sided at the ends), NaN where stamps repeat or a position is missing."""
     if len(t) < 2:
         return np.full_like(q, np.nan)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # over: positions near ±1.8e308
         v: Array = np.gradient(q, t, axis=0)
     v[~np.isfinite(v)] = np.nan
     return v
@@ -202,8 +206,10 @@ def _view(ax: Axes, data: Array, bands: list[tuple[float, float]]) -> bool:
     """
     finite = data[np.isfinite(data)]
     lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (-1.0, 1.0)
+    lo, hi = max(lo, -DRAWABLE), min(hi, DRAWABLE)
     span = max(hi - lo, 1e-9)
     shown = False
+    bands = [(max(b_lo, -DRAWABLE), min(b_hi, DRAWABLE)) for b_lo, b_hi in bands]
     if bands:
         b_lo, b_hi = min(b for b, _ in bands), max(b for _, b in bands)
         if b_hi - b_lo <= 20.0 * span or lo < b_lo or hi > b_hi:
@@ -216,6 +222,7 @@ def _view(ax: Axes, data: Array, bands: list[tuple[float, float]]) -> bool:
 
 def _bands(ax: Axes, intervals: dict[tuple[float, float], list[str]], colours: dict[str, tuple[str, str]]) -> None:
     for (lo, hi), names in sorted(intervals.items()):
+        lo, hi = max(lo, -DRAWABLE), min(hi, DRAWABLE)
         colour = "#7f7f7f" if len(names) > 1 else colours[names[0]][0]
         ax.axhspan(lo, hi, facecolor=colour, alpha=0.06, linewidth=0, zorder=0)
         for y in (lo, hi):
@@ -281,6 +288,12 @@ def plot_recording(recording: Recording, path: str | os.PathLike[str], *, robot:
         raise PlotError(f"{recording.path}: nothing to plot: no /joint_states and no /tf")
     chosen = list(frames) if frames is not None else default_frames(recording)
     paths = frame_paths(recording, chosen) if chosen else None
+    if paths is not None:
+        far = sorted(frame for frame, xyz in paths.positions.items() if (np.abs(xyz) > DRAWABLE).any())
+        if far:
+            warnings.warn(f"{recording.path}: frame paths not drawn: {', '.join(far)} reach{'es' if len(far) == 1 else ''}"
+                          f" more than {DRAWABLE:g} m from the root", stacklevel=2)
+            paths = None
     model = _robot(recording, robot)
     from tfrec.plots._figure import plot_style, save_figure
 

@@ -44,6 +44,7 @@ from tfrec.conventions import (
     TF_STATIC,
     global_topic,
     namespace_name,
+    offset_ns,
     robot_topic_kind,
 )
 from tfrec.errors import DescriptionError, ReplayError
@@ -332,12 +333,12 @@ def load_replay(
                           f"({', '.join(r.key for r in robots_found)}): pick one with `namespace`")
     origin = data_start_ns(rec) or 0
     last = data_end_ns(rec)
-    if start_s is not None and origin + round(start_s * NS_PER_S) > (origin if last is None else last):
+    if start_s is not None and origin + offset_ns(start_s) > (origin if last is None else last):
         end = 0.0 if last is None else (last - origin) / NS_PER_S
         damaged = "" if rec.read_error is None else f"; the file is damaged: {rec.read_error}"
         raise ReplayError(f"{where}: `start_s` {start_s:g} s is beyond the recording's end ({end:g} s){damaged}")
-    lo = origin + (0 if start_s is None else round(start_s * NS_PER_S))
-    hi = int(np.iinfo(np.int64).max) if end_s is None else origin + round(end_s * NS_PER_S)
+    lo = origin + (0 if start_s is None else offset_ns(start_s))
+    hi = int(np.iinfo(np.int64).max) if end_s is None else origin + offset_ns(end_s)
     had_samples = any(len(s) for r in found for s in r.tf.values()) or any(
         r.joint_states is not None and len(r.joint_states) > 0 for r in found)
     found = [r for r in found if any(_selects(selected, ns, kind) for ns, kind in (

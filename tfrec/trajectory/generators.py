@@ -289,7 +289,8 @@ def sweep_trajectory(
         if lengths.sum() == 0.0:
             continue
         start = k * slot
-        knot_s = np.concatenate([[0.0], start + slot * np.cumsum(np.r_[0.0, lengths]) / lengths.sum(), [duration_s]])
+        fraction = np.cumsum(np.r_[0.0, lengths]) / lengths.sum()  # before `slot`: lengths near 1e308 do not overflow
+        knot_s = np.concatenate([[0.0], start + slot * fraction, [duration_s]])
         on_sample = np.clip(np.rint(knot_s * rate_hz).astype(np.int64), 0, len(time_ns) - 1)
         knot_s = time_ns[on_sample] * 1e-9  # on samples: limits are hit
         knot_q = np.concatenate([[center[i]], values, [center[i]]])

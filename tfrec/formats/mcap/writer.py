@@ -110,7 +110,8 @@ def check_time_range(first_ns: int, last_ns: int) -> None:
     for stamp in (first_ns, last_ns):
         if not 0 <= stamp < STAMP_LIMIT_NS:
             problem = "before 1970" if stamp < 0 else f"out of range: {STAMP_RANGE}"
-            raise WriteError(f"stamp {stamp / NS_PER_S:.9f} s is {problem}")
+            seconds, nanoseconds = divmod(stamp, NS_PER_S)  # exact: a stamp past float64 too
+            raise WriteError(f"stamp {seconds}.{nanoseconds:09d} s is {problem}")
 
 
 _ZSTD_BLOCK = 16 * 1024

@@ -25,7 +25,7 @@ import numpy as np
 from tfrec.errors import ReadError, one_line
 from tfrec.formats.ros.connection import Connection, MessageBatch, MessageSource, full_type, raw_messages
 from tfrec.formats.rosbag2.metadata import qos_durability
-from tfrec.formats.rosbag2.sqlite3 import connect_read_only, open_cut_database
+from tfrec.formats.rosbag2.sqlite3 import INTEGER_TIME, connect_read_only, open_cut_database
 
 __all__ = ["Sqlite3Messages"]
 
@@ -57,8 +57,9 @@ class Sqlite3Messages(MessageSource):
                 db = connect_read_only(file)
                 try:
                     ids = self._topics(db)
-                    until = "" if self.until_ns is None else f" WHERE timestamp <= {int(self.until_ns)}"
-                    cursor = db.execute(f"SELECT topic_id, timestamp, data FROM messages{until} ORDER BY timestamp, id")
+                    until = "" if self.until_ns is None else f" AND timestamp <= {int(self.until_ns)}"
+                    cursor = db.execute(f"SELECT topic_id, timestamp, data FROM messages WHERE {INTEGER_TIME}{until} "
+                                        "ORDER BY timestamp, id")
                     for batch in self._rows(cursor, ids):
                         read += len(batch)
                         yield batch
@@ -125,7 +126,8 @@ class Sqlite3Messages(MessageSource):
                     ids = self._topics(db)
                 except sqlite3.DatabaseError:
                     raise ReadError(f"{self.where}: cannot read rosbag2 bag: {file.name}: {one_line(refused)}")
-                for batch in self._rows(db.execute("SELECT topic_id, timestamp, data FROM messages"), ids):
+                for batch in self._rows(db.execute(f"SELECT topic_id, timestamp, data FROM messages WHERE {INTEGER_TIME}"),
+                                        ids):
                     read += len(batch)
                     yield batch
             except sqlite3.DatabaseError as err:

@@ -33,7 +33,12 @@ from tfrec.formats.ros.types import topic_deserializer
 from tfrec.formats.rosbag2.metadata import qos_durability
 from tfrec.recording import TopicStats
 
-__all__ = ["Damaged", "connect_read_only", "open_cut_database", "read_sqlite3_into", "salvage_sqlite3_into"]
+__all__ = ["INTEGER_TIME", "Damaged", "connect_read_only", "open_cut_database", "read_sqlite3_into",
+           "salvage_sqlite3_into"]
+
+INTEGER_TIME = "typeof(timestamp) = 'integer'"
+"""The rows read: a timestamp that is not an integer (text, a float, NULL — SQLite keeps what it is
+given) is damaged data, skipped (metadata.yaml's count then differs, with a warning)."""
 
 
 class Damaged(Exception):
@@ -46,9 +51,31 @@ def connect_read_only(file: Path) -> sqlite3.Connection:
     try:
         db = sqlite3.connect(f"{file.resolve().as_uri()}?mode=ro", uri=True)
         db.execute("SELECT 1 FROM sqlite_master LIMIT 1").fetchall()
-        return db
     except sqlite3.OperationalError:
-        return sqlite3.connect(f"{file.resolve().as_uri()}?immutable=1", uri=True)
+        db = sqlite3.connect(f"{file.resolve().as_uri()}?immutable=1", uri=True)
+    return _plain_tables(db, file)
+
+
+def _plain_tables(db: sqlite3.Connection, file: Path) -> sqlite3.Connection:
+    """``db``, once its ``topics`` and ``messages`` are plain tables: a view or a virtual table is
+    code run by every read (a recursive view never ends, and SQLite does not return to Python to
+    see a signal while it runs).
+
+    Raises:
+        ReadError: ``topics`` or ``messages`` is a view or a virtual table.
+    """
+    try:
+        kinds = {str(name).lower(): (str(kind), str(sql or "")) for name, kind, sql in db.execute(
+            "SELECT name, type, sql FROM sqlite_master WHERE lower(name) IN ('topics', 'messages')")}
+    except sqlite3.DatabaseError:
+        return db  # unreadable: what reads it says so (or salvages it)
+    for name, (kind, sql) in sorted(kinds.items()):
+        if kind != "table" or sql.lstrip().upper().startswith("CREATE VIRTUAL"):
+            db.close()
+            what = "a view" if kind == "view" else "a virtual table" if kind == "table" else f"a {kind}"
+            raise ReadError(f"{file}: its '{name}' is {what}, not a table: not a rosbag2 database (tfrec runs no "
+                            "SQL a bag brings)")
+    return db
 
 
 def _topics(db: sqlite3.Connection) -> dict[int, dict[str, Any]]:
@@ -121,7 +148,7 @@ def read_sqlite3_into(files: Sequence[Path], collector: Collector, *, where: str
 def _count(db: sqlite3.Connection, stats: dict[int, TopicStats]) -> None:
     """Count every topic's messages, first and last timestamps, without reading their data."""
     for topic_id, count, first, last in db.execute("SELECT topic_id, COUNT(*), MIN(timestamp), MAX(timestamp) "
-                                                   "FROM messages GROUP BY topic_id"):
+                                                   f"FROM messages WHERE {INTEGER_TIME} GROUP BY topic_id"):
         if topic_id in stats:
             stats[topic_id].count += int(count)
             stats[topic_id].add_times(int(first), int(last))
@@ -133,7 +160,7 @@ def _scan(db: sqlite3.Connection, decoded: list[int], names: dict[int, str], sta
     collector a batch at a time (the others' data is not read: SQLite leaves a column it is not asked for)."""
     wanted = ", ".join(str(int(topic_id)) for topic_id in decoded)
     cursor = db.execute(f"SELECT topic_id, timestamp, CASE WHEN topic_id IN ({wanted}) THEN data END "
-                        "FROM messages")
+                        f"FROM messages WHERE {INTEGER_TIME}")
     while True:
         rows = cursor.fetchmany(DECODE_BATCH)
         if not rows:
@@ -156,7 +183,7 @@ def _decode(db: sqlite3.Connection, topic_id: int, name: str, collector: Collect
     remaining = collector.remaining(name)
     if remaining == 0:
         return
-    query = "SELECT timestamp, data FROM messages WHERE topic_id = ? ORDER BY timestamp"
+    query = f"SELECT timestamp, data FROM messages WHERE topic_id = ? AND {INTEGER_TIME} ORDER BY timestamp"
     cursor = db.execute(query + ("" if remaining is None else f" LIMIT {int(remaining)}"), (topic_id,))
     while True:
         rows = cursor.fetchmany(DECODE_BATCH)
@@ -186,7 +213,7 @@ def open_cut_database(file: Path, copy: Path) -> tuple[sqlite3.Connection, str]:
                 stream.seek(28)
                 stream.write(struct.pack(">I", have))
                 note = f" (the file holds {size:,} of the {pages * page_size:,} bytes its header gives)"
-    return sqlite3.connect(copy), note
+    return _plain_tables(sqlite3.connect(copy), file), note
 
 
 def salvage_sqlite3_into(files: Sequence[Path], collector: Collector, *, where: str, refused: str) -> None:
@@ -240,7 +267,7 @@ def _read_rows(db: sqlite3.Connection, collector: Collector, pending: dict[str, 
         collector.topic(names[topic_id], str(row["type"]), _stats(row).durability)
     read = 0
     try:
-        for topic_id, time_ns, data in db.execute("SELECT topic_id, timestamp, data FROM messages"):
+        for topic_id, time_ns, data in db.execute(f"SELECT topic_id, timestamp, data FROM messages WHERE {INTEGER_TIME}"):
             if topic_id not in topics:
                 continue
             name = names[topic_id]
