@@ -533,7 +533,7 @@ def test_check_of_a_folder_with_a_fifo_and_a_device_is_error_rows(tmp_path: Path
     (["replay", "--check", "--start", "1e308"], 2, "{m}: --start 1e+308 s is beyond the recording's end (1 s)"),
     (["replay", "--check", "--end", "1e308"], 0, None),
     (["replay", "--check", "--start", "-inf"], 2, "--start -inf is not a time in seconds >= 0"),
-    (["replay", "--check", "--start", "nan"], 2, "argument --start: nan is not a number of seconds"),
+    (["replay", "--check", "--start", "nan"], 2, "--start nan is not a time in seconds >= 0"),
     (["convert", "--start", "1e308"], 2, "{m}: --start 1e+308 s is beyond the recording's end (1 s)"),
     (["convert", "--end", "1e308"], 0, None),
 ])

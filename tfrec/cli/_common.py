@@ -27,7 +27,6 @@ __all__ = [
     "load_robot",
     "load_robot_and_launch",
     "number",
-    "offset",
     "start_time",
     "tolerance",
 ]
@@ -151,20 +150,6 @@ def start_time(text: str) -> int:
     if seconds >= STAMP_LIMIT_NS // NS_PER_S:
         raise argparse.ArgumentTypeError(f"{text}: {STAMP_RANGE}")
     return int((seconds * NS_PER_S).to_integral_value(rounding=decimal.ROUND_HALF_EVEN))
-
-
-def offset(text: str) -> float:
-    """argparse type of --start and --end: seconds from the recording's start, a number (not NaN);
-    ``inf`` and ``1e308`` are past any end."""
-    import math
-
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a number of seconds")
-    if math.isnan(value):
-        raise argparse.ArgumentTypeError(f"{text} is not a number of seconds")
-    return value
 
 
 def tolerance(text: str) -> float:

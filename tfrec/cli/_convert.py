@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from tfrec.cli._common import add_naming_arguments, offset
+from tfrec.cli._common import add_naming_arguments
 
 __all__ = ["add_parser"]
 
@@ -29,11 +29,11 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     conv.add_argument("--compression", metavar="C",
                       help="chunk compression: MCAP zstd (default), lz4 or none; ROS 1 none (default), bz2 or lz4")
     what = conv.add_argument_group("what is written")
-    what.add_argument("--start", metavar="S", type=offset, default=None,
+    what.add_argument("--start", metavar="S", type=float, default=None,
                       help="keep what was logged this many seconds after the recording's start (when its first "
                            "/joint_states or /tf message was logged); latched topics keep their last message, at "
                            "the cut")
-    what.add_argument("--end", metavar="S", type=offset, default=None,
+    what.add_argument("--end", metavar="S", type=float, default=None,
                       help="keep what was logged up to this many seconds after the recording's start")
     what.add_argument("--topics", metavar="TOPIC", nargs="+", help="write only these topics")
     what.add_argument("--exclude", metavar="TOPIC", nargs="+", default=[], help="leave these topics out")

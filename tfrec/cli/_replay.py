@@ -11,7 +11,6 @@ from tfrec.cli._common import (
     add_naming_arguments,
     as_flags,
     number,
-    offset,
     tolerance,
 )
 from tfrec.conventions import (
@@ -54,10 +53,10 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     how.add_argument("--rate", metavar="F", type=float, default=1.0,
                      help="speed factor of a live replay: 0.5 half speed, 2 twice as fast (default 1)")
     how.add_argument("--loop", action="store_true", help="start again at the end, until Ctrl-C (live only)")
-    how.add_argument("--start", metavar="S", type=offset, default=None,
+    how.add_argument("--start", metavar="S", type=float, default=None,
                      help="begin this many seconds after the recording's start (its first /joint_states or /tf "
                           "stamp); latched data is re-emitted at the cut")
-    how.add_argument("--end", metavar="S", type=offset, default=None,
+    how.add_argument("--end", metavar="S", type=float, default=None,
                      help="stop this many seconds after the recording's start")
     how.add_argument("--topics", metavar="TOPIC", nargs="+",
                      help=f"replay only these of {' '.join(RECORDED_TOPICS)} (of every namespace), or of one "
