@@ -386,3 +386,39 @@ def test_compressed_rosbag2_inputs(tmp_path: Path, marm_rec: Recording, storage:
     assert rec.joint_states is not None and marm_rec.joint_states is not None
     np.testing.assert_array_equal(rec.joint_states.positions, marm_rec.joint_states.positions[-51:])
     assert rosbags_latching(tmp_path / "plain.bag")["/tf_static"]
+
+
+def test_a_topic_of_several_connections_is_written_in_time_order(marm_rec: Recording, tmp_path: Path) -> None:
+    """Two publishers of /tf in one ROS 1 chunk (as in rosbag.js's example.bag): convert wrote one connection's
+    messages, then the other's, and a reader taking a chunk's records as they lie saw /tf go back in time —
+    ``tfrec info``, which decodes the first thousand /tf messages, missed the second publisher's frames."""
+    from mcap.reader import make_reader
+    from rosbags.rosbag1 import Writer as Writer1
+
+    from tests.recording_helpers import _typestore
+
+    store = _typestore(True)
+    t = store.types
+    bag = tmp_path / "two_publishers.bag"
+    with Writer1(bag) as writer:
+        left = writer.add_connection("/tf", "tf2_msgs/msg/TFMessage", typestore=store, callerid="/left")
+        right = writer.add_connection("/tf", "tf2_msgs/msg/TFMessage", typestore=store, callerid="/right")
+        for i in range(1500):
+            for conn, child in ((left, "left"), (right, "right")):
+                stamp_ns = 1_700_000_000_000_000_000 + i * 10_000_000
+                transform = t["geometry_msgs/msg/TransformStamped"](
+                    header=t["std_msgs/msg/Header"](seq=i, stamp=t["builtin_interfaces/msg/Time"](
+                        sec=stamp_ns // 10**9, nanosec=stamp_ns % 10**9), frame_id="world"),
+                    child_frame_id=child,
+                    transform=t["geometry_msgs/msg/Transform"](
+                        translation=t["geometry_msgs/msg/Vector3"](x=float(i), y=0.0, z=0.0),
+                        rotation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)))
+                message = t["tf2_msgs/msg/TFMessage"](transforms=[transform])
+                writer.write(conn, stamp_ns, store.serialize_ros1(message, "tf2_msgs/msg/TFMessage"))
+    out = tmp_path / "two_publishers.mcap"
+    convert(bag, out)
+    with open(out, "rb") as stream:
+        times = [message.log_time for _, _, message in make_reader(stream).iter_messages(log_time_order=False)]
+    assert len(times) == 3000 and times == sorted(times)
+    frames = {(f["parent"], f["child"]) for f in summarize(out)["tf_frames"]}
+    assert frames == {("world", "left"), ("world", "right")}

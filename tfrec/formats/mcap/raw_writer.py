@@ -231,17 +231,19 @@ class McapWriter:
         """Queue the open chunk for compression; write the chunks whose compression is done, in order."""
         if not self._pieces:
             return
+        body = b"".join(self._pieces)
+        columns = {channel: (np.concatenate([t for t, _ in parts]), np.concatenate([o for _, o in parts]))
+                   for channel, parts in self._index.items()}
+        body, columns = _in_time_order(body, columns)
         indexes: dict[int, bytes] = {}
-        for channel in sorted(self._index):
-            times = np.concatenate([t for t, _ in self._index[channel]])
-            offsets = np.concatenate([o for _, o in self._index[channel]])
+        for channel in sorted(columns):
+            times, offsets = columns[channel]
             order = np.lexsort((offsets, times))
             pairs = np.empty((len(times), 2), dtype="<u8")
             pairs[:, 0] = times[order]
             pairs[:, 1] = offsets[order]
             indexes[channel] = struct.pack("<BQHI", OP_MESSAGE_INDEX, 2 + 4 + pairs.nbytes, channel,
                                            pairs.nbytes) + pairs.tobytes()
-        body = b"".join(self._pieces)
         assert self._chunk_span is not None
         if self._pool is None:
             self._pool = ThreadPoolExecutor(max_workers=_WORKERS, thread_name_prefix="tfrec-mcap")
@@ -363,3 +365,31 @@ class McapWriter:
     def _write(self, data: Buffer) -> None:
         self._stream.write(data)
         self._offset += len(data)
+
+
+def _in_time_order(body: bytes, columns: dict[int, tuple[NDArray[np.int64], NDArray[np.int64]]]
+                   ) -> tuple[bytes, dict[int, tuple[NDArray[np.int64], NDArray[np.int64]]]]:
+    """A chunk's message records in log-time order (ties in the order written), and each channel's
+    (times, offsets) moved with them. Messages come channel by channel (a converted topic of several
+    connections, one write per connection): a reader that takes a chunk's records as they lie — and
+    one that reads only the first messages of a topic, as ``tfrec info`` does — then sees them in time."""
+    channels = np.concatenate([np.full(len(t), c, np.int64) for c, (t, _) in columns.items()])
+    times = np.concatenate([t for t, _ in columns.values()])
+    offsets = np.concatenate([o for _, o in columns.values()])
+    by_offset = np.argsort(offsets, kind="stable")
+    times_written = times[by_offset]
+    if len(times_written) < 2 or bool((np.diff(times_written) >= 0).all()):
+        return body, columns
+    starts = offsets[by_offset]
+    lengths = np.diff(np.append(starts, len(body)))
+    order = np.argsort(times_written, kind="stable")
+    moved_lengths = lengths[order]
+    destinations = np.concatenate([[0], np.cumsum(moved_lengths)[:-1]])
+    # every byte's source: its record's start in `body`, plus its place in the record (one gather, no loop)
+    source = np.arange(len(body), dtype=np.int64) + np.repeat(starts[order] - destinations, moved_lengths)
+    moved = np.frombuffer(body, dtype=np.uint8)[source].tobytes()
+    new_offsets = np.empty_like(starts)
+    new_offsets[order] = destinations
+    placed = np.empty_like(offsets)
+    placed[by_offset] = new_offsets  # back to the order of `times` and `channels`
+    return moved, {c: (times[channels == c], placed[channels == c]) for c in columns}
