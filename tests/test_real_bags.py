@@ -10,6 +10,7 @@ frame ids with a leading slash, sim time, stamps of 0, a QoS edited in metadata.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import time
@@ -355,6 +356,42 @@ def test_diff_compares_robot_by_robot(tmp_path: Path, marm_rec: Recording, names
     assert details and all(detail.startswith("robot /robot2: link2 → link3: translation differs by up to 0.01 m")
                            for detail in details), details
     assert compare(namespaced("sqlite3"), namespaced("ros1")).equal
+
+
+def test_one_robot_each_in_different_namespaces_diffs_equal(tmp_path: Path, marm_rec: Recording) -> None:
+    """/robot1/… in A, the root's in B: the robots were compared, but every topic was 'only in A' or 'only in B'."""
+    a = write_bag(tmp_path / "a.bag", [Robot(marm_rec, namespace="/robot1")], kind="ros1")
+    b = write_bag(tmp_path / "b.bag", [Robot(marm_rec)], kind="ros1")
+    report = compare(a, b)
+    assert report.equal, [d.detail for d in report.differences]
+    assert any(note.startswith("one robot each, in different namespaces: B's /joint_states as /robot1/joint_states")
+               for note in report.notes), report.notes
+    fewer = write_bag(tmp_path / "c.bag", [Robot(dataclasses.replace(marm_rec, tf_static={}))], kind="ros1")
+    details = [d.detail for d in compare(a, fewer).differences]
+    assert "/robot1/tf_static only in A (1 messages of tf2_msgs/msg/TFMessage)" in details, details
+
+
+def test_diff_of_a_namespace_neither_recording_has_is_an_error(tmp_path: Path, marm_rec: Recording) -> None:
+    from tfrec.errors import DiffError
+
+    a = write_bag(tmp_path / "a.bag", [Robot(marm_rec, namespace="/robot1")], kind="ros1")
+    with pytest.raises(DiffError, match=r"a\.bag and .*a\.bag: no robot in `namespace` /nope in either \(their "
+                                        r"namespaces: /robot1\)"):
+        compare(a, a, namespace="nope")
+    assert compare(a, a, namespace="robot1").equal
+
+
+def test_the_old_tf_message_type_is_the_same_as_tf2s(tmp_path: Path) -> None:
+    """rosbag.js's example.bag has /tf as tf/tfMessage; converted, it is tf2_msgs/msg/TFMessage — the same messages."""
+    source = BAGS / "rosbagjs" / "example.bag"
+    if not source.exists():
+        pytest.skip(f"{source} is not here (../shared/bags)")
+    from tfrec.convert import convert
+
+    convert(source, tmp_path / "e.mcap")
+    convert(tmp_path / "e.mcap", tmp_path / "e.bag")
+    report = compare(source, tmp_path / "e.bag")
+    assert report.equal, [d.detail for d in report.differences]
 
 
 def test_two_robots_on_one_tf(tmp_path: Path, marm_rec: Recording, mbot_rec: Recording,

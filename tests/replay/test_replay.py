@@ -457,6 +457,13 @@ def test_headless_machine_suggests_save_or_connect(tfrec_main: Callable[[list[st
     assert tfrec_main(["replay", str(recorded)]) == 2
     assert capsys.readouterr().err.endswith(
         "tfrec: error: cannot spawn the Rerun viewer (headless machine?); use --save OUT.rrd or --connect URL\n")
+    # a file that is missing or no recording says so first (it was the viewer's error, naming no file)
+    junk = recorded.parent / "notes.txt"
+    junk.write_text("hello\n")
+    for path, problem in ((recorded.parent / "missing.mcap", "no such file or folder"),
+                          (junk, "not a recording (neither MCAP, rosbag2, ROS 1 bag nor Rerun .rrd)")):
+        assert tfrec_main(["replay", str(path)]) == 2
+        assert capsys.readouterr().err == f"tfrec: error: {path}: {problem}\n"
 
 
 @pytest.mark.parametrize("args, message", [

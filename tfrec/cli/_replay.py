@@ -96,6 +96,9 @@ def _cmd_replay(ns: argparse.Namespace) -> int:
         plot_format(ns.plot)
         refuse_existing(ns.plot, force=ns.force)
     if live:
+        from tfrec.formats import identify_recording
+
+        identify_recording(ns.file)  # a missing file or not a recording: said before looking for a viewer
         check_play_options(save=ns.save, connect=ns.connect, rate=ns.rate, loop=ns.loop, force=ns.force)
     robot = None
     if ns.robot:

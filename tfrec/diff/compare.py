@@ -58,6 +58,7 @@ from tfrec.conventions import (
     TF,
     TF_STATIC,
     namespace_name,
+    robot_topic_kind,
     split_topic,
 )
 from tfrec.diff.precision import FLOAT32_ULPS, float32_tolerance
@@ -103,6 +104,7 @@ class _Comparison:
                  absolute: bool, namespace: str | None = None) -> None:
         self.a, self.b, self.report = a, b, report
         self.namespace = namespace  # only this namespace's topics and robots
+        self._found: tuple[list[RecordedRobot], list[RecordedRobot]] | None = None
         self.topics = topics
         self.absolute = absolute
         self.pos_tol = report.tolerances["pos_tol"]
@@ -135,7 +137,7 @@ class _Comparison:
 
     def robots(self, namespace: str | None) -> None:
         """Compare the recordings robot by robot (see the module docstring)."""
-        pairs = pair_robots(find_robots(self.a, namespace=namespace), find_robots(self.b, namespace=namespace))
+        pairs = pair_robots(*self.found_robots())
         several = len(pairs) > 1
         joint_states: set[tuple[str, str]] = set()
         for ra, rb in pairs:
@@ -180,14 +182,40 @@ class _Comparison:
 
     # -- topics -------------------------------------------------------------------------------
 
+    def found_robots(self) -> tuple[list[RecordedRobot], list[RecordedRobot]]:
+        """The robots of A and B (of ``namespace``), found once."""
+        if self._found is None:
+            self._found = (find_robots(self.a, namespace=self.namespace), find_robots(self.b, namespace=self.namespace))
+        return self._found
+
+    def b_topic_names(self) -> dict[str, str]:
+        """B's robot topics under A's names when each recording has one robot, in different namespaces
+        (``/robot1/tf`` in A, ``/tf`` in B): they are compared as the same topics, as their robots are."""
+        found_a, found_b = self.found_robots()
+        if len(found_a) != 1 or len(found_b) != 1:
+            return {}
+        ra, rb = found_a[0], found_b[0]
+        renamed: dict[str, str] = {}
+        for na, nb, kinds in ((ra.namespace, rb.namespace, (ROBOT_DESCRIPTION,)),
+                              (ra.tf_namespace, rb.tf_namespace, (TF, TF_STATIC)),
+                              (ra.joint_states_namespace, rb.joint_states_namespace, (JOINT_STATES,))):
+            if na != nb:
+                renamed.update({nb + kind: na + kind for kind in kinds if nb + kind in self.b.topics})
+        return renamed
+
     def topic_table(self) -> None:
         a, b = self.a, self.b
-        names = sorted(set(a.topics) | set(b.topics))
+        renamed = self.b_topic_names()
+        b_topics = {renamed.get(name, name): info for name, info in b.topics.items()}
+        if renamed:
+            listed = ", ".join(f"{nb} as {na}" for nb, na in sorted(renamed.items()))
+            self.report.notes.append(f"one robot each, in different namespaces: B's {listed}")
+        names = sorted(set(a.topics) | set(b_topics))
         ros_types = "rrd" not in (a.format, b.format)
         for name in names:
             if not self.wants(name) or (self.namespace is not None and split_topic(name)[0] != self.namespace):
                 continue
-            ia, ib = a.topics.get(name), b.topics.get(name)
+            ia, ib = a.topics.get(name), b_topics.get(name)
             if ia is None or ib is None:
                 side, info, rec = ("A", ia, a) if ib is None else ("B", ib, b)
                 assert info is not None
@@ -201,7 +229,7 @@ class _Comparison:
                     continue
                 self.diff("topic", name, f"{name} only in {side} ({info.count} messages of {info.type})")
                 continue
-            if ros_types and ia.type.replace("/msg/", "/") != ib.type.replace("/msg/", "/"):
+            if ros_types and _same_type(ia.type) != _same_type(ib.type):
                 self.diff("topic", name, f"{name}: type {ia.type} in A, {ib.type} in B")
             if ia.count != ib.count:
                 self.diff("topic", name, f"{name}: {ia.count} messages in A, {ib.count} in B")
@@ -437,6 +465,11 @@ def compare(
             report.notes.append(f"damaged file, compared as far as readable: {rec.read_error}")
     ns = None if namespace is None else namespace_name(namespace)
     cmp = _Comparison(rec_a, rec_b, report, wanted, absolute, ns)
+    if ns is not None and not any(cmp.found_robots()):
+        spaces = sorted({kind[0] for rec in (rec_a, rec_b) for topic in rec.topics
+                         if (kind := robot_topic_kind(topic)) is not None})
+        raise DiffError(f"{rec_a.path} and {rec_b.path}: no robot in `namespace` {ns or '/'} in either (their "
+                        f"namespaces: {', '.join(name or '/' for name in spaces) or 'none'})")
     if not absolute:
         report.origins = (cmp.origin_a, cmp.origin_b)
     cmp.topic_table()
@@ -498,3 +531,14 @@ def assert_recordings_match(
     if not report.equal:
         raise AssertionError("recordings differ: " + report.to_text())
     return report
+
+
+_TYPE_ALIASES = {"tf/tfMessage": "tf2_msgs/TFMessage"}
+"""Types that hold the same messages under two names: ROS 1's old ``tf/tfMessage`` of /tf, which
+``tfrec convert`` writes as ``tf2_msgs/msg/TFMessage``."""
+
+
+def _same_type(name: str) -> str:
+    """A message type as compared: ``pkg/msg/Name`` and ``pkg/Name`` alike, aliases resolved."""
+    plain = name.replace("/msg/", "/")
+    return _TYPE_ALIASES.get(plain, plain)
