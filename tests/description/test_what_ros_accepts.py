@@ -188,3 +188,42 @@ def test_blank_limits_warn_that_the_joint_cannot_move(tmp_path: Path) -> None:
                  '</robot>')
     with pytest.warns(UserWarning, match=r"sw\.urdf: joint 'j1' cannot move: lower and upper limit are equal"):
         load_description(f)
+
+
+STL = (b"solid part\nfacet normal 0 0 1\n outer loop\n  vertex 0 0 0\n  vertex 0.05 0 0\n  vertex 0 0.05 0\n"
+       b" endloop\nendfacet\nendsolid part\n")
+
+
+def _installed(tmp_path: Path, folder: str, declared: str, uri_package: str) -> Path:
+    """An install space as pip's example-robot-data has one: prefix/share/<folder>, whose package.xml names
+    ``declared``, and a URDF in it whose mesh is ``package://<uri_package>/meshes/part.stl``."""
+    share = tmp_path / "prefix" / "share" / folder
+    (share / "meshes").mkdir(parents=True)
+    (share / "urdf").mkdir()
+    (share / "package.xml").write_text(f"<package><name>{declared}</name></package>\n")
+    (share / "meshes" / "part.stl").write_bytes(STL)
+    urdf = share / "urdf" / "r.urdf"
+    urdf.write_text(f'<robot name="r"><link name="a"><visual><geometry><mesh filename="package://{uri_package}/'
+                    'meshes/part.stl"/></geometry></visual></link></robot>')
+    return urdf
+
+
+def test_an_install_spaces_share_folder_is_found_by_its_name(tmp_path: Path,
+                                                             capsys: pytest.CaptureFixture[str]) -> None:
+    """example-robot-data's URDFs say package://example-robot-data/…, and that is the folder in share/ (as ament
+    finds it), but its package.xml says example_robot_descriptions: every mesh was 'not found'."""
+    urdf = _installed(tmp_path, "example-robot-data", "example_robot_descriptions", "example-robot-data")
+    assert main(["record", str(urdf), "-o", str(tmp_path / "r.mcap"), "--rrd", str(tmp_path / "r.rrd"),
+                 "--duration", "0.1"]) == 0
+    assert "warning" not in capsys.readouterr().err  # the mesh was found (else: one warning naming it)
+
+
+def test_a_folder_whose_package_xml_names_another_package_is_said(tmp_path: Path) -> None:
+    from tfrec.description.packages import PackageFinder
+
+    _installed(tmp_path, "robot-data", "robot_descriptions", "robot-data")
+    share = tmp_path / "prefix" / "share"
+    with pytest.raises(DescriptionError, match=r"package 'robot-data' not found; searched: .*\(.*share/robot-data is "
+                                               r"named so, but its package.xml names package 'robot_descriptions'"):
+        PackageFinder([share]).find("robot-data")
+    assert PackageFinder([share]).find("robot_descriptions") == share / "robot-data"

@@ -131,6 +131,19 @@ class PackageFinder:
         places += [f"{p}" for p in self._local]
         return places
 
+    def _misnamed(self, name: str) -> str:
+        """A hint when a searched place has a folder called ``name`` whose package.xml names another
+        package (a package is found by its package.xml's name, not its folder's)."""
+        roots = [*self._explicit, *self._ros_package_path, *(p / "share" for p in self._ament_prefixes), *self._local]
+        for root in roots:
+            for folder in (root, root / name):
+                if folder.name == name and folder.is_dir():
+                    declared = package_name(folder)
+                    if declared is not None and declared != name:
+                        return (f" ({folder} is named so, but its package.xml names package '{declared}': a "
+                                "package is found by the name in its package.xml)")
+        return ""
+
     def find(self, name: str) -> Path:
         """The folder of package ``name``: the input's own package first, then the first copy found in
         the search order (shallower before deeper within a folder). Other copies are noted in
@@ -145,7 +158,7 @@ class PackageFinder:
         if not copies:
             places = self.searched()
             where = "; ".join(places) if places else "no places (give `package_paths`)"
-            raise DescriptionError(f"package '{name}' not found; searched: {where}")
+            raise DescriptionError(f"package '{name}' not found; searched: {where}{self._misnamed(name)}")
         found, others = copies[0], tuple(dict.fromkeys(c for c in copies[1:] if c.resolve() != copies[0].resolve()))
         if others:
             self.twins[name] = (found, others)
@@ -175,6 +188,8 @@ class PackageFinder:
         copies: list[Path] = []
         if self._own is not None and package_name(self._own) == name:
             copies.append(self._own)
+        elif self._own is not None and self._own.name == name and self._own.parent.name == "share":
+            copies.append(self._own)  # an install space's share/<name>: found by its folder's name, as ament does
         for folder in [*self._explicit, *self._ros_package_path]:
             copies.extend(self._index(folder).get(name, ()))
         for prefix in self._ament_prefixes:
