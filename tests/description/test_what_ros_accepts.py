@@ -227,3 +227,14 @@ def test_a_folder_whose_package_xml_names_another_package_is_said(tmp_path: Path
                                                r"named so, but its package.xml names package 'robot_descriptions'"):
         PackageFinder([share]).find("robot-data")
     assert PackageFinder([share]).find("robot_descriptions") == share / "robot-data"
+
+
+def test_an_argument_without_default_says_how_to_give_it(tmp_path: Path) -> None:
+    path = tmp_path / "arm.xacro"
+    path.write_text('<robot name="arm" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+                    '<link name="$(arg model)"/></robot>')
+    with pytest.raises(DescriptionError) as caught:
+        load_description(path)
+    assert str(caught.value).endswith("Undefined substitution argument model (give it as model:=VALUE after the "
+                                      "description)")
+    assert load_description(path, args={"model": "base"}).links[0].name == "base"

@@ -26,6 +26,9 @@ def test_check_a_folder_with_a_parquet_report(fleet_dir: Path, tmp_path: Path,
     out = capsys.readouterr().out
     assert out.splitlines()[-1].startswith("9 recordings: 3 pass, 4 fail, 2 error in ")
     assert "FAIL " in out and str(fleet_dir / "bad" / "mismatch.mcap") in out
+    # a failing recording's line says its first finding (the report has them all)
+    [truncated] = [line for line in out.splitlines() if line.startswith(f"FAIL {fleet_dir / 'bad' / 'truncated.mcap'}")]
+    assert " — first: read: " in truncated and "reading stopped at byte" in truncated, truncated
     frame = pandas.read_parquet(report)
     assert list(frame.columns) == COLUMNS
     summaries = frame[frame["check"] == "summary"]

@@ -104,7 +104,10 @@ def _run(ns: argparse.Namespace, tasks: Sequence[Any], *, what: str) -> int:
             writer.write(row.to_dict() for row in rows)
         for row in rows:
             if row.check == SUMMARY and row.verdict != PASS:
-                failing.append(f"{row.verdict.upper()} {row.file}: {row.detail}")
+                first = next((r for r in rows if r.file == row.file and r.check != SUMMARY and r.verdict != PASS
+                              and r.detail and r.detail not in row.detail), None)
+                why = f" — first: {first.check}: {first.detail}" if first is not None else ""
+                failing.append(f"{row.verdict.upper()} {row.file}: {row.detail}{why}")
         bar(progress, before)
 
     writer = None

@@ -283,6 +283,9 @@ def _xacro_message(err: Exception) -> str:
         half = (len(message) - 1) // 2
         if len(message) % 2 == 1 and message[half] == " " and message[:half] == message[half + 1:]:
             message = message[:half]
+    undefined = re.search(r"Undefined substitution argument (\S+)", message)
+    if undefined:  # an <xacro:arg> without a default that the caller must give
+        message += f" (give it as {undefined.group(1)}:=VALUE after the description)"
     macros = getattr(err, "macros", None)
     if macros:
         names = [m.body.getAttribute("name") for m in macros if getattr(m, "body", None) is not None]
