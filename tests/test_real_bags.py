@@ -371,6 +371,13 @@ def test_one_robot_each_in_different_namespaces_diffs_equal(tmp_path: Path, marm
     assert "/robot1/tf_static only in A (1 messages of tf2_msgs/msg/TFMessage)" in details, details
 
 
+def test_a_bag_named_by_its_metadata_yaml_is_the_bag(tmp_path: Path, marm_rec: Recording) -> None:
+    """diff took metadata.yaml for a robot description ('malformed XML'), info for no recording."""
+    bag = write_bag(tmp_path / "b", [Robot(marm_rec)], kind="sqlite3")
+    assert read_recording(bag / "metadata.yaml").topics == read_recording(bag).topics
+    assert compare(bag / "metadata.yaml", bag).equal
+
+
 def test_diff_of_a_namespace_neither_recording_has_is_an_error(tmp_path: Path, marm_rec: Recording) -> None:
     from tfrec.errors import DiffError
 

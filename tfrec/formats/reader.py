@@ -91,6 +91,8 @@ def recording_format(path: str | os.PathLike[str]) -> str:
         raise ReadError(f"{where}: no such file or folder")
     if not file.is_file():  # reading a FIFO would wait forever, a device never end
         raise ReadError(f"{where}: not a regular file (a FIFO, device or socket), not a recording")
+    if file.name == "metadata.yaml":  # a rosbag2 bag named by its metadata: the bag (as its .db3 files name it)
+        return "rosbag2"
     try:
         with open(file, "rb") as stream:
             head = stream.read(16)
