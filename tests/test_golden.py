@@ -14,7 +14,8 @@ from pathlib import Path
 import pytest
 
 from tfrec import cli
-from tfrec.diff.compare import FLOAT32_TOL, assert_recordings_match
+from tfrec.diff.asserts import assert_recordings_match
+from tfrec.diff.compare import FLOAT32_TOL
 from tfrec.formats.reader import read_recording
 
 from .conftest import REPO

@@ -12,7 +12,8 @@ import pytest
 
 from tests.recording_helpers import write_mcap, write_rosbag1, write_rosbag2
 from tfrec import cli
-from tfrec.diff.compare import FLOAT32_TOL, assert_recordings_match, compare, rotation_error
+from tfrec.diff.asserts import assert_recordings_match
+from tfrec.diff.compare import FLOAT32_TOL, compare, rotation_error
 from tfrec.diff.urdf import diff_urdf_texts
 from tfrec.errors import DiffError, RecordingError
 from tfrec.formats.mcap.writer import DEFAULT_START_TIME_NS

@@ -1,6 +1,7 @@
 """``tfrec diff``: two recordings (or robot descriptions) compared by meaning, not by bytes.
 
-- :mod:`~tfrec.diff.compare`: :func:`compare` and :func:`assert_recordings_match`;
+- :mod:`~tfrec.diff.compare`: :func:`compare` (:mod:`~tfrec.diff.topics`: topics paired across namespaces, type
+  aliases); :mod:`~tfrec.diff.asserts`: :func:`assert_recordings_match`;
 - :mod:`~tfrec.diff.report`: the :class:`DiffReport`, as text or JSON;
 - :mod:`~tfrec.diff.urdf`: two URDFs compared element by element;
 - :mod:`~tfrec.diff.inputs`: each input a description or a recording, and the motion descriptions follow;
@@ -14,7 +15,8 @@ Imports formats, resample, kinematics, description and the base modules.
 
 from __future__ import annotations
 
-from tfrec.diff.compare import assert_recordings_match, compare
+from tfrec.diff.asserts import assert_recordings_match
+from tfrec.diff.compare import compare
 from tfrec.diff.motion import MotionComparison, assert_descriptions_match, compare_descriptions, compare_motion
 from tfrec.diff.motion_report import DescriptionDiffReport, LinkDelta
 from tfrec.diff.report import Difference, DiffReport

@@ -63,6 +63,7 @@ from tfrec.conventions import (
 )
 from tfrec.diff.precision import FLOAT32_ULPS, float32_tolerance
 from tfrec.diff.report import Difference, DiffReport, Largest, at_time, format_time
+from tfrec.diff.topics import renamed_b_topics, same_type
 from tfrec.errors import DiffError
 from tfrec.formats._collect import decodes_type
 from tfrec.formats.reader import read_recording
@@ -79,7 +80,6 @@ __all__ = [
     "FLOAT32_ULPS",
     "DiffReport",
     "Difference",
-    "assert_recordings_match",
     "compare",
     "data_start_ns",
     "float32_tolerance",
@@ -189,19 +189,8 @@ class _Comparison:
         return self._found
 
     def b_topic_names(self) -> dict[str, str]:
-        """B's robot topics under A's names when each recording has one robot, in different namespaces
-        (``/robot1/tf`` in A, ``/tf`` in B): they are compared as the same topics, as their robots are."""
-        found_a, found_b = self.found_robots()
-        if len(found_a) != 1 or len(found_b) != 1:
-            return {}
-        ra, rb = found_a[0], found_b[0]
-        renamed: dict[str, str] = {}
-        for na, nb, kinds in ((ra.namespace, rb.namespace, (ROBOT_DESCRIPTION,)),
-                              (ra.tf_namespace, rb.tf_namespace, (TF, TF_STATIC)),
-                              (ra.joint_states_namespace, rb.joint_states_namespace, (JOINT_STATES,))):
-            if na != nb:
-                renamed.update({nb + kind: na + kind for kind in kinds if nb + kind in self.b.topics})
-        return renamed
+        """B's robot topics under A's names (see :func:`tfrec.diff.topics.renamed_b_topics`)."""
+        return renamed_b_topics(*self.found_robots(), self.b.topics)
 
     def topic_table(self) -> None:
         a, b = self.a, self.b
@@ -229,7 +218,7 @@ class _Comparison:
                     continue
                 self.diff("topic", name, f"{name} only in {side} ({info.count} messages of {info.type})")
                 continue
-            if ros_types and _same_type(ia.type) != _same_type(ib.type):
+            if ros_types and same_type(ia.type) != same_type(ib.type):
                 self.diff("topic", name, f"{name}: type {ia.type} in A, {ib.type} in B")
             if ia.count != ib.count:
                 self.diff("topic", name, f"{name}: {ia.count} messages in A, {ib.count} in B")
@@ -498,47 +487,3 @@ def compare(
             f"(eps32 = 1.19e-07): {', '.join(widened)}"
         )
     return report
-
-
-def assert_recordings_match(
-    a: Recording | str | os.PathLike[str],
-    b: Recording | str | os.PathLike[str],
-    **options: Any,
-) -> DiffReport:
-    """Fail a test, with the readable report, unless the recordings match.
-
-    Args:
-        a, b: recordings or paths.
-        **options: :func:`compare`'s keyword arguments (tolerances, topics, absolute).
-
-    Returns:
-        The report, when the recordings match.
-
-    Raises:
-        AssertionError: the recordings differ; the message is :meth:`DiffReport.to_text`.
-
-    A or B may be a robot description too (a :class:`~tfrec.model.Robot`, or a path that is no
-    recording): then it is :func:`tfrec.diff.assert_descriptions_match`.
-    """
-    __tracebackhide__ = True  # pytest: show the report, not this frame
-    from tfrec.diff.inputs import is_description
-
-    if is_description(a) or is_description(b):
-        from tfrec.diff.motion import assert_descriptions_match
-
-        return assert_descriptions_match(a, b, **options)  # type: ignore[return-value]
-    report = compare(a, b, **options)
-    if not report.equal:
-        raise AssertionError("recordings differ: " + report.to_text())
-    return report
-
-
-_TYPE_ALIASES = {"tf/tfMessage": "tf2_msgs/TFMessage"}
-"""Types that hold the same messages under two names: ROS 1's old ``tf/tfMessage`` of /tf, which
-``tfrec convert`` writes as ``tf2_msgs/msg/TFMessage``."""
-
-
-def _same_type(name: str) -> str:
-    """A message type as compared: ``pkg/msg/Name`` and ``pkg/Name`` alike, aliases resolved."""
-    plain = name.replace("/msg/", "/")
-    return _TYPE_ALIASES.get(plain, plain)
