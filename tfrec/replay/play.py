@@ -288,12 +288,14 @@ def replay_to_rerun(
     shown = [robot.displayed() for robot in replay.robots]
     robots = [(robot.robot, robot.frame_prefix, robot.entity_root) for robot in shown]
     names = [robot.key for robot in shown] if len(shown) > 1 else []
+    prefixes = [robot.display_prefix for robot in replay.robots]
     if save is None:
-        sink = open_rerun_sink(connect=connect, robots=robots, names=names, package_paths=package_paths)
+        sink = open_rerun_sink(connect=connect, robots=robots, names=names, package_paths=package_paths,
+                               display_prefixes=prefixes)
         return play(replay, sink, pacer=Pacer(clock or MonotonicClock(), rate=rate), loop=loop, max_loops=max_loops)
     with AtomicOutputs(replace=force) as outputs:
         sink = open_rerun_sink(save=outputs.path(Path(save)), recording_id=_recording_id(replay), robots=robots,
-                               names=names, package_paths=package_paths)
+                               names=names, package_paths=package_paths, display_prefixes=prefixes)
         result = play(replay, sink)  # aborts the sink (closing its file) on any error
         outputs.commit()
     return result

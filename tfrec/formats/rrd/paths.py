@@ -42,6 +42,7 @@ import rerun as rr
 __all__ = [
     "APPLICATION_ID",
     "DESCRIPTION_ROOT",
+    "DISPLAY_PREFIX_ROOT",
     "JOINTS_ROOT",
     "ROBOT_ROOT",
     "TF_ROOT",
@@ -74,6 +75,11 @@ VELOCITIES_ROOT = "joint_velocities"
 DESCRIPTION_ROOT = "robot_description"
 TF_TREE_ROOT = "tf_tree"
 """The top-level entity names (``/robot_description`` is an entity of its own)."""
+
+DISPLAY_PREFIX_ROOT = "frame_display_prefix"
+"""A robot of a replay of several whose frame ids the viewer shows behind its name (``robot1/link0``:
+robots of several namespaces with the same frame ids): that prefix, as a TextDocument, so that reading the
+``.rrd`` back gives the frame ids the recording had."""
 
 _UNESCAPED = {"n": "\n", "r": "\r", "t": "\t"}
 _CODE_POINT = re.compile(r"u\{([0-9A-Fa-f]{1,6})\}")

@@ -66,12 +66,16 @@ def read_rrd(path: Path, options: ReadOptions) -> Recording:
         namespace, top, names = found
         entities = parts.setdefault(namespace, _Entities())
         columns = {name: batch.column(i) for i, name in enumerate(batch.schema.names)}
-        if top == rerun_paths.DESCRIPTION_ROOT:
+        if top in (rerun_paths.DESCRIPTION_ROOT, rerun_paths.DISPLAY_PREFIX_ROOT):
             text = columns.get("TextDocument:text")
             if text is not None and len(text):
                 values = text.flatten()
                 if len(values):
-                    entities.description = str(values[len(values) - 1].as_py())
+                    value = str(values[len(values) - 1].as_py())
+                    if top == rerun_paths.DESCRIPTION_ROOT:
+                        entities.description = value
+                    else:
+                        entities.display_prefix = value
             continue
         time = None
         if timeline in columns:
@@ -123,9 +127,11 @@ def _rooted(path: str) -> tuple[str, str, tuple[str, ...]] | None:
 
     top, names = rerun_paths.parse_entity(path)
     parts = (top, *names)
-    roots = (rerun_paths.TF_ROOT, rerun_paths.TF_STATIC_ROOT, rerun_paths.JOINTS_ROOT, rerun_paths.DESCRIPTION_ROOT)
+    roots = (rerun_paths.TF_ROOT, rerun_paths.TF_STATIC_ROOT, rerun_paths.JOINTS_ROOT, rerun_paths.DESCRIPTION_ROOT,
+             rerun_paths.DISPLAY_PREFIX_ROOT)
     for i, part in enumerate(parts):
-        if part in roots and (part == rerun_paths.DESCRIPTION_ROOT or i + 1 < len(parts)):
+        if part in roots and (part in (rerun_paths.DESCRIPTION_ROOT, rerun_paths.DISPLAY_PREFIX_ROOT)
+                              or i + 1 < len(parts)):
             return ("/" + "/".join(parts[:i]) if i else ""), part, tuple(parts[i + 1 :])
         if part == rerun_paths.ROBOT_ROOT:
             return None
@@ -140,6 +146,7 @@ class _Entities:
         self.joints: dict[str, list[tuple[NDArray[np.int64], Array]]] = {}
         self.static: dict[tuple[str, str], tuple[Array, Array]] = {}
         self.description: str | None = None
+        self.display_prefix = ""  # what the replay put in front of the recorded frame ids (undone here)
 
     def robot_topics(self, namespace: str, wanted: frozenset[str],
                      times: list[NDArray[np.int64]]) -> tuple[dict[str, TopicInfo], RobotTopics]:
@@ -176,9 +183,17 @@ class _Entities:
             topics[namespace + TF] = TopicInfo("Transform3D", len(all_times), int(all_times[0]), int(all_times[-1]))
             times.append(all_times)
         description = self.description if ROBOT_DESCRIPTION in wanted else None
+        static = self.static
+        if self.display_prefix:  # the frame ids as recorded, not as the viewer showed them
+            tf = {self._recorded(pair): series for pair, series in tf.items()}
+            static = {self._recorded(pair): value for pair, value in static.items()}
         return topics, RobotTopics((description,) if description is not None else (),
                                    joint_states if JOINT_STATES in wanted else None,
-                                   tf if TF in wanted else {}, self.static if TF_STATIC in wanted else {})
+                                   tf if TF in wanted else {}, static if TF_STATIC in wanted else {})
+
+    def _recorded(self, pair: tuple[str, str]) -> tuple[str, str]:
+        prefix = self.display_prefix
+        return (pair[0].removeprefix(prefix), pair[1].removeprefix(prefix))
 
 
 def _read_chunks(path: Path) -> tuple[list[str], list[tuple[str, Any]]]:

@@ -31,6 +31,7 @@ from tfrec.formats.rrd.geometry import MeshLoader, default_axis_length, missing_
 from tfrec.formats.rrd.paths import (
     APPLICATION_ID,
     DESCRIPTION_ROOT,
+    DISPLAY_PREFIX_ROOT,
     ROBOT_ROOT,
     TF_TREE_ROOT,
     joint_entity,
@@ -456,6 +457,11 @@ class RerunSink:
         self._unflushed_bytes += nbytes
         if self._unflushed_bytes >= _FLUSH_BYTES:
             self.flush()
+
+    def log_display_prefix(self, prefix: str) -> None:
+        """Say what the viewer puts in front of this robot's recorded frame ids (see
+        :data:`~tfrec.formats.rrd.paths.DISPLAY_PREFIX_ROOT`)."""
+        self._send_static(f"/{DISPLAY_PREFIX_ROOT}", rr.TextDocument.columns(text=[prefix], media_type=["text/plain"]))
 
     def _send_static(self, entity: str, columns: Any) -> None:
         self._send(entity, [], columns)

@@ -65,10 +65,12 @@ class RerunReplaySink:
         live: True for a viewer: the static data is flushed at once, to fail early.
     """
 
-    def __init__(self, sinks: Sequence[RerunSink], *, names: Sequence[str] = (), live: bool) -> None:
+    def __init__(self, sinks: Sequence[RerunSink], *, names: Sequence[str] = (), live: bool,
+                 display_prefixes: Sequence[str] = ()) -> None:
         self._sinks = list(sinks)
         self._names = list(names) or [""] * len(self._sinks)
         self._live = live
+        self._display_prefixes = list(display_prefixes) or [""] * len(self._sinks)
 
     def begin(
         self,
@@ -103,6 +105,8 @@ class RerunReplaySink:
         sink = self._sinks[robot]
         sink.begin(static=Transforms.from_poses(static), start_time_ns=start_time_ns,
                    robot_description=robot_description, name=name, root=root, properties=robot == 0)
+        if self._display_prefixes[robot]:
+            sink.log_display_prefix(self._display_prefixes[robot])
         sink.log_frames([*frames, *(frame for pair in static for frame in pair)])
         latched = {child for _, child in static}
         moving = {pair: pose for pair, pose in (poses or {}).items() if pair[1] not in latched}
@@ -150,6 +154,7 @@ def open_rerun_sink(
     names: Sequence[str] = (),
     package_paths: Sequence[str | os.PathLike[str]] = (),
     port: int = 9876,
+    display_prefixes: Sequence[str] = (),
 ) -> RerunReplaySink:
     """A sink to the ``.rrd`` file ``save``, to the viewer at ``connect``, or else to a spawned viewer.
 
@@ -167,6 +172,8 @@ def open_rerun_sink(
         names: each robot's name in the layout's tabs.
         package_paths: folders searched first for ``package://`` meshes.
         port: where a spawned viewer listens; a viewer already listening there is reused.
+        display_prefixes: what the viewer puts in front of each robot's recorded frame ids (part of
+            its frame prefix in ``robots``), kept in the ``.rrd`` so that reading it back undoes it.
 
     Raises:
         WriteError: the file cannot be created, the URL is malformed, or the viewer cannot
@@ -177,7 +184,8 @@ def open_rerun_sink(
     if save is not None:
         first = RerunSink(save, robot=model, recording_id=recording_id, frame_prefix=prefix, entity_prefix=root,
                           package_paths=package_paths)
-        return RerunReplaySink([first, *_more_sinks(first, parts[1:], package_paths)], names=names, live=False)
+        return RerunReplaySink([first, *_more_sinks(first, parts[1:], package_paths)], names=names, live=False,
+                               display_prefixes=display_prefixes)
     stream = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id)
     if connect is not None:
         try:
@@ -196,7 +204,8 @@ def open_rerun_sink(
         target = f"the Rerun viewer on port {port}"
     first = RerunSink.from_stream(stream, target=target, robot=model, frame_prefix=prefix, entity_prefix=root,
                                   package_paths=package_paths)
-    return RerunReplaySink([first, *_more_sinks(first, parts[1:], package_paths)], names=names, live=True)
+    return RerunReplaySink([first, *_more_sinks(first, parts[1:], package_paths)], names=names, live=True,
+                           display_prefixes=display_prefixes)
 
 
 def _more_sinks(first: RerunSink, parts: Sequence[tuple[Robot | None, str, str]],
