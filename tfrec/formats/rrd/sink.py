@@ -183,8 +183,7 @@ class RerunSink:
         return self._rec
 
     @property
-    def path(self) -> Path | None:
-        """The file written, or None for a sink made with :meth:`from_stream`."""
+    def path(self) -> Path | None:  # the file written, or None for a sink made with :meth:`from_stream`
         return self._file
 
     # -- what does not change --------------------------------------------------------------
@@ -458,9 +457,7 @@ class RerunSink:
         if self._unflushed_bytes >= _FLUSH_BYTES:
             self.flush()
 
-    def log_display_prefix(self, prefix: str) -> None:
-        """Say what the viewer puts in front of this robot's recorded frame ids (see
-        :data:`~tfrec.formats.rrd.paths.DISPLAY_PREFIX_ROOT`)."""
+    def log_display_prefix(self, prefix: str) -> None:  # what the viewer puts before the frame ids (paths)
         self._send_static(f"/{DISPLAY_PREFIX_ROOT}", rr.TextDocument.columns(text=[prefix], media_type=["text/plain"]))
 
     def _send_static(self, entity: str, columns: Any) -> None:
