@@ -11,6 +11,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from tfrec.conventions import robot_topic_kind
+
 __all__ = [
     "FrameSeries",
     "JointStates",
@@ -219,6 +221,11 @@ class Recording:
         if self.robot_description not in descriptions:  # none, one, or a description set by hand
             descriptions = () if self.robot_description is None else (self.robot_description,)
         return RobotTopics(descriptions, self.joint_states, self.tf, self.tf_static)
+
+    def topic_namespaces(self) -> list[str]:
+        """Every namespace of a robot topic in the topic table (``""``: the root's), sorted: where the
+        recording has robots, whatever was decoded (for messages that name them)."""
+        return sorted({kind[0] for topic in self.topics if (kind := robot_topic_kind(topic)) is not None})
 
     def namespace_names(self) -> list[str]:
         """Every namespace with robot topics, the root (``""``) first, then in name order."""

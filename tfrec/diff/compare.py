@@ -58,7 +58,6 @@ from tfrec.conventions import (
     TF,
     TF_STATIC,
     namespace_name,
-    robot_topic_kind,
     split_topic,
 )
 from tfrec.diff.precision import FLOAT32_ULPS, float32_tolerance
@@ -455,8 +454,7 @@ def compare(
     ns = None if namespace is None else namespace_name(namespace)
     cmp = _Comparison(rec_a, rec_b, report, wanted, absolute, ns)
     if ns is not None and not any(cmp.found_robots()):
-        spaces = sorted({kind[0] for rec in (rec_a, rec_b) for topic in rec.topics
-                         if (kind := robot_topic_kind(topic)) is not None})
+        spaces = sorted(set(rec_a.topic_namespaces()) | set(rec_b.topic_namespaces()))
         raise DiffError(f"{rec_a.path} and {rec_b.path}: no robot in `namespace` {ns or '/'} in either (their "
                         f"namespaces: {', '.join(name or '/' for name in spaces) or 'none'})")
     if not absolute:

@@ -18,7 +18,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.conventions import robot_topic_kind
 from tfrec.errors import DescriptionError, display_path
 from tfrec.kinematics.fk import Transforms, root_from_link
 from tfrec.model import JointType, Robot
@@ -246,9 +245,7 @@ def one_robot(recording: Recording, namespace: str | None = None) -> Recording:
     if not robots:
         if namespace is None:
             return recording  # nothing to plot: plot_recording says so
-        spaces = sorted({kind[0] for topic, info in recording.topics.items()
-                         if info.count and (kind := robot_topic_kind(topic)) is not None})
-        found = ", ".join(name or "/" for name in spaces) or "none"
+        found = ", ".join(name or "/" for name in recording.topic_namespaces()) or "none"
         raise PlotError(f"{recording.path}: no robot in namespace '{namespace or '/'}' (namespaces with robot "
                         f"topics: {found})")
     if len(robots) > 1:

@@ -324,8 +324,7 @@ def load_replay(
     ns = None if namespace is None else namespace_name(namespace)
     found = find_robots(rec, namespace=ns)
     if not found:
-        spaces = sorted({kind[0] for topic in rec.topics if (kind := robot_topic_kind(topic)) is not None})
-        names = ", ".join(name or "/" for name in spaces) or "none"
+        names = ", ".join(name or "/" for name in rec.topic_namespaces()) or "none"
         raise ReplayError(f"{where}: no robot in `namespace` {ns or '/'} (the recording's namespaces: {names})")
     robots_found = [r for r in found if not r.unclaimed]
     if robot is not None and len(robots_found) > 1:
