@@ -37,8 +37,11 @@ from tfrec.formats.rosbag1.reader import (
     OP_INDEX,
     OP_MESSAGE,
     ROS1_MAGIC,
+    RecordDamaged,
     connection_of,
     header_fields,
+    index_connections,
+    read_record,
     time_field,
     uint32_field,
 )
@@ -46,10 +49,6 @@ from tfrec.formats.rosbag1.reader import (
 __all__ = ["Ros1Messages"]
 
 _ENTRY = np.dtype([("sec", "<u4"), ("nsec", "<u4"), ("offset", "<u4")])
-
-
-class _Damaged(Exception):
-    """A record that cannot be read: the walk stops there."""
 
 
 class Ros1Messages(MessageSource):
@@ -77,10 +76,10 @@ class Ros1Messages(MessageSource):
             if stream.read(len(ROS1_MAGIC)) != ROS1_MAGIC:
                 raise ReadError(f"{self.where}: not a ROS 1 bag (format 2.0)")
             try:
-                fields, data_pos, data_len = _record(stream, size)
+                fields, data_pos, data_len = read_record(stream, size)
                 if fields.get("op") != bytes([OP_BAG_HEADER]):
-                    raise _Damaged("no bag header record")
-            except _Damaged as err:
+                    raise RecordDamaged("no bag header record")
+            except RecordDamaged as err:
                 raise ReadError(f"{self.where}: cannot read ROS 1 bag: {err}") from err
             body_start = data_pos + data_len
             end = self._index(stream, fields, body_start, size)
@@ -92,22 +91,9 @@ class Ros1Messages(MessageSource):
     def _index(self, stream: IO[bytes], fields: dict[str, bytes], body_start: int, size: int) -> int | None:
         """Take the connection records of the bag's index; returns where the chunks end (the
         index's position), or None for a bag without an index (a recorder stopped before writing it)."""
-        try:
-            index_pos = int(struct.unpack("<Q", fields["index_pos"])[0])
-            count = uint32_field(fields, "conn_count")
-        except (KeyError, struct.error, ValueError):
-            return None
-        if index_pos == 0 or not body_start <= index_pos <= size:
-            return None
-        stream.seek(index_pos)
-        try:
-            for _ in range(count):
-                fields, _, data_len = _record(stream, size)
-                if fields.get("op") != bytes([OP_CONNECTION]):
-                    break
-                self._connection(fields, stream.read(data_len))
-        except (_Damaged, ValueError):
-            pass  # the connections are taken from the chunks then
+        index_pos, connections = index_connections(stream, fields, body_start, size)
+        for conn_fields, data in connections:
+            self._connection(conn_fields, data)
         return index_pos
 
     def _walk(self, stream: IO[bytes], pos: int, end: int | None, size: int) -> Generator[MessageBatch, None, bool]:
@@ -115,9 +101,9 @@ class Ros1Messages(MessageSource):
         whether it got there (else a problem says where it stopped)."""
         while pos < (size if end is None else end):
             try:
-                fields, data_pos, data_len = _record(stream, size, cut_ok=True)
+                fields, data_pos, data_len = read_record(stream, size, cut_ok=True)
                 op = fields.get("op", b"\0")[0]
-            except (_Damaged, IndexError) as err:
+            except (RecordDamaged, IndexError) as err:
                 self._stop(pos, size, str(err) or "a damaged record header")
                 return False
             if data_pos + data_len > size:
@@ -171,7 +157,7 @@ class Ros1Messages(MessageSource):
         while True:
             at = stream.tell()
             try:
-                fields, _, data_len = _record(stream, size)
+                fields, _, data_len = read_record(stream, size)
                 if fields.get("op") != bytes([OP_INDEX]):
                     stream.seek(at)
                     return entries
@@ -180,7 +166,7 @@ class Ros1Messages(MessageSource):
                 if uint32_field(fields, "ver") != 1 or len(data) % _ENTRY.itemsize:
                     return {}
                 entries[conn] = np.frombuffer(data, dtype=_ENTRY)
-            except (_Damaged, ValueError):
+            except (RecordDamaged, ValueError):
                 stream.seek(at)
                 return {}
 
@@ -271,29 +257,3 @@ def _first_ns(entries: dict[int, NDArray[np.void]]) -> int:
     """The earliest time of a chunk's index data entries (ns)."""
     times = [ns_from_stamps(e["sec"].astype(np.int64), e["nsec"].astype(np.int64)).min() for e in entries.values() if len(e)]
     return int(min(times)) if times else -1
-
-
-def _record(stream: IO[bytes], size: int, *, cut_ok: bool = False) -> tuple[dict[str, bytes], int, int]:
-    """The record at the stream's position: its header fields, where its data begins and its
-    length; the stream is left at its data.
-
-    Raises:
-        _Damaged: a record whose header runs past the end of the file or is damaged, or (unless
-            ``cut_ok``) whose data does.
-    """
-    at = stream.tell()
-    raw = stream.read(4)
-    if len(raw) < 4:
-        raise _Damaged("the file ends inside a record header")
-    (header_len,) = struct.unpack("<I", raw)
-    if at + 8 + header_len > size:
-        raise _Damaged("the file ends inside a record header")
-    try:
-        fields = header_fields(stream.read(header_len))
-    except ValueError as err:
-        raise _Damaged(f"a damaged record header ({err})") from err
-    (data_len,) = struct.unpack("<I", stream.read(4))
-    data_pos = at + 8 + header_len
-    if data_pos + data_len > size and not cut_ok:
-        raise _Damaged("the file ends inside a record")
-    return fields, data_pos, data_len

@@ -34,8 +34,11 @@ __all__ = [
     "OP_INDEX",
     "OP_MESSAGE",
     "ROS1_MAGIC",
+    "RecordDamaged",
     "connection_of",
     "header_fields",
+    "index_connections",
+    "read_record",
     "read_rosbag1_records",
     "time_field",
     "uint32_field",
@@ -114,6 +117,69 @@ def connection_of(fields: dict[str, bytes], info: dict[str, bytes]) -> tuple[str
     return topic, msgtype, msgdef, latched
 
 
+class RecordDamaged(Exception):
+    """A record that cannot be read (:func:`read_record`): a walk stops there."""
+
+
+def read_record(stream: IO[bytes], size: int, *, cut_ok: bool = False) -> tuple[dict[str, bytes], int, int]:
+    """The record at the stream's position: its header fields, where its data begins and its
+    length; the stream is left at its data.
+
+    Raises:
+        RecordDamaged: a record whose header runs past the end of the file or is damaged, or (unless
+            ``cut_ok``) whose data does.
+    """
+    at = stream.tell()
+    raw = stream.read(4)
+    if len(raw) < 4:
+        raise RecordDamaged("the file ends inside a record header")
+    (header_len,) = struct.unpack("<I", raw)
+    if at + 8 + header_len > size:
+        raise RecordDamaged("the file ends inside a record header")
+    try:
+        fields = header_fields(stream.read(header_len))
+    except ValueError as err:
+        raise RecordDamaged(f"a damaged record header ({err})") from err
+    (data_len,) = struct.unpack("<I", stream.read(4))
+    data_pos = at + 8 + header_len
+    if data_pos + data_len > size and not cut_ok:
+        raise RecordDamaged("the file ends inside a record")
+    return fields, data_pos, data_len
+
+
+
+def index_connections(stream: IO[bytes], header: dict[str, bytes], body_start: int,
+                      size: int) -> tuple[int | None, list[tuple[dict[str, bytes], bytes]]]:
+    """The connection records of a bag's index section, read before its chunks so that every chunk's
+    connections are known even when the chunk that defined one is lost: (where the index begins — the
+    chunks end there —, [(header fields, data)]); (None, []) for a bag without an index (a recorder stopped
+    before writing it). As far as they are readable: a damaged one ends the list. The stream's position is
+    left anywhere.
+
+    Args:
+        header: the bag header record's fields (``index_pos``, ``conn_count``).
+        body_start: where the records after the bag header begin.
+    """
+    try:
+        index_pos = int(struct.unpack("<Q", header["index_pos"])[0])
+        count = uint32_field(header, "conn_count")
+    except (KeyError, struct.error, ValueError):
+        return None, []
+    if index_pos == 0 or not body_start <= index_pos <= size:
+        return None, []
+    stream.seek(index_pos)
+    connections: list[tuple[dict[str, bytes], bytes]] = []
+    try:
+        for _ in range(count):
+            fields, _, data_len = read_record(stream, size)
+            if fields.get("op") != bytes([OP_CONNECTION]):
+                break
+            connections.append((fields, stream.read(data_len)))
+    except (RecordDamaged, ValueError):
+        pass  # the connections are taken from the chunks then
+    return index_pos, connections
+
+
 class _Connection(TopicStats):
     """A connection: its topic, message definition, whether its messages are decoded, and those
     taken (log time, raw message); its count with durability ``latched`` for a latching topic."""
@@ -141,29 +207,10 @@ class _Ros1Reader:
         self.damaged: list[tuple[int, str]] = []  # (byte, problem) of skipped chunks
         self.indexed = False  # the index section's chunk info records were reached
         self.span: tuple[int, int] | None = None  # from the chunk info records
-        # messages on a connection not defined yet (its connection record was in a chunk that was lost; the
-        # index section repeats every connection record): (log time, raw message) by connection id
-        self.orphans: dict[int, list[tuple[int, bytes]]] = {}
 
     @property
     def messages(self) -> int:
         return sum(connection.count for connection in self.connections.values())
-
-    def adopt_orphans(self) -> int:
-        """Give the messages taken before their connection was defined to their connections; returns how
-        many remain on connections the bag never defines (they are dropped)."""
-        lost = 0
-        for conn, messages in self.orphans.items():
-            connection = self.connections.get(conn)
-            if connection is None:
-                lost += len(messages)
-                continue
-            for time_ns, data in messages:
-                connection.add(time_ns)
-                if connection.decoded:
-                    connection.messages.append((time_ns, data))
-        self.orphans = {}
-        return lost
 
     def _read(self, size: int) -> bytes:
         data = self.stream.read(size)
@@ -210,10 +257,24 @@ class _Ros1Reader:
             if op not in _RECORD_NAMES:
                 raise ReadStopped(start, f"a record with unknown op 0x{op:02x}")
             data = self._read(data_len)
+            if op == OP_BAG_HEADER:
+                self._index_connections(fields)
+                continue
             try:
                 self._record(op, fields, data)
             except ValueError as err:
                 raise ReadStopped(start, f"a damaged {what} record ({err})") from err
+
+    def _index_connections(self, header: dict[str, bytes]) -> None:
+        """Take the index section's connection records before the chunks (:func:`index_connections`): a
+        chunk whose connection was defined in a lost chunk is still read."""
+        _, connections = index_connections(self.stream, header, self.offset, self.size)
+        self.stream.seek(self.offset)
+        for fields, data in connections:
+            try:
+                self._record(OP_CONNECTION, fields, data)
+            except ValueError:
+                return  # a damaged one: the rest come from the chunks
 
     def _record(self, op: int, fields: dict[str, bytes], data: bytes | memoryview) -> None:
         """One record outside or inside a chunk.
@@ -222,12 +283,10 @@ class _Ros1Reader:
             ValueError: a damaged record, or a message on an unknown connection.
         """
         if op == OP_MESSAGE:
-            conn = uint32_field(fields, "conn")
-            connection = self.connections.get(conn)
+            connection = self.connections.get(uint32_field(fields, "conn"))
+            if connection is None:
+                raise ValueError(f"a message on unknown connection {uint32_field(fields, 'conn')}")
             time_ns = time_field(fields, "time")
-            if connection is None:  # defined later (by the index section) or never
-                self.orphans.setdefault(conn, []).append((time_ns, bytes(data)))
-                return
             connection.add(time_ns)
             if connection.decoded:
                 connection.messages.append((time_ns, bytes(data)))
@@ -347,15 +406,12 @@ def read_rosbag1_records(path: Path, options: ReadOptions, *, refused: str) -> R
                 stop = err
     except OSError as err:
         raise ReadError(f"{where}: cannot read: {err.strerror or err}") from err
-    lost = reader.adopt_orphans()
     if not reader.connections:
         where_stopped = f"; reading stopped at byte {stop.offset:,}: {stop.reason}" if stop is not None else ""
         raise ReadError(f"{where}: cannot read ROS 1 bag: {one_line(refused)}{where_stopped}")
     problems = [reader.damage_summary()] if reader.damaged else []
     if stop is not None:
         problems.append(stop.problem(size))
-    if lost:
-        problems.append(f"{lost:,} messages on connections that no readable record defines were skipped")
     if problems:
         recording.read_error = read_error_line(where, problems, reader.messages)
     recording.details = {"compression": ", ".join(sorted(reader.compressions))}
