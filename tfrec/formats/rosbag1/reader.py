@@ -6,8 +6,9 @@ decompress, or an index that does not describe the chunks, stops that reader too
 is the fallback then: the bag (format 2.0) is walked from the
 start — connection records, chunks (uncompressed, bz2 or lz4) and the message records inside
 them. The complete records of a chunk the file ends inside are kept; a chunk whose data does
-not decompress is skipped and reading goes on after it. The index is not needed: its chunk info
-records only give the recording's span. :attr:`Recording.read_error` says where reading stopped
+not decompress is skipped and reading goes on after it. The index is not needed; when it is there,
+its connection records are taken first (a chunk whose connections were defined in a lost chunk is
+still read) and its chunk info records give the recording's span. :attr:`Recording.read_error` says where reading stopped
 and what was skipped.
 """
 
