@@ -24,6 +24,15 @@ from tfrec.formats._collect import Collector, ReadOptions, ReadStopped, read_err
 from tfrec.formats._compression import MAX_CHUNK_BYTES, decompress, salvage
 from tfrec.formats.ros.encode import ns_from_stamps
 from tfrec.formats.ros.types import ros1_typestore, topic_deserializer
+from tfrec.formats.rosbag1._records import (
+    OP_BAG_HEADER,
+    OP_CHUNK,
+    OP_CHUNK_INFO,
+    OP_CONNECTION,
+    ROS1_MAGIC,
+)
+from tfrec.formats.rosbag1._records import OP_INDEX_DATA as OP_INDEX
+from tfrec.formats.rosbag1._records import OP_MESSAGE_DATA as OP_MESSAGE
 from tfrec.recording import Recording, TopicStats
 
 __all__ = [
@@ -45,8 +54,6 @@ __all__ = [
     "uint32_field",
 ]
 
-ROS1_MAGIC = b"#ROSBAG V2.0\n"
-OP_MESSAGE, OP_BAG_HEADER, OP_INDEX, OP_CHUNK, OP_CHUNK_INFO, OP_CONNECTION = 2, 3, 4, 5, 6, 7
 _RECORD_NAMES = {2: "message data", 3: "bag header", 4: "index data", 5: "chunk", 6: "chunk info", 7: "connection"}
 COMPRESSIONS = ("none", "bz2", "lz4")
 """The chunk compressions of a ROS 1 bag."""
