@@ -94,7 +94,7 @@ def test_hostile_meshes_are_skipped_with_a_warning_naming_the_link(robot: Path, 
     outcome = run_tfrec(["record", str(robot), "-o", "out.mcap", "--rrd", "out.rrd", "--duration", "0.2",
                          "--compression", "none"], cwd=tmp_path, isolated=True)
     assert not contract_violations(outcome, outputs=[tmp_path / "out.mcap"]), outcome.stderr
-    assert outcome.code == 0 and outcome.seconds < 20
+    assert outcome.code == 0
     # one warning for the robot: the count, the first few named (MESHES_LISTED), the rest counted
     [line] = [w for w in outcome.stderr.splitlines() if "meshes cannot be shown" in w]
     assert line.startswith(f"tfrec: warning: {len(HOSTILE_MESHES)} meshes cannot be shown (their links are logged "
