@@ -32,6 +32,8 @@ from tfrec.formats.rrd.paths import (
     APPLICATION_ID,
     DESCRIPTION_ROOT,
     DISPLAY_PREFIX_ROOT,
+    JOINT_COUNT,
+    JOINTS_ROOT,
     ROBOT_ROOT,
     TF_TREE_ROOT,
     joint_entity,
@@ -330,6 +332,8 @@ class RerunSink:
             raise WriteError("chunk stamps go back in time")
         self._last_time_ns = int(stamps[-1])
         index = [time_column(stamps)]
+        if not joint_names:
+            self._write_no_joints(index, stamps)
         for j, name in enumerate(joint_names):
             self._style_joint(name, velocity=True)
             self._write_scalars(joint_entity(name), index, stamps, positions[:, j])
@@ -381,6 +385,8 @@ class RerunSink:
             raise WriteError(f"{len(stamps)} stamps of {len(names)} joints have positions {np.shape(positions)}")
         if len(stamps):
             index = [time_column(stamps)]
+            if not names:
+                self._write_no_joints(index, stamps)
             for j, name in enumerate(names):
                 self._style_joint(name, velocity=False)
                 self._write_scalars(joint_entity(name), index, stamps, positions[:, j])
@@ -483,6 +489,12 @@ class RerunSink:
         elif given.any():
             kept = stamps[given]
             self._send(entity, [time_column(kept)], rr.Scalars.columns(scalars=values[given]), nbytes=2 * kept.nbytes)
+
+    def _write_no_joints(self, index: list[rr.TimeColumn], stamps: NDArray[np.int64]) -> None:
+        """Joint states that name no joint (a robot without moving joints): their stamps at ``/joints``."""
+        counts: dict[str, Any] = {JOINT_COUNT: np.zeros(len(stamps), np.uint32)}
+        self._send(f"/{JOINTS_ROOT}", index, rr.AnyValues.columns(drop_untyped_nones=True, **counts),
+                   nbytes=2 * stamps.nbytes)
 
     def _write_pair(self, parent: str, child: str, index: list[rr.TimeColumn], stamps: NDArray[np.int64],
                     translation: Array, rotation: Array) -> None:
