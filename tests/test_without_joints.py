@@ -189,3 +189,19 @@ def test_diff_and_inspect(recordings: dict[str, dict[str, Path]], robot: str, st
     for a, b in pairs:
         code, out, err = run(capsys, "diff", str(a), str(b))
         assert code == 0 and out.startswith("identical"), (a, b, out, err)
+
+
+@pytest.mark.parametrize("robot", ["cube", "statue"])
+def test_diff_plot_of_every_pair(recordings: dict[str, dict[str, Path]], robot: str, statue: str, tmp_path: Path,
+                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """--plot draws what there is for recording vs recording, description vs description and recording vs
+    description: the static frames, or the root link alone, nothing apart."""
+    description = CUBE if robot == "cube" else statue
+    paths = recordings[robot]
+    for k, (a, b) in enumerate([(paths["mcap"], paths["rosbag2"]), (description, description),
+                                (paths["rosbag1"], description)]):
+        picture = tmp_path / f"diff{k}.svg"
+        code, out, err = run(capsys, "diff", str(a), str(b), "--plot", str(picture))
+        assert code == 0 and f"wrote {picture}" in out, err
+        text = picture.read_text()
+        assert ("base_link" in text) if robot == "cube" else ("head" in text)

@@ -82,19 +82,37 @@ class Parser(argparse.ArgumentParser):
 
     def parse_args(self, args: Sequence[str] | None = None, namespace: Any = None) -> Any:  # type: ignore[override]
         self._argv = list(sys.argv[1:] if args is None else args)
+        self._habits_first()
         ns, extras = self.parse_known_args(self._argv, namespace)
         if extras:
-            from tfrec.cli._habits import answer_options
-
-            command = getattr(ns, "command", None)
-            message = f"unrecognized arguments: {' '.join(extras)}"
-            answer = answer_options(command, extras, self._argv)
-            if answer is not None:
-                message += f": {answer}"
-            elif ":=" in message:
-                message += " (xacro arguments name:=value go right after ROBOT)"
-            self.exit(2, f"{PROG}: error: {message} (see '{PROG}{' ' + command if command else ''} --help')\n")
+            self._unrecognized(getattr(ns, "command", None), extras)
         return ns
+
+    def _habits_first(self) -> None:
+        """A ROS tool's option that is no option of the command, answered before argparse reads it as an
+        abbreviation of another (``record --all`` is not ``--allow-path``)."""
+        from tfrec.cli._habits import answer_options
+
+        commands = next((a.choices for a in self._actions if isinstance(a, argparse._SubParsersAction)), {})
+        command = next((token for token in self._argv if not token.startswith("-")), None)
+        parser = commands.get(command) if command is not None else None
+        if parser is None:
+            return
+        unknown = [token for token in self._argv
+                   if token.startswith("-") and token.partition("=")[0] not in parser._option_string_actions]
+        if answer_options(command, unknown, self._argv) is not None:
+            self._unrecognized(command, unknown)
+
+    def _unrecognized(self, command: str | None, extras: Sequence[str]) -> NoReturn:
+        from tfrec.cli._habits import answer_options
+
+        message = f"unrecognized arguments: {' '.join(extras)}"
+        answer = answer_options(command, extras, self._argv)
+        if answer is not None:
+            message += f": {answer}"
+        elif ":=" in message:
+            message += " (xacro arguments name:=value go right after ROBOT)"
+        self.exit(2, f"{PROG}: error: {message} (see '{PROG}{' ' + command if command else ''} --help')\n")
 
     def error(self, message: str) -> NoReturn:
         if message.startswith("argument COMMAND: invalid choice"):
