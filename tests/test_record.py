@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from tests.conftest import ROBOTS
 from tfrec.cli import main
@@ -182,10 +183,11 @@ def test_bag_folder_read_by_rosbag2_reader(tmp_path: Path, capsys: pytest.Captur
     assert sorted(p.name for p in bag.iterdir()) == ["metadata.yaml", "run1_0.mcap"]
     from mcap.reader import make_reader
 
-    with open(bag / "run1_0.mcap", "rb") as stream:  # metadata.yaml holds what the MCAP embeds
+    with open(bag / "run1_0.mcap", "rb") as stream:  # metadata.yaml holds what the MCAP embeds, and names the file
         (embedded,) = make_reader(stream).iter_metadata()
-    assert (bag / "metadata.yaml").read_text() == "rosbag2_bagfile_information:\n" + "".join(
-        f"  {line}\n" for line in embedded.metadata["serialized_metadata"].splitlines())
+    meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert meta["relative_file_paths"] == ["run1_0.mcap"] and meta["files"][0]["path"] == "run1_0.mcap"
+    assert {**meta, "relative_file_paths": [], "files": []} == yaml.safe_load(embedded.metadata["serialized_metadata"])
     with Reader(bag) as reader:
         assert reader.message_count == 2 + 2 * 51
         topics = {c.topic: c.msgtype for c in reader.connections}

@@ -47,6 +47,7 @@ __all__ = [
     "DISPLAY_PREFIX_ROOT",
     "JOINTS_ROOT",
     "JOINT_COUNT",
+    "NO_JOINTS_ENTITY",
     "ROBOT_ROOT",
     "TF_ROOT",
     "TF_STATIC_ROOT",
@@ -81,6 +82,8 @@ TF_TREE_ROOT = "tf_tree"
 
 JOINT_COUNT = "joint_count"
 """The ``AnyValues`` component at ``/joints`` whose rows are /joint_states messages naming no joint."""
+NO_JOINTS_ENTITY = f"/{JOINTS_ROOT}"
+"""Where the stamps of /joint_states messages that name no joint are logged."""
 
 DISPLAY_PREFIX_ROOT = "frame_display_prefix"
 """A robot of a replay of several whose frame ids the viewer shows behind its name (``robot1/link0``:

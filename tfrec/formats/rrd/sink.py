@@ -26,14 +26,13 @@ from numpy.typing import NDArray
 from tfrec.errors import KinematicsError, WriteError
 from tfrec.formats.rrd._flush import disconnect, flush
 from tfrec.formats.rrd.blueprint import Reach, blueprint_of, joint_colour, joint_units, robot_layout, tf_tree_columns
-from tfrec.formats.rrd.columns import check_stamps, repeated_strings, time_column
+from tfrec.formats.rrd.columns import check_stamps, no_joint_columns, repeated_strings, time_column
 from tfrec.formats.rrd.geometry import MeshLoader, default_axis_length, missing_meshes, visual_columns, visual_radius
 from tfrec.formats.rrd.paths import (
     APPLICATION_ID,
     DESCRIPTION_ROOT,
     DISPLAY_PREFIX_ROOT,
-    JOINT_COUNT,
-    JOINTS_ROOT,
+    NO_JOINTS_ENTITY,
     ROBOT_ROOT,
     TF_TREE_ROOT,
     joint_entity,
@@ -297,16 +296,9 @@ class RerunSink:
 
     # -- samples ---------------------------------------------------------------------------
 
-    def write_chunk(
-        self,
-        *,
-        stamp_ns: NDArray[np.int64],
-        joint_names: Sequence[str],
-        positions: Array,
-        velocities: Array,
-        transforms: Transforms,
-    ) -> None:
-        """Log a piece of a trajectory: joint states and the moving joints' transforms.
+    def write_chunk(self, *, stamp_ns: NDArray[np.int64], joint_names: Sequence[str], positions: Array,
+                    velocities: Array, transforms: Transforms) -> None:
+        """Log a piece of a trajectory: joint states and the moving joints' transforms (without joints: the stamps).
 
         Every chunk widens the robot's reach the 3D view's camera frames (:meth:`fit_camera`).
 
@@ -332,8 +324,8 @@ class RerunSink:
             raise WriteError("chunk stamps go back in time")
         self._last_time_ns = int(stamps[-1])
         index = [time_column(stamps)]
-        if not joint_names:
-            self._write_no_joints(index, stamps)
+        if not joint_names:  # empty joint states: their stamps alone
+            self._send(NO_JOINTS_ENTITY, index, no_joint_columns(n), nbytes=2 * stamps.nbytes)
         for j, name in enumerate(joint_names):
             self._style_joint(name, velocity=True)
             self._write_scalars(joint_entity(name), index, stamps, positions[:, j])
@@ -386,7 +378,7 @@ class RerunSink:
         if len(stamps):
             index = [time_column(stamps)]
             if not names:
-                self._write_no_joints(index, stamps)
+                self._send(NO_JOINTS_ENTITY, index, no_joint_columns(len(stamps)), nbytes=2 * stamps.nbytes)
             for j, name in enumerate(names):
                 self._style_joint(name, velocity=False)
                 self._write_scalars(joint_entity(name), index, stamps, positions[:, j])
@@ -489,12 +481,6 @@ class RerunSink:
         elif given.any():
             kept = stamps[given]
             self._send(entity, [time_column(kept)], rr.Scalars.columns(scalars=values[given]), nbytes=2 * kept.nbytes)
-
-    def _write_no_joints(self, index: list[rr.TimeColumn], stamps: NDArray[np.int64]) -> None:
-        """Joint states that name no joint (a robot without moving joints): their stamps at ``/joints``."""
-        counts: dict[str, Any] = {JOINT_COUNT: np.zeros(len(stamps), np.uint32)}
-        self._send(f"/{JOINTS_ROOT}", index, rr.AnyValues.columns(drop_untyped_nones=True, **counts),
-                   nbytes=2 * stamps.nbytes)
 
     def _write_pair(self, parent: str, child: str, index: list[rr.TimeColumn], stamps: NDArray[np.int64],
                     translation: Array, rotation: Array) -> None:
