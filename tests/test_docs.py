@@ -82,5 +82,5 @@ def test_readme_tour_works_as_typed(tmp_path: Path) -> None:
                                  + "\n".join(printed[position:position + 40])
                                  + f"\nstderr:\n{run.stderr}") from None
     for name in ("marm.mcap", "marm.rrd", "marm-tree.png", "marm-check.png", "marm4.bag", "marm-diff.png",
-                 "marm-vs-long.rrd", "marm4-tail.mcap", "marm-joints.png", "fleet.parquet"):
+                 "marm-vs-long.rrd", "marm-vs-long.png", "marm4-tail.mcap", "marm-joints.png", "fleet.parquet", "cube.mcap"):
         assert (work / name).stat().st_size > 0, name

@@ -204,7 +204,7 @@ def record(
                     mcap_temp = outputs.path(plan.mcap)
                 stream = open(mcap_temp, "wb")  # noqa: SIM115 - closed below
                 streams.append(stream)
-                mcap_sink = McapSink(stream, compression=compression or "zstd", file_name=plan.mcap.name)
+                mcap_sink = McapSink(stream, compression=compression or "zstd")
                 sinks.append(mcap_sink)
             if plan.ros1_bag is not None:
                 from tfrec.formats.rosbag1 import Ros1BagSink
@@ -221,10 +221,9 @@ def record(
             for sink in sinks:
                 sink.begin(robot_description=robot.urdf, static=static, start_time_ns=start_time_ns)
             done = 0
-            # joint_state_publisher publishes nothing for a robot without moving joints, and
-            # robot_state_publisher no /tf: such a recording holds /robot_description and /tf_static only
-            chunks = iter_dynamic_chunks(robot, trajectory, chunk_samples=chunk_samples, frame_prefix=frame_prefix)
-            for chunk in chunks if robot.moving_joints else ():
+            # a robot without moving joints gets an empty /joint_states message per sample (so the recording
+            # lasts what was asked) and nothing on /tf: robot_state_publisher publishes no /tf for it
+            for chunk in iter_dynamic_chunks(robot, trajectory, chunk_samples=chunk_samples, frame_prefix=frame_prefix):
                 stamps = chunk.time_ns + start_time_ns
                 for sink in sinks:
                     sink.write_chunk(stamp_ns=stamps, joint_names=chunk.names, positions=chunk.positions,
@@ -234,8 +233,8 @@ def record(
                     progress(done, total)
             for sink in sinks:
                 sink.finish()
-            if bag_temp is not None and mcap_sink is not None:
-                write_bag_metadata(bag_temp, mcap_sink.bag_info)
+            if bag_temp is not None and mcap_sink is not None and plan.mcap is not None:
+                write_bag_metadata(bag_temp, mcap_sink.bag_info, file_name=plan.mcap.name)
         except BaseException:
             _abort_sinks(sinks)  # before their temporary files are removed
             raise

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from tfrec.cli._common import add_naming_arguments
+from tfrec.cli._common import add_naming_arguments, load_robot_option
 
 __all__ = ["add_parser"]
 
@@ -63,12 +63,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 def _cmd_convert(ns: argparse.Namespace) -> int:
     from tfrec.convert import convert
 
-    robot = None
-    if ns.robot:
-        from tfrec.description import load_description, parse_xacro_args
-
-        robot = load_description(ns.robot[0], args=parse_xacro_args(ns.robot[1:]), package_paths=ns.package_path,
-                                 strict_xacro=ns.strict_xacro)
+    robot = load_robot_option(ns)
     result = convert(ns.file, ns.out, bag=ns.bag, start_s=ns.start, end_s=ns.end, topics=ns.topics,
                      exclude=ns.exclude, namespace=ns.namespace, remap=ns.remap, tf_from_joints=ns.tf_from_joints,
                      robot=robot, compression=ns.compression, force=ns.force, package_paths=ns.package_path)

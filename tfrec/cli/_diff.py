@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from typing import Any
 
 from tfrec.cli._common import (
@@ -68,8 +69,9 @@ def add_parser(sub: Any) -> None:
                      help="also write both robots moving together as one Rerun recording: A solid and coloured "
                           "by its error, B a translucent ghost, the error over time with the tolerance")
     out.add_argument("--plot", metavar="OUT",
-                     help="(two recordings) draw each frame's translation and rotation error over time, worst frames "
-                          "first, with the tolerance and the first time it is exceeded (OUT.png, .svg or .pdf)")
+                     help="draw the errors over time, worst first, with the tolerance and the first time it is "
+                          "exceeded: each TF frame's for two recordings, each link's world displacement over the "
+                          "shared motion for a description (OUT.png, .svg or .pdf)")
     out.add_argument("--force", action="store_true", help="overwrite an existing --rrd or --plot file")
     diff.formatter_class = argparse.RawDescriptionHelpFormatter
     diff.epilog = ("examples:\n  tfrec diff golden.mcap new.mcap\n"
@@ -85,16 +87,25 @@ def add_parser(sub: Any) -> None:
     diff.set_defaults(handler=_cmd_diff)
 
 
-def split_inputs(tokens: list[str]) -> tuple[tuple[str, dict[str, str]], tuple[str, dict[str, str]]]:
-    """``A [name:=value ...] B [name:=value ...]`` → ((A, A's arguments), (B, B's arguments)).
+def split_inputs(tokens: list[str], package_paths: Sequence[str] = ()) -> tuple[tuple[str, dict[str, str]],
+                                                                           tuple[str, dict[str, str]]]:
+    """``A [name:=value ...] B [name:=value ...]`` → ((A, A's arguments), (B, B's arguments)); A or B may be
+    given in roslaunch's form ``PKG FILE.launch`` (:func:`tfrec.cli._common.package_form`).
 
     Raises:
         DiffError: not exactly two inputs, arguments before the first input, or a malformed argument.
+        DescriptionError: a ``PKG FILE`` whose file is not found.
     """
+    from tfrec.cli._common import package_form
     from tfrec.description import parse_xacro_args
 
+    resolved: list[str] = []
+    rest = list(tokens)
+    while rest:
+        first, *rest = package_form(rest, package_paths)
+        resolved.append(first)
     groups: list[tuple[str, list[str]]] = []
-    for token in tokens:
+    for token in resolved:
         if ":=" in token:
             if not groups:
                 raise DiffError(f"xacro argument '{token}' before A: arguments follow the input they belong to")
@@ -129,7 +140,7 @@ def _folder_of_recordings(path: str) -> bool:
 def _cmd_diff(ns: argparse.Namespace) -> int:
     from tfrec.diff.inputs import is_recording_path
 
-    (a, args_a), (b, args_b) = split_inputs(ns.inputs)
+    (a, args_a), (b, args_b) = split_inputs(ns.inputs, ns.package_path)
     if _folder_of_recordings(a) and _folder_of_recordings(b) and not args_a and not args_b:
         from tfrec.cli._fleet import run_diff_folders
 
@@ -162,7 +173,7 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
         report: Any = compare(a, b, topics=ns.topics, absolute=ns.absolute, namespace=ns.namespace, remap=ns.remap,
                               use_log_time=ns.use_log_time, **tolerances)
     else:
-        for given, flag in ((ns.topics, "topics"), (ns.absolute or None, "absolute"), (ns.plot, "plot")):
+        for given, flag in ((ns.topics, "topics"), (ns.absolute or None, "absolute")):
             if given is not None:
                 raise DiffError(f"`{flag}` compares two recordings; {a} or {b} is a robot description")
     comparison = None
@@ -179,10 +190,15 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
 
         write_overlay(comparison, ns.rrd, force=ns.force, package_paths=ns.package_path)
     sys.stdout.write(report.to_json() + "\n" if ns.json else as_flags(report.to_text()))
-    if ns.plot is not None:
+    if ns.plot is not None and recordings:
         from tfrec.plots import plot_diff
 
         plot_diff(report, ns.plot, force=ns.force)
+    elif ns.plot is not None and comparison is not None:  # descriptions: each link's world displacement
+        from tfrec.plots import plot_motion
+
+        plot_motion(comparison, ns.plot, force=ns.force)
+    if ns.plot is not None:
         print(f"wrote {ns.plot}", file=sys.stderr if ns.json else sys.stdout)
     if ns.rrd is not None:
         print(f"wrote {ns.rrd}   (open with: rerun {ns.rrd})", file=sys.stderr if ns.json else sys.stdout)

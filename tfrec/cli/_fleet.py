@@ -66,6 +66,10 @@ def _cmd_check(ns: argparse.Namespace) -> int:
     from tfrec.fleet import DEFAULT_GAP_PERIODS, check_tasks, find_recordings
 
     recordings = find_recordings(ns.paths)
+    if ns.robot:
+        from tfrec.cli._common import package_form
+
+        ns.robot = package_form(ns.robot, ns.package_path)
     tasks = check_tasks(
         recordings, robot_path=ns.robot[0] if ns.robot else None, robot_args=tuple(ns.robot[1:]) if ns.robot else (),
         package_paths=ns.package_path, strict_xacro=ns.strict_xacro, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol,

@@ -41,11 +41,12 @@ def _cmd_info(ns: argparse.Namespace) -> int:
         refuse_existing(ns.graph, force=ns.force)
     summary = summarize(ns.file, namespace=ns.namespace, remap=ns.remap)
     if ns.graph is not None:
-        from tfrec.conventions import TF, TF_STATIC
+        from tfrec.conventions import ROBOT_DESCRIPTION, TF, TF_STATIC
         from tfrec.formats import read_recording
         from tfrec.plots import recorded_graph, render_graph
 
-        render_graph(recorded_graph(read_recording(ns.file, topics=(TF, TF_STATIC), namespace=ns.namespace,
+        topics = (TF, TF_STATIC, ROBOT_DESCRIPTION)  # a description's root link is the tree of a robot without TF
+        render_graph(recorded_graph(read_recording(ns.file, topics=topics, namespace=ns.namespace,
                                                    remap=ns.remap)), ns.graph, force=ns.force)
     if ns.json:
         json.dump(summary, sys.stdout, indent=2)

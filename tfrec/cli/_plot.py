@@ -6,6 +6,8 @@ import argparse
 import sys
 from typing import Any
 
+from tfrec.cli._common import load_robot_option
+
 __all__ = ["add_parser"]
 
 
@@ -44,11 +46,7 @@ def _cmd_plot(ns: argparse.Namespace) -> int:
 
     plot_format(ns.output)
     refuse_existing(ns.output, force=ns.force)
-    robot = None
-    if ns.robot:
-        from tfrec.description import load_description, parse_xacro_args
-
-        robot = load_description(ns.robot[0], args=parse_xacro_args(ns.robot[1:]), package_paths=ns.package_path)
+    robot = load_robot_option(ns)
     namespace = None if ns.namespace is None else namespace_name(ns.namespace)
     recording = read_recording(ns.file, namespace=namespace)
     if recording.read_error:

@@ -166,9 +166,10 @@ def _record_robot(ns: argparse.Namespace, robot: Robot, launch: LaunchRobot | No
     if robot.moving_joints:
         print(f"recorded {robot.name}: {result.samples} samples over {seconds:g} s "
               f"({len(trajectory.joint_names)} actuated joints, --traj {ns.traj})")
-    else:  # joint_state_publisher publishes nothing for it, robot_state_publisher no /tf
-        print(f"recorded {robot.name}: no moving joints, so /robot_description and /tf_static only "
-              f"({len(robot.links)} link{'s' if len(robot.links) != 1 else ''})")
+    else:  # empty joint states keep the clock; robot_state_publisher publishes no /tf for them
+        links = f"{len(robot.links)} link{'s' if len(robot.links) != 1 else ''}"
+        print(f"recorded {robot.name}: {result.samples} samples over {seconds:g} s (no moving joints, {links}: "
+              "empty /joint_states messages, nothing on /tf)")
     if plan.bag_dir is not None:
         print(f"wrote {plan.bag_dir}/  (rosbag2: metadata.yaml + {plan.mcap.name if plan.mcap else ''})")
     elif plan.ros1_bag is not None:

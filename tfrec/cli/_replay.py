@@ -10,6 +10,7 @@ from typing import Any
 from tfrec.cli._common import (
     add_naming_arguments,
     as_flags,
+    load_robot_option,
     number,
     tolerance,
 )
@@ -100,12 +101,7 @@ def _cmd_replay(ns: argparse.Namespace) -> int:
 
         identify_recording(ns.file)  # a missing file or not a recording: said before looking for a viewer
         check_play_options(save=ns.save, connect=ns.connect, rate=ns.rate, loop=ns.loop, force=ns.force)
-    robot = None
-    if ns.robot:
-        from tfrec.description import load_description, parse_xacro_args
-
-        robot = load_description(ns.robot[0], args=parse_xacro_args(ns.robot[1:]), package_paths=ns.package_path,
-                                 strict_xacro=ns.strict_xacro)
+    robot = load_robot_option(ns)
     replay = load_replay(ns.file, robot=robot, topics=ns.topics, start_s=ns.start, end_s=ns.end,
                          need_robot=ns.check, namespace=ns.namespace, remap=ns.remap, use_log_time=ns.use_log_time)
     status = 0

@@ -105,10 +105,10 @@ class _McapOutput(MessageWriter):
     def __init__(self, path: Path, *, compression: str, bag_dir: Path | None) -> None:
         super().__init__()
         self._bag_dir = bag_dir
+        self._file_name = path.name
         self._stream: IO[bytes] = open(path, "wb")  # noqa: SIM115 - closed by finish() or abort()
         try:
-            self._writer = McapWriter(self._stream, compression=compression,
-                                      file_name=path.name if bag_dir is not None else "")
+            self._writer = McapWriter(self._stream, compression=compression)
         except BaseException:
             self._stream.close()
             raise
@@ -126,7 +126,7 @@ class _McapOutput(MessageWriter):
         self._writer.finish()
         self._stream.close()
         if self._bag_dir is not None:
-            write_bag_metadata(self._bag_dir, self._writer.bag_info)
+            write_bag_metadata(self._bag_dir, self._writer.bag_info, file_name=self._file_name)
 
     def abort(self) -> None:
         self._writer.abort()
