@@ -50,6 +50,8 @@ SLOW_TIER = (
     "tests/test_real_bags.py::test_an_rrd_of_another_application_is_refused",
     "tests/replay/test_replay.py::test_an_rrd_not_written_by_tfrec_is_refused",
     "tests/convert/test_convert.py::test_rerun_output",
+    "tests/test_without_joints.py::test_info_replay_check_and_plot_work[cube-rrd]",
+    "tests/test_without_joints.py::test_info_replay_check_and_plot_work[statue-rrd]",
     "tests/formats/test_rrd.py::test_a_write_that_fails_midway_is_a_recording_error",
     # bombs and floods, each in a process of its own under memory limits
     "tests/faults/test_hostile_recordings.py::test_an_rrd_that_aborts_reruns_reader_is_one_line",
