@@ -61,8 +61,11 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_convert(ns: argparse.Namespace) -> int:
-    from tfrec.convert import convert
+    from tfrec.convert import check_convert_target, convert, output_kind
 
+    target, kind = output_kind(ns.out, ns.bag)  # checked before anything is read, --robot included
+    check_convert_target(target, kind, compression=ns.compression, force=ns.force,
+                         inputs=[ns.file, ns.robot[0] if ns.robot else None])
     robot = None
     if ns.robot:
         from tfrec.description import load_description, parse_xacro_args

@@ -70,7 +70,8 @@ def add_parser(sub: Any) -> None:
     out.add_argument("--plot", metavar="OUT",
                      help="(two recordings) draw each frame's translation and rotation error over time, worst frames "
                           "first, with the tolerance and the first time it is exceeded (OUT.png, .svg or .pdf)")
-    out.add_argument("--force", action="store_true", help="overwrite an existing --rrd or --plot file")
+    out.add_argument("--force", action="store_true",
+                     help="overwrite an existing --rrd, --plot or --report file (only one tfrec wrote, never an input)")
     diff.formatter_class = argparse.RawDescriptionHelpFormatter
     diff.epilog = ("examples:\n  tfrec diff golden.mcap new.mcap\n"
                    "  tfrec diff a.mcap b.bag --pos-tol 1e-6 --json\n"
@@ -126,6 +127,27 @@ def _folder_of_recordings(path: str) -> bool:
     return False
 
 
+def _check_outputs(ns: argparse.Namespace, inputs: list[str | None]) -> None:
+    """``--rrd`` and ``--plot``, checked together before anything is read (:func:`tfrec._atomic.check_outputs`);
+    ``inputs``: A, B, ``--joints`` and ``--traj`` (a CSV file unless it names a kind of trajectory)."""
+    from pathlib import Path
+
+    from tfrec._atomic import OutputKind, check_outputs
+    from tfrec.formats.kinds import RRD
+    from tfrec.trajectory.types import TrajectoryKind
+
+    outputs: list[tuple[Path, OutputKind]] = []
+    if ns.rrd is not None:
+        outputs.append((Path(ns.rrd), RRD))
+    if ns.plot is not None:
+        from tfrec.plots import picture_kind, plot_format
+
+        plot_format(ns.plot)
+        outputs.append((Path(ns.plot), picture_kind(ns.plot)))
+    check_outputs(outputs, force=ns.force, inputs=[path for path in inputs
+                                                   if path not in TrajectoryKind._value2member_map_])
+
+
 def _cmd_diff(ns: argparse.Namespace) -> int:
     from tfrec.diff.inputs import is_recording_path
 
@@ -140,17 +162,7 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
                                 "(use `report` for the results)")
         ns.a, ns.b = a, b
         return run_diff_folders(ns)
-    if ns.rrd is not None:
-        from pathlib import Path
-
-        from tfrec._atomic import check_target
-
-        check_target(Path(ns.rrd), suffix=".rrd", what="Rerun", force=ns.force)
-    if ns.plot is not None:
-        from tfrec.plots import plot_format, refuse_existing
-
-        plot_format(ns.plot)
-        refuse_existing(ns.plot, force=ns.force)
+    _check_outputs(ns, [a, b, ns.joints, ns.traj])
     tolerances = {"pos_tol": ns.pos_tol, "rot_tol": ns.rot_tol, "joint_tol": ns.joint_tol}
     recordings = is_recording_path(a) and is_recording_path(b) and not args_a and not args_b
     if recordings:

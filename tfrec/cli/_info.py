@@ -38,7 +38,7 @@ def _cmd_info(ns: argparse.Namespace) -> int:
         from tfrec.plots import graph_format, refuse_existing
 
         graph_format(ns.graph)
-        refuse_existing(ns.graph, force=ns.force)
+        refuse_existing(ns.graph, force=ns.force, inputs=[ns.file])
     summary = summarize(ns.file, namespace=ns.namespace, remap=ns.remap)
     if ns.graph is not None:
         from tfrec.conventions import TF, TF_STATIC

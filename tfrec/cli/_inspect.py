@@ -97,7 +97,7 @@ def _cmd_inspect(ns: argparse.Namespace) -> int:
         from tfrec.plots import graph_format, refuse_existing
 
         graph_format(ns.graph)
-        refuse_existing(ns.graph, force=ns.force)
+        refuse_existing(ns.graph, force=ns.force, inputs=[ns.robot])
     robot = load_robot(ns)
     if ns.graph is not None:
         from tfrec.plots import render_graph, robot_graph

@@ -43,7 +43,7 @@ def _cmd_plot(ns: argparse.Namespace) -> int:
     from tfrec.plots import plot_format, plot_recording, refuse_existing
 
     plot_format(ns.output)
-    refuse_existing(ns.output, force=ns.force)
+    refuse_existing(ns.output, force=ns.force, inputs=[ns.file, ns.robot[0] if ns.robot else None])
     robot = None
     if ns.robot:
         from tfrec.description import load_description, parse_xacro_args

@@ -82,24 +82,40 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     return rep
 
 
+def _check_outputs(ns: argparse.Namespace, inputs: list[str | None]) -> None:
+    """``--save`` and ``--plot``, checked together before anything is read (:func:`tfrec._atomic.check_outputs`)."""
+    from pathlib import Path
+
+    from tfrec._atomic import OutputKind, check_outputs
+    from tfrec.formats.kinds import RRD
+
+    outputs: list[tuple[Path, OutputKind]] = []
+    if ns.plot is not None:
+        from tfrec.plots import picture_kind, plot_format
+
+        if not ns.check:
+            raise ReplayError("`plot` draws a check: it goes with `check`")
+        plot_format(ns.plot)
+        outputs.append((Path(ns.plot), picture_kind(ns.plot)))
+    if ns.save is not None:
+        outputs.append((Path(ns.save), RRD))
+    check_outputs(outputs, force=ns.force, inputs=inputs)
+
+
 def _cmd_replay(ns: argparse.Namespace) -> int:
     from tfrec.replay.check import check_replay, format_check
     from tfrec.replay.load import load_replay
     from tfrec.replay.play import check_play_options, replay_to_rerun
 
     live = not ns.check or ns.save is not None or ns.connect is not None
-    if ns.plot is not None:
-        from tfrec.plots import plot_format, refuse_existing
-
-        if not ns.check:
-            raise ReplayError("`plot` draws a check: it goes with `check`")
-        plot_format(ns.plot)
-        refuse_existing(ns.plot, force=ns.force)
+    inputs = [ns.file, ns.robot[0] if ns.robot else None]
+    _check_outputs(ns, inputs)
     if live:
         from tfrec.formats import identify_recording
 
         identify_recording(ns.file)  # a missing file or not a recording: said before looking for a viewer
-        check_play_options(save=ns.save, connect=ns.connect, rate=ns.rate, loop=ns.loop, force=ns.force)
+        check_play_options(save=ns.save, connect=ns.connect, rate=ns.rate, loop=ns.loop, force=ns.force,
+                           inputs=inputs)
     robot = None
     if ns.robot:
         from tfrec.description import load_description, parse_xacro_args

@@ -20,6 +20,7 @@ from tfrec.plots._figure import (
     PlotError,
     assign_colours,
     graph_format,
+    picture_kind,
     plot_format,
     refuse_existing,
 )
@@ -41,6 +42,7 @@ __all__ = [
     "errors_from_diff",
     "frame_paths",
     "graph_format",
+    "picture_kind",
     "plot_check",
     "plot_diff",
     "plot_errors",

@@ -321,7 +321,7 @@ def plot_diff(report: DiffReport, path: str | os.PathLike[str], *, force: bool =
         WriteError: the file cannot be written.
     """
     plot_format(path)
-    refuse_existing(path, force=force)
+    refuse_existing(path, force=force, inputs=[p for p in (report.a.path, report.b.path) if p])
     series = errors_from_diff(report)
     if not series:
         raise PlotError(f"{display_path(report.a.path)} and {display_path(report.b.path)}: no TF frame pair in "
@@ -342,7 +342,7 @@ def plot_check(report: CheckReport, path: str | os.PathLike[str], *, force: bool
         WriteError: the file cannot be written.
     """
     plot_format(path)
-    refuse_existing(path, force=force)
+    refuse_existing(path, force=force, inputs=[report.path] if report.path else [])
     series = errors_from_check(report)
     if not series:
         raise PlotError(f"{display_path(report.path)}: no frame was compared, no frame errors to plot")

@@ -278,7 +278,7 @@ def plot_recording(recording: Recording, path: str | os.PathLike[str], *, robot:
         WriteError: the file cannot be written.
     """
     fmt = plot_format(path)
-    refuse_existing(path, force=force)
+    refuse_existing(path, force=force, inputs=[recording.path] if recording.path else [])
     recording = one_robot(recording, namespace)
     js = recording.joint_states if recording.joint_states is not None and len(recording.joint_states) else None
     if js is None and not any(len(s) for s in recording.tf.values()):
