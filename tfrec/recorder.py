@@ -21,9 +21,9 @@ import numpy as np
 from tfrec._atomic import AtomicOutputs, OutputKind, check_outputs
 from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.errors import WriteError
-from tfrec.formats.kinds import MCAP, ROS1_BAG, ROSBAG2, RRD, bag_storage_name
+from tfrec.formats.kinds import MCAP, ROS1_BAG, ROSBAG2, RRD
 from tfrec.formats.mcap.writer import McapSink, check_time_range
-from tfrec.formats.rosbag2.metadata import write_bag_metadata
+from tfrec.formats.rosbag2.metadata import bag_storage_name, write_bag_metadata
 from tfrec.kinematics.fk import DEFAULT_CHUNK_SAMPLES, iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
 from tfrec.trajectory.types import JointTrajectory, TrajectoryKind

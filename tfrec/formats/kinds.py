@@ -22,10 +22,10 @@ from tfrec._atomic import FileKind, NotOurs, read_head
 from tfrec.errors import ReadError
 from tfrec.formats.mcap.records import MCAP_MAGIC
 from tfrec.formats.rosbag1._records import ROS1_MAGIC
-from tfrec.formats.rosbag2.metadata import read_bag_metadata
+from tfrec.formats.rosbag2.metadata import bag_storage_name, read_bag_metadata
 from tfrec.formats.rrd.reader import RRD_MAGIC
 
-__all__ = ["MCAP", "ROS1_BAG", "ROSBAG2", "RRD", "STORAGE_SIGNATURES", "Rosbag2Folder", "bag_storage_name"]
+__all__ = ["MCAP", "ROS1_BAG", "ROSBAG2", "RRD", "STORAGE_SIGNATURES", "Rosbag2Folder"]
 
 MCAP = FileKind("an MCAP file", (MCAP_MAGIC,), suffix=".mcap")
 ROS1_BAG = FileKind("a ROS 1 bag", (ROS1_MAGIC,), suffix=".bag")
@@ -33,11 +33,6 @@ RRD = FileKind("a Rerun recording", (RRD_MAGIC,), suffix=".rrd")
 
 STORAGE_SIGNATURES = (MCAP_MAGIC, b"SQLite format 3\0", b"\x28\xb5\x2f\xfd")
 """How a rosbag2 storage file begins: MCAP, sqlite3, or either compressed whole with zstd (``bag_0.mcap.zstd``)."""
-
-
-def bag_storage_name(folder_name: str) -> str:
-    """The MCAP file tfrec writes in a rosbag2 folder, named after it as ``ros2 bag record`` names it."""
-    return f"{folder_name}_0.mcap"
 
 
 @final
@@ -59,7 +54,10 @@ class Rosbag2Folder:
         meta = target / "metadata.yaml"
         if not os.path.lexists(meta):
             raise NotOurs("it has no metadata.yaml")
-        read_head(meta, 0)  # a regular file, not a link
+        try:
+            read_head(meta, 0)  # a regular file, not a link
+        except NotOurs as why:
+            raise NotOurs(f"its metadata.yaml: {why}") from None
         try:
             files = read_bag_metadata(target).files
         except ReadError as err:

@@ -78,14 +78,14 @@ _FONT = "DejaVu Sans"  # ships with matplotlib: the same metrics everywhere
 
 def _svg(path: Path, head: bytes) -> str | None:
     text = head.decode("utf-8", "replace").lstrip("\ufeff \t\r\n")
-    return None if text.startswith("<") and "<svg" in text else "it is not SVG text"
+    return None if text.startswith("<") and "<svg" in text else "its text is not SVG"
 
 
 _DOT = re.compile(r"\s*(?:(?://|#)[^\n]*\n\s*|/\*.*?\*/\s*)*(?:strict\s+)?(?:di)?graph\b", re.IGNORECASE | re.DOTALL)
 
 
 def _dot(path: Path, head: bytes) -> str | None:
-    return None if _DOT.match(head.decode("utf-8", "replace").lstrip("\ufeff")) else "it is not a DOT graph"
+    return None if _DOT.match(head.decode("utf-8", "replace").lstrip("\ufeff")) else "no graph or digraph statement begins it"
 
 
 PICTURE_KINDS: dict[str, FileKind] = {
