@@ -24,6 +24,7 @@ that a 255-byte output name works); those of killed runs are removed by the next
 from __future__ import annotations
 
 import errno
+import functools
 import os
 import re
 import shutil
@@ -203,7 +204,7 @@ def check_path_length(path: str | os.PathLike[str], *, what: str = "output") -> 
     if len(raw) >= PATH_MAX:
         raise WriteError(f"{_shortened(path)}: the {what}'s path has {len(raw):,} bytes; the system takes at most "
                          f"{PATH_MAX - 1:,}")
-    limit = _name_max(Path(os.fsdecode(raw)).parent)
+    limit = _name_max(os.path.dirname(os.fsdecode(raw)))
     for part in raw.split(b"/"):
         if len(part) > limit:
             raise WriteError(f"{os.fspath(path)}: a name in the {what}'s path has {len(part):,} bytes; the file "
@@ -215,9 +216,12 @@ def _shortened(path: str | os.PathLike[str]) -> str:
     return text if len(text) <= 120 else f"{text[:60]}…{text[-50:]}"
 
 
-def _name_max(folder: Path) -> int:
-    """The longest file name (bytes) in ``folder``, or in its nearest existing parent."""
-    for place in (folder, *folder.parents):
+@functools.lru_cache(maxsize=64)
+def _name_max(folder: str) -> int:
+    """The longest file name (bytes) in ``folder``, or in its nearest existing parent (asked once per folder:
+    ``check`` checks thousands of recordings in a few)."""
+    path = Path(folder)
+    for place in (path, *path.parents):
         try:
             return int(os.pathconf(place if str(place) else ".", "PC_NAME_MAX"))
         except (OSError, ValueError):
@@ -233,7 +237,7 @@ def _check_name(target: Path, kind: OutputKind) -> None:
     check_path_length(target)
     temp = target.parent / ("." + _MARK + "4194304-00000000" + _temp_suffix(target))  # the longest temporary
     check_path_length(temp)
-    limit = _name_max(target.parent)
+    limit = _name_max(str(target.parent))
     for inner in kind.inner_names(target):
         size = len(os.fsencode(inner))
         if size > limit:  # a rosbag2 folder's storage file is named after the folder
@@ -284,16 +288,18 @@ class _InputGuard:
     rosbag2 folder."""
 
     def __init__(self, inputs: Sequence[str]) -> None:
-        self._inputs = [(given, os.path.realpath(given)) for given in inputs]
+        folders: dict[str, str] = {}  # thousands of recordings found by check share a few folders: resolved once
+        bags: dict[str, bool] = {}
+        self._inputs = [(given, real, _recording_folder(real, bags))
+                        for given, real in ((given, _resolved(given, folders)) for given in inputs)]
 
     def check(self, target: Path) -> None:
         out = os.path.realpath(target)  # through a link too: a link to an input is that input
-        for given, real in self._inputs:
+        for given, real, home in self._inputs:
             if out == real:
                 raise WriteError(f"{target}: is the input {given}; an input is never an output")
             if _within(real, out):
                 raise WriteError(f"{target}: holds the input {given}; an output never replaces an input")
-            home = _recording_folder(real)
             if home is not None and _within(out, home):
                 raise WriteError(f"{target}: lies inside the rosbag2 folder of the input {given}; an output is "
                                  "never written into an input")
@@ -318,8 +324,7 @@ class _InputGuard:
 
     def _input_ids(self) -> dict[tuple[int, int] | None, str]:
         ids: dict[tuple[int, int] | None, str] = {}
-        for given, real in self._inputs:
-            home = _recording_folder(real)
+        for given, real, home in self._inputs:
             files = [Path(real)]
             if home is not None:
                 try:
@@ -330,6 +335,18 @@ class _InputGuard:
                 ids.setdefault(_file_id(file), given)
         ids.pop(None, None)
         return ids
+
+
+def _resolved(path: str, folders: dict[str, str]) -> str:
+    """``os.path.realpath(path)``, with the folders it lies in resolved once for many paths (``folders``)."""
+    head, name = os.path.split(os.path.join(os.getcwd(), path))
+    if name in ("", ".", ".."):
+        return os.path.realpath(path)
+    folder = folders.get(head)
+    if folder is None:
+        folder = folders[head] = os.path.realpath(head)
+    full = os.path.join(folder, name)
+    return os.path.realpath(full) if os.path.islink(full) else full
 
 
 def _scan(folder: Path, *, limit: int) -> list[os.DirEntry[str]]:
@@ -346,12 +363,15 @@ def _file_id(path: Path) -> tuple[int, int] | None:
     return (st.st_dev, st.st_ino) if stat.S_ISREG(st.st_mode) else None
 
 
-def _recording_folder(real: str) -> str | None:
-    """The folder an input recording is (a folder), or lies in (a rosbag2 bag's metadata.yaml or storage file)."""
+def _recording_folder(real: str, bags: dict[str, bool]) -> str | None:
+    """The folder an input recording is (a folder), or lies in (a rosbag2 bag's metadata.yaml or storage file);
+    ``bags``: whether a folder holds a metadata.yaml, found once per folder."""
     if os.path.isdir(real):
         return real
     parent = os.path.dirname(real)
-    return parent if os.path.isfile(os.path.join(parent, "metadata.yaml")) else None
+    if parent not in bags:
+        bags[parent] = os.path.isfile(os.path.join(parent, "metadata.yaml"))
+    return parent if bags[parent] else None
 
 
 @final
