@@ -418,7 +418,8 @@ def test_an_output_is_never_written_into_an_input_bag(seeds: Path, tmp_path: Pat
 def test_a_target_changed_after_its_check_is_refused_at_commit(seeds: Path, tmp_path: Path) -> None:
     """The check is repeated when the outputs are renamed: a file that became a user's, or a bag folder that got a
     user's file, between the check and the end of the writing is not replaced, and nothing is renamed."""
-    from tfrec._atomic import AtomicOutputs, check_outputs
+    from tfrec._atomic import AtomicOutputs
+    from tfrec._outputs import check_outputs
     from tfrec.errors import WriteError
     from tfrec.formats.kinds import MCAP, ROSBAG2
 
@@ -473,7 +474,7 @@ def test_a_bag_folder_is_replaced_entry_by_entry(seeds: Path, tmp_path: Path) ->
 ])
 def test_what_is_not_a_rosbag2_folder(make: Callable[[Path], object], reason: str, seeds: Path,
                                       tmp_path: Path) -> None:
-    from tfrec._atomic import NotOurs
+    from tfrec._outputs import NotOurs
     from tfrec.formats.kinds import ROSBAG2
 
     bag = tmp_path / "bag"

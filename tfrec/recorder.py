@@ -18,7 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from tfrec._atomic import AtomicOutputs, OutputKind, check_outputs
+from tfrec._atomic import AtomicOutputs
+from tfrec._outputs import OutputKind, check_outputs
 from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.errors import WriteError
 from tfrec.formats.kinds import MCAP, ROS1_BAG, ROSBAG2, RRD
@@ -86,7 +87,7 @@ def plan_outputs(
 
     Raises:
         WriteError: nothing to write, conflicting options, or a target that
-            :func:`tfrec._atomic.check_outputs` refuses (wrong extension, exists without ``force``, not
+            :func:`tfrec._outputs.check_outputs` refuses (wrong extension, exists without ``force``, not
             what tfrec writes there, an input).
     """
     if no_mcap and no_rrd:

@@ -128,11 +128,11 @@ def _folder_of_recordings(path: str) -> bool:
 
 
 def _check_outputs(ns: argparse.Namespace, inputs: list[str | None]) -> None:
-    """``--rrd`` and ``--plot``, checked together before anything is read (:func:`tfrec._atomic.check_outputs`);
+    """``--rrd`` and ``--plot``, checked together before anything is read (:func:`tfrec._outputs.check_outputs`);
     ``inputs``: A, B, ``--joints`` and ``--traj`` (a CSV file unless it names a kind of trajectory)."""
     from pathlib import Path
 
-    from tfrec._atomic import OutputKind, check_outputs
+    from tfrec._outputs import OutputKind, check_outputs
     from tfrec.formats.kinds import RRD
     from tfrec.trajectory.types import TrajectoryKind
 

@@ -90,12 +90,12 @@ def run_diff_folders(ns: argparse.Namespace) -> int:
 
 def _check_report(ns: argparse.Namespace, inputs: Sequence[Any]) -> None:
     """``--report`` before anything is read: an existing one only with ``--force`` or ``--resume`` (which reads it
-    first), and only a tfrec report; never a recording of the run (:func:`tfrec._atomic.check_target`)."""
+    first), and only a tfrec report; never a recording of the run (:func:`tfrec._outputs.check_target`)."""
     if ns.report is None:
         return
     from pathlib import Path
 
-    from tfrec._atomic import check_target
+    from tfrec._outputs import check_target
     from tfrec.formats.report import report_kind
 
     check_target(Path(ns.report), report_kind(ns.report), force=ns.force or ns.resume, inputs=inputs)

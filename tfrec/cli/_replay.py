@@ -83,10 +83,10 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 
 def _check_outputs(ns: argparse.Namespace, inputs: list[str | None]) -> None:
-    """``--save`` and ``--plot``, checked together before anything is read (:func:`tfrec._atomic.check_outputs`)."""
+    """``--save`` and ``--plot``, checked together before anything is read (:func:`tfrec._outputs.check_outputs`)."""
     from pathlib import Path
 
-    from tfrec._atomic import OutputKind, check_outputs
+    from tfrec._outputs import OutputKind, check_outputs
     from tfrec.formats.kinds import RRD
 
     outputs: list[tuple[Path, OutputKind]] = []

@@ -17,7 +17,8 @@ from collections.abc import Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from tfrec._atomic import AtomicOutputs, OutputKind, check_target
+from tfrec._atomic import AtomicOutputs
+from tfrec._outputs import OutputKind, check_target
 from tfrec.conventions import (
     COMPRESSIONS,
     NS_PER_S,
@@ -93,7 +94,7 @@ def output_kind(target: str | os.PathLike[str] | None, bag: str | os.PathLike[st
 def check_convert_target(target: Path, kind: str, *, compression: str | None, force: bool,
                          inputs: Sequence[str | os.PathLike[str] | None] = ()) -> None:
     """Check the output before anything is read: its compression, and that it may be written
-    (:func:`tfrec._atomic.check_target`).
+    (:func:`tfrec._outputs.check_target`).
 
     Args:
         inputs: what the conversion reads (the recording, ``--robot``'s description): never the output.

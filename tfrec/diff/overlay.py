@@ -17,7 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tfrec._atomic import AtomicOutputs, check_target
+from tfrec._atomic import AtomicOutputs
+from tfrec._outputs import check_target
 from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.diff.motion import MotionComparison, Posed
 from tfrec.formats.kinds import RRD

@@ -1,4 +1,4 @@
-"""The recordings tfrec writes, recognized on disk: the :class:`tfrec._atomic.OutputKind` of each output.
+"""The recordings tfrec writes, recognized on disk: the :class:`tfrec._outputs.OutputKind` of each output.
 
 ``--force`` replaces an existing output only when it is of the kind tfrec writes there (docs/security.md):
 
@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import final
 
-from tfrec._atomic import FileKind, NotOurs, read_head
+from tfrec._outputs import FileKind, NotOurs, read_head
 from tfrec.errors import ReadError
 from tfrec.formats.mcap.records import MCAP_MAGIC
 from tfrec.formats.rosbag1._records import ROS1_MAGIC

@@ -23,7 +23,8 @@ from pathlib import Path
 from types import TracebackType
 from typing import IO, Any, Literal, final
 
-from tfrec._atomic import AtomicOutputs, FileKind, check_target
+from tfrec._atomic import AtomicOutputs
+from tfrec._outputs import FileKind, check_target
 from tfrec.errors import ReadError, RecordingError, TfrecError, WriteError
 
 __all__ = [
@@ -137,7 +138,7 @@ JSONL_REPORT = FileKind("a tfrec report", empty=True, test=_jsonl_report)
 
 
 def report_kind(path: str | os.PathLike[str]) -> FileKind:
-    """The kind of the report ``path`` (:class:`tfrec._atomic.OutputKind`: how an existing one is recognized).
+    """The kind of the report ``path`` (:class:`tfrec._outputs.OutputKind`: how an existing one is recognized).
 
     Raises:
         ReportError: a name that ends in neither .parquet nor .jsonl.

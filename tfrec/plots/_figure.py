@@ -20,7 +20,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec._atomic import AtomicOutputs, FileKind, check_target
+from tfrec._atomic import AtomicOutputs
+from tfrec._outputs import FileKind, check_target
 from tfrec.errors import PlotError
 
 if TYPE_CHECKING:
@@ -94,7 +95,7 @@ PICTURE_KINDS: dict[str, FileKind] = {
     "svg": FileKind("an SVG picture", test=_svg),
     "dot": FileKind("a Graphviz DOT graph", test=_dot),
 }
-"""The kind of each picture format (:class:`tfrec._atomic.OutputKind`: how an existing one is recognized)."""
+"""The kind of each picture format (:class:`tfrec._outputs.OutputKind`: how an existing one is recognized)."""
 
 
 def picture_kind(path: str | os.PathLike[str]) -> FileKind:
@@ -104,7 +105,7 @@ def picture_kind(path: str | os.PathLike[str]) -> FileKind:
 
 def refuse_existing(path: str | os.PathLike[str], *, force: bool,
                     inputs: Iterable[str | os.PathLike[str] | None] = ()) -> None:
-    """Check a picture's name before anything is drawn (:func:`tfrec._atomic.check_target`): an existing file
+    """Check a picture's name before anything is drawn (:func:`tfrec._outputs.check_target`): an existing file
     only with ``force``, and only a picture of its format; never an input.
 
     Raises:

@@ -19,7 +19,8 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec._atomic import AtomicOutputs, check_target
+from tfrec._atomic import AtomicOutputs
+from tfrec._outputs import check_target
 from tfrec.errors import ReplayError
 from tfrec.formats.kinds import RRD
 from tfrec.recording import FrameSeries, JointStates
