@@ -523,3 +523,22 @@ def test_temporaries_have_short_names_and_stale_ones_are_removed(tmp_path: Path,
     named_like_one = tmp_path / f".tfrec-{dead}-0123abcd.mcap"
     assert main(["record", str(ROBOTS / "marm.xacro"), *SHORT, "--no-rrd", "-o", str(named_like_one)]) == 2
     assert "named like tfrec's temporary files" in capsys.readouterr().err
+
+
+def test_what_appears_in_a_bag_while_it_is_replaced_is_kept(seeds: Path, tmp_path: Path) -> None:
+    """A folder is replaced by removing the entries its kind recognized, never a whole tree: a file that appeared
+    after the check (here: one the check did not list) is kept in a folder of its own, with a warning."""
+    from tfrec._atomic import _replace
+    from tfrec.formats.kinds import ROSBAG2
+
+    bag, new = tmp_path / "bag", tmp_path / ".tfrec-1-0123abcd"
+    shutil.copytree(seeds / "bag", bag)
+    owned = ROSBAG2.owned(bag)
+    (bag / "appeared.txt").write_text("written meanwhile")
+    new.mkdir()
+    (new / "metadata.yaml").write_text("new")
+    with pytest.warns(UserWarning, match=r"bag: files that appeared in it while it was replaced are kept in .*"
+                                         r"\.tfrec-kept-[0-9a-f]{8}"):
+        _replace(new, bag, owned)
+    kept = next(tmp_path.glob(".tfrec-kept-*"))
+    assert sorted(p.name for p in kept.iterdir()) == ["appeared.txt"] and (bag / "metadata.yaml").read_text() == "new"

@@ -25,7 +25,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     conv.add_argument("file", metavar="IN", help="a .mcap file, a rosbag2 folder or a ROS 1 .bag")
     conv.add_argument("out", metavar="OUT", nargs="?", help="OUT.mcap, OUT.bag or OUT.rrd")
     conv.add_argument("--bag", metavar="DIR", help="write a rosbag2 folder instead (DIR/metadata.yaml + MCAP)")
-    conv.add_argument("--force", action="store_true", help="overwrite an existing output")
+    conv.add_argument("--force", action="store_true", help="replace an existing output tfrec would write there (never another file, nor the input)")
     conv.add_argument("--compression", metavar="C",
                       help="chunk compression: MCAP zstd (default), lz4 or none; ROS 1 none (default), bz2 or lz4")
     what = conv.add_argument_group("what is written")

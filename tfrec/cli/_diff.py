@@ -71,7 +71,7 @@ def add_parser(sub: Any) -> None:
                      help="(two recordings) draw each frame's translation and rotation error over time, worst frames "
                           "first, with the tolerance and the first time it is exceeded (OUT.png, .svg or .pdf)")
     out.add_argument("--force", action="store_true",
-                     help="overwrite an existing --rrd, --plot or --report file (only one tfrec wrote, never an input)")
+                     help="replace an existing --rrd, --plot or --report file tfrec would write there (never another file, nor an input)")
     diff.formatter_class = argparse.RawDescriptionHelpFormatter
     diff.epilog = ("examples:\n  tfrec diff golden.mcap new.mcap\n"
                    "  tfrec diff a.mcap b.bag --pos-tol 1e-6 --json\n"

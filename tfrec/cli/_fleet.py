@@ -59,7 +59,7 @@ def add_parser(sub: Any) -> None:
     check.add_argument("--gap-periods", metavar="N", type=float, default=None,
                        help="a gap longer than N periods of a stream's rate is a finding (default 5)")
     check.add_argument("--force", action="store_true",
-                       help="overwrite an existing --report (only a tfrec report; --resume needs no --force)")
+                       help="replace an existing --report (only a tfrec report; --resume replaces it too)")
     add_engine_arguments(check)
     check.set_defaults(handler=_cmd_check)
 

@@ -33,7 +33,7 @@ def add_parser(sub: Any) -> None:
     plot.add_argument("--namespace", metavar="NS",
                       help="the robot of this namespace (/robot1; '/' for the root's) when the recording holds "
                            "several")
-    plot.add_argument("--force", action="store_true", help="overwrite an existing OUT")
+    plot.add_argument("--force", action="store_true", help="replace an existing OUT picture (never another file)")
     plot.set_defaults(handler=_cmd_plot)
 
 

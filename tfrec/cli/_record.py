@@ -84,7 +84,7 @@ def add_parser(sub: Any) -> None:
                      help="stamp of the first sample, seconds since the Unix epoch "
                           f"(default {DEFAULT_START_TIME_NS // NS_PER_S} = 2023-11-14T22:13:20Z, so runs are "
                           "byte-identical)")
-    out.add_argument("--force", action="store_true", help="overwrite existing outputs")
+    out.add_argument("--force", action="store_true", help="replace existing outputs tfrec would write there (never another file or folder, nor an input)")
     rec.set_defaults(handler=_cmd_record)
 
 

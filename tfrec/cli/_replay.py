@@ -48,7 +48,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     target.add_argument("--save", metavar="OUT.rrd", help="write a Rerun recording instead, as fast as possible")
     target.add_argument("--connect", metavar="URL",
                         help="stream to a running viewer, e.g. rerun+http://127.0.0.1:9876/proxy")
-    where.add_argument("--force", action="store_true", help="overwrite an existing --save file")
+    where.add_argument("--force", action="store_true", help="replace an existing --save recording or --plot picture (never another file, nor the input)")
     how = rep.add_argument_group("playback")
     how.add_argument("--rate", metavar="F", type=float, default=1.0,
                      help="speed factor of a live replay: 0.5 half speed, 2 twice as fast (default 1)")
@@ -73,7 +73,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     check.add_argument("--json", action="store_true", help="print the --check report as JSON")
     check.add_argument("--plot", metavar="OUT",
                        help="with --check: draw each frame's translation and rotation error over time, with the "
-                            "tolerance and the first time it is exceeded (OUT.png, .svg or .pdf; --force overwrites)")
+                            "tolerance and the first time it is exceeded (OUT.png, .svg or .pdf; --force replaces one)")
     rep.formatter_class = argparse.RawDescriptionHelpFormatter
     rep.epilog = ("examples:\n  tfrec replay recordings/marm.mcap\n"
                   "  tfrec replay bag_folder/ --save bag.rrd --start 10 --end 20\n"
