@@ -145,10 +145,10 @@ def test_start_time_and_frame_prefix(tmp_path: Path) -> None:
 
 def test_existing_file_needs_force(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "x.mcap"
-    out.write_bytes(b"older")
+    out.write_bytes(b"\x89MCAP0\r\nolder")  # an MCAP (its magic): what --force may replace
     code, _, err = run(capsys, "record", MARM, "--duration", "0.2", "--no-rrd", "-o", str(out))
     assert code == 2 and err == f"tfrec: error: {out}: already exists (use --force to overwrite)\n"
-    assert out.read_bytes() == b"older"
+    assert out.read_bytes() == b"\x89MCAP0\r\nolder"
     code, _, _ = run(capsys, "record", MARM, "--duration", "0.2", "--no-rrd", "-o", str(out), "--force")
     assert code == 0 and out.read_bytes()[:5] == b"\x89MCAP"
 
@@ -158,7 +158,7 @@ def test_failure_mid_write_leaves_nothing(tmp_path: Path, error: type[BaseExcept
     robot = load_robot("marm")
     trajectory = make_trajectory(robot, "sine", duration_s=4, rate_hz=100)
     out = tmp_path / "x.mcap"
-    out.write_bytes(b"older")
+    out.write_bytes(b"\x89MCAP0\r\nolder")
     plan = plan_outputs(stem="x", out=out, no_rrd=True, force=True)
     calls = []
 
@@ -170,7 +170,7 @@ def test_failure_mid_write_leaves_nothing(tmp_path: Path, error: type[BaseExcept
     with pytest.raises(error):
         record(robot, trajectory, plan, chunk_samples=100, progress=progress)
     assert calls == [100, 200]
-    assert out.read_bytes() == b"older"
+    assert out.read_bytes() == b"\x89MCAP0\r\nolder"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.mcap"]
 
 
@@ -314,16 +314,16 @@ def test_an_output_written_meanwhile_is_not_replaced_without_force(tmp_path: Pat
 
     def meanwhile(done: int, total: int) -> None:
         if not calls:
-            rrd.write_bytes(b"the other recorder's")  # appears after the check, before the rename
+            rrd.write_bytes(b"RRF2 the other recorder's")  # appears after the check, before the rename
         calls.append(done)
 
     with pytest.raises(RecordingError, match=r"x\.rrd: already exists \(written meanwhile by another process\?\)"):
         record(robot, trajectory, plan, progress=meanwhile)
-    assert rrd.read_bytes() == b"the other recorder's"
+    assert rrd.read_bytes() == b"RRF2 the other recorder's"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.rrd"]  # no MCAP of ours, no temporaries
     forced = plan_outputs(stem="x", out=out, force=True)
     record(robot, trajectory, forced)
-    assert rrd.read_bytes()[:4] != b"the " and out.exists()
+    assert rrd.read_bytes()[:5] != b"RRF2 " and out.exists()
 
 
 def test_start_time_is_exact_decimal(tmp_path: Path) -> None:
@@ -353,7 +353,7 @@ def test_sigterm_leaves_no_partial_output(tmp_path: Path) -> None:
     proc = subprocess.Popen([sys.executable, "-m", "tfrec", "record", MARM, "--duration", "3600", "--rate", "100",
                              "-o", str(out)], stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
-    while not any(p.name.startswith(".long.") for p in tmp_path.iterdir()):  # temporaries being written
+    while not any(p.name.startswith(".tfrec-") for p in tmp_path.iterdir()):  # temporaries being written
         assert time.monotonic() < deadline and proc.poll() is None
         time.sleep(0.05)
     proc.terminate()

@@ -201,11 +201,11 @@ def test_write_errors_name_the_target(tmp_path: Path, capsys: pytest.CaptureFixt
     ):
         if str(target).startswith("/proc"):
             code, _, err = run(capsys, "record", str(ROBOTS / "marm.xacro"), "--duration", "0.1", *argv)
-            assert code == 2 and err.startswith(f"tfrec: error: {target}: cannot write") and ".tmp-" not in err
+            assert code == 2 and err.startswith(f"tfrec: error: {target}: cannot write") and ".tfrec-" not in err
             continue
         code, _, err = run(capsys, "record", str(ROBOTS / "marm.xacro"), "--duration", "0.1", *argv)
         assert code == 2 and err.count("\n") == 1
-        assert err.startswith(f"tfrec: error: {blocker}") and ".tmp-" not in err
+        assert err.startswith(f"tfrec: error: {blocker}") and ".tfrec-" not in err
         assert not target.exists()
 
 
@@ -215,13 +215,13 @@ def test_replay_save_errors_name_the_target(tmp_path: Path, capsys: pytest.Captu
     assert main(["record", str(ROBOTS / "marm.xacro"), "--duration", "0.1", "--no-rrd", "-o", str(source)]) == 0
     capsys.readouterr()
     code, _, err = run(capsys, "replay", str(source), "--save", "/proc/out.rrd")
-    assert code == 2 and err.startswith("tfrec: error: /proc/out.rrd: cannot write") and ".tmp-" not in err
-    assert not [p for p in Path("/proc").iterdir() if p.name.startswith(".out.rrd")]
+    assert code == 2 and err.startswith("tfrec: error: /proc/out.rrd: cannot write") and ".tfrec-" not in err
+    assert not [p for p in Path("/proc").iterdir() if p.name.startswith((".out.rrd", ".tfrec-"))]
     out = tmp_path / "out.rrd"
-    out.write_bytes(b"older")
+    out.write_bytes(b"RRF2older")
     code, _, err = run(capsys, "replay", str(source), "--save", str(out))
     assert code == 2 and err == f"tfrec: error: {out}: already exists (use --force to overwrite)\n"
-    assert out.read_bytes() == b"older" and sorted(p.name for p in tmp_path.iterdir()) == ["out.rrd", "r.mcap"]
+    assert out.read_bytes() == b"RRF2older" and sorted(p.name for p in tmp_path.iterdir()) == ["out.rrd", "r.mcap"]
 
 
 @pytest.mark.parametrize("argv, message", [

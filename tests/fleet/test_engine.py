@@ -171,7 +171,7 @@ def test_resume_skips_unchanged_recordings(tmp_path: Path, fleet_dir: Path) -> N
     assert {row["file"] for row in kept} == {t.key for t in tasks} - {t.key for t in todo}
     assert tally(kept) == Progress(done=6, total=6, passed=2, failed=4)
 
-    with ReportWriter(report) as writer:
+    with ReportWriter(report, force=True) as writer:  # resuming: the report read is replaced
         writer.write(kept)
         run(todo, jobs=2, on_result=lambda rows, _: writer.write(r.to_dict() for r in rows))
     second = read_report(report)

@@ -6,6 +6,9 @@ traceback; the run uses at most :data:`RUN_TIMEOUT_S` of CPU time (and ends with
 a run that waits forever) and under :data:`MEMORY_LIMIT` of memory; no line of ``/etc/passwd`` reaches stdout,
 stderr or an output file. Time is CPU time, never wall-clock time: the machine is shared, and a test that
 counts seconds of a clock on the wall fails when another job runs beside it.
+Where a run meets files at its outputs' places (issue #20): nothing but its outputs changes, nothing at all when
+it fails, and no temporary is left (:func:`untouched_violations`, over :func:`snapshot` s of the folder before and
+after).
 
 Two modes, chosen by the environment variable ``TFREC_FUZZ``:
 
@@ -58,6 +61,8 @@ __all__ = [
     "fuzz_settings",
     "run_tfrec",
     "save_failure",
+    "snapshot",
+    "untouched_violations",
 ]
 
 MODE = os.environ.get("TFREC_FUZZ", "") or "short"
@@ -242,6 +247,38 @@ def contract_violations(outcome: Outcome, *, codes: Sequence[int] = (0,), output
         for file in ([path] if path.is_file() else sorted(path.rglob("*")) if path.is_dir() else []):
             if file.is_file() and PASSWD_LINE in file.read_bytes():
                 problems.append(f"a line of /etc/passwd is in the output {file.name}")
+    return problems
+
+
+def snapshot(root: Path) -> dict[str, tuple[str, str]]:
+    """Every entry under ``root`` (relative path → a file's SHA-256, a link's target, or a folder), nothing followed."""
+    import hashlib
+
+    found: dict[str, tuple[str, str]] = {}
+    for folder, dirs, files in os.walk(root):
+        for name in dirs + files:
+            path = Path(folder, name)
+            key = os.fsdecode(os.path.relpath(path, root))
+            if path.is_symlink():
+                found[key] = ("link", os.readlink(path))
+            elif path.is_dir():
+                found[key] = ("folder", "")
+            else:
+                found[key] = ("file", hashlib.sha256(path.read_bytes()).hexdigest())
+    return found
+
+
+def untouched_violations(before: dict[str, tuple[str, str]], after: dict[str, tuple[str, str]], *,
+                         outputs: Sequence[str] = ()) -> list[str]:
+    """What a run changed that it must not have: any entry (changed, added or removed) outside ``outputs`` (paths
+    relative to the snapshots' folder; with none, nothing may change), and any temporary left."""
+    def inside(key: str) -> bool:
+        return any(key == out or key.startswith(out.rstrip("/") + "/") for out in outputs)
+
+    problems = [f"{key} changed" for key in sorted(before.keys() | after.keys())
+                if before.get(key) != after.get(key) and not inside(key)]
+    problems += [f"temporary {key} left" for key in after if Path(key).name.startswith(".tfrec-")
+                 and key not in before]
     return problems
 
 

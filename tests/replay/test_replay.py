@@ -469,7 +469,7 @@ def test_headless_machine_suggests_save_or_connect(tfrec_main: Callable[[list[st
 @pytest.mark.parametrize("args, message", [
     (["--loop", "--save", "x.rrd"], "--loop replays forever; it needs a live viewer, not --save"),
     (["--rate", "0"], "--rate 0 is not a speed > 0"),
-    (["--save", "x.mcap"], "x.mcap: the Rerun output's name must end in .rrd"),
+    (["--save", "x.mcap"], "x.mcap: the output's name must end in .rrd (a Rerun recording)"),
     (["--topics", "/odom", "--save", "x.rrd"],
      ("topic '/odom' cannot be replayed; tfrec replays /robot_description, /tf_static, /joint_states, /tf "
       "(of any namespace, e.g. /robot1/tf)")),
@@ -488,10 +488,10 @@ def test_bad_options_are_one_line_errors(tfrec_main: Callable[[list[str]], int],
 def test_existing_output_needs_force(tfrec_main: Callable[[list[str]], int], recorded: Path, tmp_path: Path,
                                      capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "exists.rrd"
-    out.write_bytes(b"old")
+    out.write_bytes(b"RRF2old")
     assert tfrec_main(["replay", str(recorded), "--save", str(out)]) == 2
     assert capsys.readouterr().err == f"tfrec: error: {out}: already exists (use --force to overwrite)\n"
-    assert out.read_bytes() == b"old"
+    assert out.read_bytes() == b"RRF2old"
     assert tfrec_main(["replay", str(recorded), "--save", str(out), "--force"]) == 0
     assert out.read_bytes()[:4] == b"RRF2"
 

@@ -25,7 +25,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     conv.add_argument("file", metavar="IN", help="a .mcap file, a rosbag2 folder or a ROS 1 .bag")
     conv.add_argument("out", metavar="OUT", nargs="?", help="OUT.mcap, OUT.bag or OUT.rrd")
     conv.add_argument("--bag", metavar="DIR", help="write a rosbag2 folder instead (DIR/metadata.yaml + MCAP)")
-    conv.add_argument("--force", action="store_true", help="overwrite an existing output")
+    conv.add_argument("--force", action="store_true", help="replace an existing output tfrec would write there (never another file, nor the input)")
     conv.add_argument("--compression", metavar="C",
                       help="chunk compression: MCAP zstd (default), lz4 or none; ROS 1 none (default), bz2 or lz4")
     what = conv.add_argument_group("what is written")
@@ -61,8 +61,11 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_convert(ns: argparse.Namespace) -> int:
-    from tfrec.convert import convert
+    from tfrec.convert import check_convert_target, convert, output_kind
 
+    target, kind = output_kind(ns.out, ns.bag)  # checked before anything is read, --robot included
+    check_convert_target(target, kind, compression=ns.compression, force=ns.force,
+                         inputs=[ns.file, ns.robot[0] if ns.robot else None])
     robot = load_robot_option(ns)
     result = convert(ns.file, ns.out, bag=ns.bag, start_s=ns.start, end_s=ns.end, topics=ns.topics,
                      exclude=ns.exclude, namespace=ns.namespace, remap=ns.remap, tf_from_joints=ns.tf_from_joints,

@@ -72,7 +72,8 @@ def add_parser(sub: Any) -> None:
                      help="draw the errors over time, worst first, with the tolerance and the first time it is "
                           "exceeded: each TF frame's for two recordings, each link's world displacement over the "
                           "shared motion for a description (OUT.png, .svg or .pdf)")
-    out.add_argument("--force", action="store_true", help="overwrite an existing --rrd or --plot file")
+    out.add_argument("--force", action="store_true",
+                     help="replace an existing --rrd, --plot or --report file tfrec would write there (never another file, nor an input)")
     diff.formatter_class = argparse.RawDescriptionHelpFormatter
     diff.epilog = ("examples:\n  tfrec diff golden.mcap new.mcap\n"
                    "  tfrec diff a.mcap b.bag --pos-tol 1e-6 --json\n"
@@ -137,6 +138,27 @@ def _folder_of_recordings(path: str) -> bool:
     return False
 
 
+def _check_outputs(ns: argparse.Namespace, inputs: list[str | None]) -> None:
+    """``--rrd`` and ``--plot``, checked together before anything is read (:func:`tfrec._outputs.check_outputs`);
+    ``inputs``: A, B, ``--joints`` and ``--traj`` (a CSV file unless it names a kind of trajectory)."""
+    from pathlib import Path
+
+    from tfrec._outputs import OutputKind, check_outputs
+    from tfrec.formats.kinds import RRD
+    from tfrec.trajectory.types import TrajectoryKind
+
+    outputs: list[tuple[Path, OutputKind]] = []
+    if ns.rrd is not None:
+        outputs.append((Path(ns.rrd), RRD))
+    if ns.plot is not None:
+        from tfrec.plots import picture_kind, plot_format
+
+        plot_format(ns.plot)
+        outputs.append((Path(ns.plot), picture_kind(ns.plot)))
+    check_outputs(outputs, force=ns.force, inputs=[path for path in inputs
+                                                   if path not in TrajectoryKind._value2member_map_])
+
+
 def _cmd_diff(ns: argparse.Namespace) -> int:
     from tfrec.diff.inputs import is_recording_path
 
@@ -151,17 +173,7 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
                                 "(use `report` for the results)")
         ns.a, ns.b = a, b
         return run_diff_folders(ns)
-    if ns.rrd is not None:
-        from pathlib import Path
-
-        from tfrec._atomic import check_target
-
-        check_target(Path(ns.rrd), suffix=".rrd", what="Rerun", force=ns.force)
-    if ns.plot is not None:
-        from tfrec.plots import plot_format, refuse_existing
-
-        plot_format(ns.plot)
-        refuse_existing(ns.plot, force=ns.force)
+    _check_outputs(ns, [a, b, ns.joints, ns.traj])
     tolerances = {"pos_tol": ns.pos_tol, "rot_tol": ns.rot_tol, "joint_tol": ns.joint_tol}
     recordings = is_recording_path(a) and is_recording_path(b) and not args_a and not args_b
     if recordings:

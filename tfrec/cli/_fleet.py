@@ -58,6 +58,8 @@ def add_parser(sub: Any) -> None:
                        help=f"rotation tolerance (default {number(CHECK_ROT_TOL)})")
     check.add_argument("--gap-periods", metavar="N", type=float, default=None,
                        help="a gap longer than N periods of a stream's rate is a finding (default 5)")
+    check.add_argument("--force", action="store_true",
+                       help="replace an existing --report (only a tfrec report; --resume replaces it too)")
     add_engine_arguments(check)
     check.set_defaults(handler=_cmd_check)
 
@@ -70,6 +72,7 @@ def _cmd_check(ns: argparse.Namespace) -> int:
         from tfrec.cli._common import package_form
 
         ns.robot = package_form(ns.robot, ns.package_path)
+    _check_report(ns, [*recordings, ns.robot[0] if ns.robot else None])
     tasks = check_tasks(
         recordings, robot_path=ns.robot[0] if ns.robot else None, robot_args=tuple(ns.robot[1:]) if ns.robot else (),
         package_paths=ns.package_path, strict_xacro=ns.strict_xacro, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol,
@@ -82,9 +85,24 @@ def run_diff_folders(ns: argparse.Namespace) -> int:
     """``tfrec diff DIR_A DIR_B``: pair the recordings by relative path and diff each pair."""
     from tfrec.fleet import diff_tasks, pair_recordings
 
-    tasks = diff_tasks(pair_recordings(ns.a, ns.b), pos_tol=ns.pos_tol, rot_tol=ns.rot_tol, joint_tol=ns.joint_tol,
+    pairs = pair_recordings(ns.a, ns.b)
+    _check_report(ns, [path for pair in pairs for path in (pair.a, pair.b)])
+    tasks = diff_tasks(pairs, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol, joint_tol=ns.joint_tol,
                        topics=ns.topics, absolute=ns.absolute)
     return _run(ns, tasks, what="pairs")
+
+
+def _check_report(ns: argparse.Namespace, inputs: Sequence[Any]) -> None:
+    """``--report`` before anything is read: an existing one only with ``--force`` or ``--resume`` (which reads it
+    first), and only a tfrec report; never a recording of the run (:func:`tfrec._outputs.check_target`)."""
+    if ns.report is None:
+        return
+    from pathlib import Path
+
+    from tfrec._outputs import check_target
+    from tfrec.formats.report import report_kind
+
+    check_target(Path(ns.report), report_kind(ns.report), force=ns.force or ns.resume, inputs=inputs)
 
 
 def _run(ns: argparse.Namespace, tasks: Sequence[Any], *, what: str) -> int:
@@ -120,7 +138,7 @@ def _run(ns: argparse.Namespace, tasks: Sequence[Any], *, what: str) -> int:
         if ns.report is not None:
             from tfrec.formats.report import ReportWriter
 
-            with ReportWriter(ns.report) as writer:
+            with ReportWriter(ns.report, force=ns.force or ns.resume) as writer:
                 writer.write(kept)
                 progress = run(tasks, jobs=ns.jobs, engine=ns.engine, address=ns.address, on_result=on_result)
         else:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import os
 import signal
 import sys
@@ -90,6 +91,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         except MemoryError:  # a limit on the process's memory (ulimit -v, a container) met by a valid input
             print(f"{PROG}: error: {_printable(_inputs(ns))}out of memory (the process's memory limit was reached)",
                   file=sys.stderr)
+            return 2
+        except OSError as err:
+            if err.errno != errno.ENAMETOOLONG:
+                raise
+            # a path the system cannot take (a name over 255 bytes, a path over PATH_MAX), met wherever it is used
+            where = f"{os.fsdecode(err.filename)}: " if err.filename is not None else _inputs(ns)
+            print(f"{PROG}: error: {_printable(where)}{err.strerror or 'File name too long'} (a name has at most 255 "
+                  "bytes, a path 4095)", file=sys.stderr)
             return 2
         except ImportError as err:  # a library that cannot load: not installed, or no address space left to map it
             print(f"{PROG}: error: cannot load {err.name or 'a library'}: {_printable(' '.join(str(err).split()))}",

@@ -24,6 +24,7 @@ from types import TracebackType
 from typing import IO, Any, Literal, final
 
 from tfrec._atomic import AtomicOutputs
+from tfrec._outputs import FileKind, check_target
 from tfrec.errors import ReadError, RecordingError, TfrecError, WriteError
 
 __all__ = [
@@ -35,6 +36,7 @@ __all__ = [
     "ReportWriter",
     "read_report",
     "report_format",
+    "report_kind",
 ]
 
 ColumnType = Literal["string", "int64", "float64"]
@@ -99,6 +101,51 @@ def report_format(path: str | os.PathLike[str]) -> str:
     return suffix
 
 
+def _parquet_report(path: Path, head: bytes) -> str | None:
+    """Why a Parquet file is not a tfrec report (its schema lacks the required columns), or None."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    try:
+        names = set(pq.read_schema(path).names)
+    except (pa.ArrowException, ValueError, OSError):
+        return "it is not a readable Parquet file"
+    return None if _REQUIRED <= names else "it has no file, check and verdict columns"
+
+
+_FIRST_ROW_BYTES = 1 << 20
+"""The most read of an existing JSON-lines report's first row to recognize it (a row is a few hundred bytes)."""
+
+
+def _jsonl_report(path: Path, head: bytes) -> str | None:
+    """Why a file is not a JSON-lines tfrec report (its first row lacks the required keys), or None."""
+    try:
+        with open(path, "rb") as stream:
+            start = stream.read(_FIRST_ROW_BYTES)
+        line = next((line for line in start.splitlines() if line.strip()), b"")
+    except OSError as err:
+        return f"it cannot be read: {err.strerror or err}"
+    try:
+        row = json.loads(line)
+    except (ValueError, UnicodeDecodeError):
+        return "its first line is not JSON"
+    return None if isinstance(row, dict) and _REQUIRED <= row.keys() else "its first line is not a row of a tfrec report"
+
+
+PARQUET_REPORT = FileKind("a tfrec report", (b"PAR1",), test=_parquet_report)
+JSONL_REPORT = FileKind("a tfrec report", empty=True, test=_jsonl_report)
+"""An empty file is a JSON-lines report too: the report of a run stopped before its first row."""
+
+
+def report_kind(path: str | os.PathLike[str]) -> FileKind:
+    """The kind of the report ``path`` (:class:`tfrec._outputs.OutputKind`: how an existing one is recognized).
+
+    Raises:
+        ReportError: a name that ends in neither .parquet nor .jsonl.
+    """
+    return PARQUET_REPORT if report_format(path) == ".parquet" else JSONL_REPORT
+
+
 def _arrow_schema(columns: tuple[Column, ...]) -> Any:
     import pyarrow as pa
 
@@ -123,24 +170,28 @@ class ReportWriter:
     """
 
     def __init__(self, path: str | os.PathLike[str], *, columns: tuple[Column, ...] = REPORT_COLUMNS,
-                 row_group_rows: int = ROW_GROUP_ROWS) -> None:
-        """Start a report at ``path`` (``.parquet`` or ``.jsonl``); an existing one is replaced at close.
+                 row_group_rows: int = ROW_GROUP_ROWS, force: bool = False) -> None:
+        """Start a report at ``path`` (``.parquet`` or ``.jsonl``); with ``force`` an existing report is replaced
+        at close (``--resume`` passes it: it read that report first), a file that is not a report never.
 
         Raises:
-            ReportError: another extension, or the temporary file cannot be created.
+            ReportError: another extension, an existing report without ``force``, an existing file that is no
+                tfrec report, or the temporary file cannot be created.
         """
         self.path = Path(path)
         self.format = report_format(path)
+        kind = report_kind(path)
+        check_target(self.path, kind, force=force)
         self.columns = columns
         self.names = tuple(c.name for c in columns)
         self.rows_written = 0
         self._group = max(1, row_group_rows)
         self._buffer: list[dict[str, Any]] = []
-        self._outputs = AtomicOutputs()
+        self._outputs = AtomicOutputs(replace=force)
         self._text: IO[str] | None = None
         self._parquet: Any = None
         try:
-            self._temp = self._outputs.path(self.path)
+            self._temp = self._outputs.path(self.path, kind=kind)
             if self.format == ".jsonl":
                 self._text = open(self._temp, "w", encoding="utf-8")  # noqa: SIM115 - closed by close() or abort()
             else:

@@ -20,6 +20,7 @@ from tfrec.plots._figure import (
     PlotError,
     assign_colours,
     graph_format,
+    picture_kind,
     plot_format,
     refuse_existing,
 )
@@ -51,6 +52,7 @@ __all__ = [
     "errors_from_motion",
     "frame_paths",
     "graph_format",
+    "picture_kind",
     "plot_check",
     "plot_diff",
     "plot_errors",

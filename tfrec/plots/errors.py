@@ -326,7 +326,7 @@ def plot_diff(report: DiffReport, path: str | os.PathLike[str], *, force: bool =
         WriteError: the file cannot be written.
     """
     plot_format(path)
-    refuse_existing(path, force=force)
+    refuse_existing(path, force=force, inputs=[p for p in (report.a.path, report.b.path) if p])
     series = errors_from_diff(report)
     notes = [f"{d.detail}" for d in report.differences if d.kind == "frame"][:4]
     if not series:  # robots of one link: their root, which nothing moves
@@ -395,7 +395,7 @@ def plot_check(report: CheckReport, path: str | os.PathLike[str], *, force: bool
         WriteError: the file cannot be written.
     """
     plot_format(path)
-    refuse_existing(path, force=force)
+    refuse_existing(path, force=force, inputs=[report.path] if report.path else [])
     series = errors_from_check(report)
     if not series:
         raise PlotError(f"{display_path(report.path)}: no frame was compared, no frame errors to plot")

@@ -285,7 +285,7 @@ def plot_recording(recording: Recording, path: str | os.PathLike[str], *, robot:
         WriteError: the file cannot be written.
     """
     fmt = plot_format(path)
-    refuse_existing(path, force=force)
+    refuse_existing(path, force=force, inputs=[recording.path] if recording.path else [])
     recording = one_robot(recording, namespace)
     js = recording.joint_states
     if js is not None and not (len(js) and js.names):  # joint states that name no joint: nothing to draw

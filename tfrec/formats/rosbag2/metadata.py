@@ -28,6 +28,7 @@ __all__ = [
     "ROS_DISTRO",
     "BagMetadata",
     "bag_info",
+    "bag_storage_name",
     "bag_without_metadata",
     "offered_qos_profiles",
     "one_line",
@@ -76,6 +77,12 @@ def qos_yaml(profiles: Sequence[Mapping[str, Any]]) -> str:
     """Offered QoS profiles as the ``offered_qos_profiles`` text of MCAP channel metadata: a YAML
     list, no trailing newline (yaml-cpp's ``Dump``)."""
     return yaml_dump(list(profiles)).rstrip("\n")
+
+
+def bag_storage_name(folder_name: str) -> str:
+    """The MCAP file tfrec writes in a rosbag2 folder: ``<name>_0.mcap``, named after it as ``ros2 bag record``
+    names it (so a folder's name has at most 248 bytes: :data:`tfrec.formats.kinds.ROSBAG2` checks it)."""
+    return f"{folder_name}_0.mcap"
 
 
 def write_bag_metadata(bag_dir: str | Path, info: Mapping[str, Any], *, file_name: str) -> Path:
