@@ -20,9 +20,10 @@ Never a legacy form, whatever its name:
 * anything inside ``<gazebo>``, ``<ros2_control>``, ``<transmission>`` or ``<sensor>`` (SDF and
   controller content), counted where a macro body, block or included file ends up;
 * an ``<include>`` holding anything but text (Gazebo's ``<include><uri>…``: xacro 1.13's rule), and
-  a tag without the attribute it needs (``<include>`` without ``filename``, ``<property>``,
-  ``<macro>``, ``<arg>`` or ``<insert_block>`` without ``name``, ``<if>`` or ``<unless>`` without
-  ``value``): xacro 1.13 stopped on those, they are somebody else's elements;
+  a tag without the attributes xacro 1.13 required of it (``<include>`` without ``filename``;
+  ``<property>``, ``<macro>`` or ``<insert_block>`` without ``name``; ``<arg>`` without ``name`` and
+  ``default``; ``<if>`` or ``<unless>`` without ``value``): xacro 1.13 stopped on those, so they are
+  somebody else's elements;
 * an element named like a URDF element (``<origin>``, ``<cylinder>``, ``<link>``…) even where a
   macro has that name (xacro 1.13 took ``<cylinder>`` in the body of a ``cylinder`` macro for a call,
   and recursed without end), and an element inside the expansion of the macro it is named after.
@@ -41,11 +42,11 @@ from tfrec.description._xml_bytes import Origin, origin
 
 __all__ = ["FOREIGN_BLOCKS", "LEGACY_TAGS", "URDF_ELEMENTS", "DialectHooks", "LegacyForm", "LegacyFound", "Mode"]
 
-LEGACY_TAGS: dict[str, str] = {
-    "property": "name", "macro": "name", "include": "filename", "arg": "name", "if": "value", "unless": "value",
-    "insert_block": "name",
+LEGACY_TAGS: dict[str, tuple[str, ...]] = {
+    "property": ("name",), "macro": ("name",), "include": ("filename",), "arg": ("name", "default"),
+    "if": ("value",), "unless": ("value",), "insert_block": ("name",),
 }
-"""The tags xacro <= 1.13 accepted without the ``xacro:`` prefix, and the attribute each needs."""
+"""The tags xacro <= 1.13 accepted without the ``xacro:`` prefix, and the attributes it required of each."""
 
 URDF_ELEMENTS = frozenset({
     "robot", "link", "joint", "visual", "collision", "inertial", "origin", "geometry", "box", "cylinder", "sphere",
@@ -212,7 +213,7 @@ class DialectHooks:
 
     def _is_legacy_tag(self, node: Any, parent: Any) -> bool:
         needed = LEGACY_TAGS.get(node.tagName)
-        if needed is None or not node.hasAttribute(needed) or self._in_foreign_block(parent):
+        if needed is None or not all(node.hasAttribute(a) for a in needed) or self._in_foreign_block(parent):
             return False
         if node.tagName == "include":  # xacro 1.13's is_include: nothing but text inside
             return not node.childNodes or (len(node.childNodes) == 1 and node.firstChild.nodeType == _TEXT)

@@ -30,7 +30,7 @@ from typing import Any
 
 from tfrec.description._sandbox import SandboxLimits, xacro_sandbox
 from tfrec.description._xacro_dialect import DialectHooks, LegacyForm, LegacyFound, Mode
-from tfrec.description._xacro_errors import describe_error, located
+from tfrec.description._xacro_errors import describe_error
 from tfrec.description._xml_bytes import origin
 from tfrec.description.packages import PackageFinder
 from tfrec.errors import DescriptionError, LegacyXacroWarning, display_path
@@ -192,9 +192,25 @@ class _Job:
                 run.error.__cause__ = err
                 return run
             run.text = doc.toprettyxml(indent="  ")
-            run.origins = tuple(located(origin(node)) for node in _elements(doc.documentElement))
+            run.origins = _origins(doc.documentElement)
         run.chatter = chatter.getvalue()
         return run
+
+
+def _origins(root: Any) -> tuple[str | None, ...]:
+    """``file:line`` of each element under ``root``, in document order (each file displayed once)."""
+    shown: dict[str, str] = {}
+    out: list[str | None] = []
+    for node in _elements(root):
+        where = origin(node)
+        if where is None:
+            out.append(None)
+            continue
+        file = shown.get(where[0])
+        if file is None:
+            file = shown[where[0]] = display_path(where[0])
+        out.append(f"{file}:{where[1]}")
+    return tuple(out)
 
 
 def _elements(root: Any) -> Iterator[Any]:
@@ -208,7 +224,7 @@ def _elements(root: Any) -> Iterator[Any]:
 
 def _legacy_message(forms: Sequence[LegacyForm], *, expanded: bool) -> str:
     """The one warning about the legacy forms of an expansion."""
-    files = ", ".join(sorted({display_path(f.where[0]) for f in forms if f.where is not None})) or "<string>"
+    files = ", ".join(dict.fromkeys(display_path(f.where[0]) for f in forms if f.where is not None)) or "<string>"
     tags = ", ".join(sorted({f"<{f.tag}>" for f in forms if not f.call}, key=str.lower))
     calls = ", ".join(sorted({f"<{f.tag}>" for f in forms if f.call}, key=str.lower))
     if tags and calls:
