@@ -17,8 +17,10 @@ them all to its output as ordinary elements. :class:`DialectHooks` patches xacro
 
 Never a legacy form, whatever its name:
 
+* anything outside a robot description: the input's root element must be ``<robot>`` (a document
+  of another kind is PyPI xacro's alone);
 * anything inside ``<gazebo>``, ``<ros2_control>``, ``<transmission>`` or ``<sensor>`` (SDF and
-  controller content), counted where a macro body, block or included file ends up;
+  controller content) — both counted where a macro body, block or included file ends up;
 * an ``<include>`` holding anything but text (Gazebo's ``<include><uri>…``: xacro 1.13's rule), and
   a tag without the attributes xacro 1.13 required of it (``<include>`` without ``filename``;
   ``<property>``, ``<macro>`` or ``<insert_block>`` without ``name``; ``<arg>`` without ``name`` and
@@ -116,7 +118,7 @@ class DialectHooks:
         self.macros: Any = None
         self.documents: list[Any] = []
         self._stack: list[Any] = []  # the elements being expanded, innermost last
-        self._foreign_roots: dict[int, tuple[Any, bool]] = {}  # detached subtrees: in a foreign block?
+        self._roots: dict[int, tuple[Any, bool]] = {}  # detached subtrees: may they hold legacy forms?
 
     @contextlib.contextmanager
     def installed(self) -> Iterator[DialectHooks]:
@@ -213,7 +215,7 @@ class DialectHooks:
 
     def _is_legacy_tag(self, node: Any, parent: Any) -> bool:
         needed = LEGACY_TAGS.get(node.tagName)
-        if needed is None or not all(node.hasAttribute(a) for a in needed) or self._in_foreign_block(parent):
+        if needed is None or not all(node.hasAttribute(a) for a in needed) or not self._may_hold_legacy(parent):
             return False
         if node.tagName == "include":  # xacro 1.13's is_include: nothing but text inside
             return not node.childNodes or (len(node.childNodes) == 1 and node.firstChild.nodeType == _TEXT)
@@ -229,7 +231,7 @@ class DialectHooks:
             return False  # not a macro: an ordinary element
         if not isinstance(macro, self._xacro.Macro) or any(m is macro for m in self._xacro.macrostack or ()):
             return False  # a namespace, or an element the macro of that name writes
-        return not self._in_foreign_block(node.parentNode)
+        return self._may_hold_legacy(node.parentNode)
 
     def _met(self, node: Any, form: LegacyForm) -> None:
         if self.mode is Mode.PROBE:
@@ -238,15 +240,18 @@ class DialectHooks:
         if self.mode is Mode.LEGACY:
             node.tagName = node.nodeName = "xacro:" + node.tagName
 
-    def _in_foreign_block(self, node: Any) -> bool:
-        """Whether ``node`` is a foreign block or inside one, where it is (or will be) in the output."""
+    def _may_hold_legacy(self, node: Any) -> bool:
+        """Whether the children of ``node`` may be legacy forms, judged where ``node`` is (or will be) in
+        the output: under the input's ``<robot>`` root, outside foreign blocks."""
         while node is not None and node.nodeType == _ELEMENT:
             if node.tagName in FOREIGN_BLOCKS:
-                return True
+                return False
             parent = node.parentNode
             if parent is None or parent.nodeType != _ELEMENT:  # a macro body, block or file being expanded
-                known = self._foreign_roots.get(id(node))
-                return known is not None and known[0] is node and known[1]
+                known = self._roots.get(id(node))
+                if known is not None and known[0] is node:
+                    return known[1]
+                return bool(node.tagName == "robot")  # the input's root
             node = parent
         return False
 
@@ -257,7 +262,7 @@ class DialectHooks:
         if self._stack and (parent is None or parent.nodeType != _ELEMENT):
             # a macro body, a block or an included file: it goes where the element expanded now is
             host = next((n for n in reversed(self._stack) if getattr(n, "nodeType", None) == _ELEMENT), None)
-            self._foreign_roots[id(node)] = (node, host is not None and self._in_foreign_block(host))
+            self._roots[id(node)] = (node, host is not None and self._may_hold_legacy(host))
         self._stack.append(node)
 
     def _pop(self, node: Any) -> None:
