@@ -287,6 +287,46 @@ def course_two_arms(root: Path) -> Path:
         """)
 
 
+def course_two_arms_slide(root: Path) -> Path:
+    """The two-arm slide word for word: ``xacro:include`` and the ``xacro:myRobot`` calls prefixed, the
+    ``offset`` property not; ``M_PI`` without the prefix in the included file (the issue's two examples)."""
+    package(root, "two_arms_description")
+    write(root / "urdf/myRobot.xacro", f"""\
+        <?xml version="1.0"?>
+        <robot {XACRO}>
+          <property name="M_PI" value="3.14159"/>
+          <xacro:macro name="myRobot" params="prefix">
+            <link name="${{prefix}}_base_link">
+              <visual>
+                <origin xyz="0 0 0" rpy="${{M_PI/2}} 0 0"/>
+                <geometry><box size="0.1 0.1 0.1"/></geometry>
+              </visual>
+            </link>
+          </xacro:macro>
+        </robot>
+        """)
+    return write(root / "urdf/two_arms.xacro", f"""\
+        <?xml version="1.0"?>
+        <robot name="two_arms" {XACRO}>
+          <xacro:include filename="myRobot.xacro"/>
+          <xacro:myRobot prefix="left"/>
+          <xacro:myRobot prefix="right"/>
+          <property name="offset" value="1.3"/>
+          <link name="world"/>
+          <joint name="world_to_left" type="fixed">
+            <parent link="world"/>
+            <child link="left_base_link"/>
+            <origin xyz="${{offset/2}} 0 0" rpy="0 0 0"/>
+          </joint>
+          <joint name="world_to_right" type="fixed">
+            <parent link="world"/>
+            <child link="right_base_link"/>
+            <origin xyz="${{-offset/2}} 0 0" rpy="0 0 0"/>
+          </joint>
+        </robot>
+        """)
+
+
 def course_mbot(root: Path) -> Path:
     """The slides' mbot_description: the property list, inertia, wheel and caster macros and the base
     macro that calls them, all without the prefix, included with ``$(find)``."""
@@ -426,6 +466,7 @@ def course_marm(root: Path) -> Path:
 
 COURSE = {
     "two_arms": (course_two_arms, ["myRobot"], {}),
+    "two_arms as on the slide": (course_two_arms_slide, [], {}),
     "mbot": (course_mbot, ["mbot_base", "wheel", "caster", "cylinder_inertial_matrix"], {}),
     "options": (course_options, ["name"], {}),
     "options use_camera:=true": (course_options, ["name"], {"use_camera": "true"}),
@@ -533,6 +574,33 @@ def test_legacy_forms_inside_foreign_blocks_are_left_alone(tmp_path: Path) -> No
     assert root.find("gazebo/include[@filename='world.sdf']") is not None
     assert root.find("gazebo/arg[@name='rate']") is not None and root.find("gazebo/if/tag") is not None
     assert root.find("gazebo/property[@name='rate']") is not None and root.find("ros2_control/property") is not None
+
+
+@pytest.mark.parametrize(("flag", "links"), [("--inorder", {"base", "left_wheel"}), ("--xacro-ns", {"base"})])
+def test_a_launch_files_xacro_flags_choose_the_dialect(tmp_path: Path, flag: str, links: set[str]) -> None:
+    """The course's launch files run `xacro --inorder`; xacro 1.13's --xacro-ns required the prefix and
+    left un-prefixed tags alone, which is `strict_xacro`."""
+    pkg = package(tmp_path / "src" / "wheel_robot", "wheel_robot")
+    write(pkg / "urdf/robot.xacro", f"""\
+        <robot name="r" {XACRO}>
+          <xacro:macro name="wheel" params="prefix"><link name="${{prefix}}_wheel"/>
+            <joint name="${{prefix}}_joint" type="fixed"><parent link="base"/><child link="${{prefix}}_wheel"/></joint>
+          </xacro:macro>
+          <link name="base"/>
+          <wheel prefix="left"/>
+        </robot>
+        """)
+    launch = write(pkg / "launch/view.launch", f"""\
+        <launch>
+          <param name="robot_description" command="$(find xacro)/xacro {flag} $(find wheel_robot)/urdf/robot.xacro"/>
+        </launch>
+        """)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        robot = load_description(launch, package_paths=[tmp_path / "src"])
+    assert {link.name for link in robot.links} == links
+    legacy = [str(w.message) for w in caught if issubclass(w.category, LegacyXacroWarning)]
+    assert len(legacy) == 1 and (("left legacy macro calls" in legacy[0]) == (flag == "--xacro-ns"))
 
 
 def test_a_legacy_include_is_confined_as_any_include(tmp_path: Path) -> None:

@@ -187,9 +187,10 @@ def load_launch(
     else:
         assert source.file is not None
         xacro_args = source.xacro_args if source.kind is DescriptionKind.XACRO else None
+        # xacro 1.13's --xacro-ns: the prefix is required, un-prefixed tags are left alone (PyPI xacro's way)
+        strict = strict_xacro or "--xacro-ns" in source.xacro_flags
         text = _description_text(source.file, args=xacro_args, package_paths=package_paths,
-                                 strict_xacro=strict_xacro, force_xacro=xacro_args is not None,
-                                 allow_paths=allow_paths)
+                                 strict_xacro=strict, force_xacro=xacro_args is not None, allow_paths=allow_paths)
         robot = text.parse(source.file)
     return robot, launch
 
