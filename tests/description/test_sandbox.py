@@ -53,7 +53,7 @@ def expand(
     finder = PackageFinder(package_paths, near=path, environ=environ or {})
     filename = os.fspath(path)
     with _LOCK, xacro_sandbox(path, finder=finder, package_paths=package_paths, allow_paths=allow_paths,
-                              limits=limits), _patched_xacro(finder, strict=False, legacy=[]) as xacro:
+                              limits=limits), _patched_xacro(finder) as xacro:
         try:
             with contextlib.redirect_stderr(io.StringIO()):
                 xacro.init_stacks(filename)
@@ -69,10 +69,10 @@ def expand(
 
 
 def expand_stock(path: Path, args: Mapping[str, str] | None = None, *, package_paths: Sequence[Path] = ()) -> str:
-    """Expand ``path`` as tfrec/description/xacro.py does today (no sandbox)."""
+    """Expand ``path`` with stock xacro (its $(find) through ``finder``; no sandbox, no legacy dialect)."""
     finder = PackageFinder(package_paths, near=path, environ={})
     filename = os.fspath(path)
-    with _LOCK, _patched_xacro(finder, strict=False, legacy=[]) as xacro, contextlib.redirect_stderr(io.StringIO()):
+    with _LOCK, _patched_xacro(finder) as xacro, contextlib.redirect_stderr(io.StringIO()):
         xacro.init_stacks(filename)
         doc = xacro.parse(None, filename)
         xacro.process_doc(doc, mappings=dict(args or {}))

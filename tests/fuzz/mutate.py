@@ -95,7 +95,9 @@ def mutated_bytes(draw: st.DrawFn, data: bytes, *, max_ops: int = 4) -> bytes:
 
 _XACRO_TAGS = ["xacro:include", "xacro:property", "xacro:arg", "xacro:if", "xacro:unless", "xacro:macro",
                "xacro:insert_block", "xacro:element", "xacro:attribute", "xacro:call", "link", "joint", "mesh",
-               "origin", "axis", "limit", "mimic", "parent", "child", "robot", "visual", "geometry", "box"]
+               "origin", "axis", "limit", "mimic", "parent", "child", "robot", "visual", "geometry", "box",
+               # the Kinetic-era dialect (xacro <= 1.13): its tags without the prefix (docs/xacro.md)
+               "include", "property", "arg", "if", "unless", "macro", "insert_block", "gazebo"]
 _ATTRIBUTES = ["name", "value", "filename", "type", "xyz", "rpy", "link", "joint", "lower", "upper", "effort",
                "velocity", "params", "default", "macro", "multiplier", "offset", "size", "radius", "length",
                "scale", "ns", "optional", "xacro:name", "soft_lower_limit", "k_position", "rgba"]
@@ -116,7 +118,7 @@ def xml_text(draw: st.DrawFn, text: str, *, max_ops: int = 3) -> bytes:
         elements = _elements(doc)
         element = elements[draw(st.integers(0, len(elements) - 1))]
         kind = draw(st.sampled_from(["value", "value", "value", "number", "number", "drop-attr", "add-attr",
-                                     "delete", "duplicate", "move", "rename", "empty", "nest"]))
+                                     "delete", "duplicate", "move", "rename", "unprefix", "empty", "nest"]))
         parent = element.parentNode
         is_root = parent is doc
         if kind in ("value", "number", "drop-attr") and not element.attributes.length:
@@ -149,6 +151,8 @@ def xml_text(draw: st.DrawFn, text: str, *, max_ops: int = 3) -> bytes:
                 target.appendChild(element)
         elif kind == "rename":
             element.tagName = element.nodeName = draw(st.sampled_from(_XACRO_TAGS))
+        elif kind == "unprefix":  # a xacro tag or a macro call written as the course's Kinetic-era slides do
+            element.tagName = element.nodeName = element.tagName.removeprefix("xacro:")
         elif kind == "empty":
             for child in list(element.childNodes):
                 element.removeChild(child)

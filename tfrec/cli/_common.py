@@ -22,6 +22,7 @@ __all__ = [
     "Progress",
     "add_naming_arguments",
     "add_robot_arguments",
+    "add_xacro_arguments",
     "as_flags",
     "command",
     "fmt",
@@ -53,11 +54,18 @@ def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
         help="a folder (or file) xacro and launch files may read besides the input's workspace, the packages "
              "found and --package-path folders (repeatable; see docs/security.md)",
     )
+    add_xacro_arguments(parser)
+
+
+def add_xacro_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    """``--strict-xacro`` and ``--quiet-legacy``: what is done with the Kinetic-era xacro dialect (docs/xacro.md)."""
     parser.add_argument(
         "--strict-xacro", action="store_true",
-        help="refuse macro calls without the 'xacro:' prefix (legacy xacro <= 1.13 dialect) "
-             "instead of expanding them with a warning",
+        help="expand xacro exactly as ROS 2's (PyPI) xacro does: the Kinetic-era dialect (<property>, <macro>, "
+             "<include>, macro calls ... without the 'xacro:' prefix) is left unexpanded, with a warning",
     )
+    parser.add_argument("--quiet-legacy", action="store_true",
+                        help="no warning when the Kinetic-era xacro dialect is expanded")
 
 
 def add_naming_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGroup, *, log_time: bool = True) -> None:

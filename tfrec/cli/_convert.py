@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from tfrec.cli._common import add_naming_arguments, load_robot_option
+from tfrec.cli._common import add_naming_arguments, add_xacro_arguments, load_robot_option
 
 __all__ = ["add_parser"]
 
@@ -50,7 +50,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
                          "replaces the recorded /robot_description")
     tf.add_argument("--package-path", metavar="DIR", action="append", default=[],
                     help="a package, or a folder of packages, for $(find pkg) and package:// meshes (repeatable)")
-    tf.add_argument("--strict-xacro", action="store_true", help="refuse macro calls without the 'xacro:' prefix")
+    add_xacro_arguments(tf)
     conv.formatter_class = argparse.RawDescriptionHelpFormatter
     conv.epilog = ("examples:\n  tfrec convert robot.bag robot.mcap\n"
                    "  tfrec convert run.mcap cut.bag --start 60 --end 90\n"

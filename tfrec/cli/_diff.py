@@ -9,6 +9,7 @@ from typing import Any
 
 from tfrec.cli._common import (
     add_naming_arguments,
+    add_xacro_arguments,
     as_flags,
     number,
     tolerance,
@@ -62,8 +63,7 @@ def add_parser(sub: Any) -> None:
                              "that one, the default)")
     motion.add_argument("--package-path", metavar="DIR", action="append", default=[],
                         help="a package, or a folder of packages, for $(find pkg) and package:// (repeatable)")
-    motion.add_argument("--strict-xacro", action="store_true",
-                        help="refuse macro calls without the 'xacro:' prefix instead of expanding them with a warning")
+    add_xacro_arguments(motion)
     out = diff.add_argument_group("output")
     out.add_argument("--rrd", metavar="OUT.rrd", default=None,
                      help="also write both robots moving together as one Rerun recording: A solid and coloured "

@@ -9,7 +9,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any, TextIO
 
-from tfrec.cli._common import PROG, number, tolerance
+from tfrec.cli._common import PROG, add_xacro_arguments, number, tolerance
 from tfrec.conventions import CHECK_POS_TOL, CHECK_ROT_TOL
 
 __all__ = ["add_engine_arguments", "add_parser", "run_diff_folders"]
@@ -51,7 +51,7 @@ def add_parser(sub: Any) -> None:
                        help="check against this description instead of each recording's /robot_description")
     check.add_argument("--package-path", metavar="DIR", action="append", default=[],
                        help="a package, or a folder of packages, for $(find pkg) in --robot (repeatable)")
-    check.add_argument("--strict-xacro", action="store_true", help="refuse legacy macro calls in --robot")
+    add_xacro_arguments(check)
     check.add_argument("--pos-tol", metavar="M", type=tolerance, default=CHECK_POS_TOL,
                        help=f"translation tolerance (default {number(CHECK_POS_TOL)})")
     check.add_argument("--rot-tol", metavar="RAD", type=tolerance, default=CHECK_ROT_TOL,

@@ -23,7 +23,7 @@ from tfrec.cli._common import (
     Parser,
     as_flags,
 )
-from tfrec.errors import TfrecError
+from tfrec.errors import LegacyXacroWarning, TfrecError
 
 __all__ = ["main", "main_exit"]
 
@@ -51,7 +51,10 @@ def _build_parser() -> argparse.ArgumentParser:
 
 def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
                   file: TextIO | None = None, line: str | None = None) -> None:
-    print(f"{PROG}: warning: {_printable(as_flags(str(message)))}", file=sys.stderr)
+    text = str(message)
+    if issubclass(category, LegacyXacroWarning):
+        text = text.replace(LegacyXacroWarning.SILENCE, "--quiet-legacy")
+    print(f"{PROG}: warning: {_printable(as_flags(text))}", file=sys.stderr)
 
 
 def _printable(message: str) -> str:
@@ -74,6 +77,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(exc.code or 0)
     with warnings.catch_warnings(), _terminate_as_interrupt():
         warnings.simplefilter("default")
+        if getattr(ns, "quiet_legacy", False):
+            warnings.filterwarnings("ignore", category=LegacyXacroWarning)
         warnings.showwarning = _show_warning
         try:
             return int(ns.handler(ns))

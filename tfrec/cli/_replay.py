@@ -9,6 +9,7 @@ from typing import Any
 
 from tfrec.cli._common import (
     add_naming_arguments,
+    add_xacro_arguments,
     as_flags,
     load_robot_option,
     number,
@@ -42,8 +43,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
                             "/robot_description")
     model.add_argument("--package-path", metavar="DIR", action="append", default=[],
                        help="a package, or a folder of packages, for $(find pkg) and package:// meshes (repeatable)")
-    model.add_argument("--strict-xacro", action="store_true",
-                       help="refuse macro calls without the 'xacro:' prefix in --robot")
+    add_xacro_arguments(model)
     where = rep.add_argument_group("where to (default: spawn the Rerun viewer)")
     target = where.add_mutually_exclusive_group()
     target.add_argument("--save", metavar="OUT.rrd", help="write a Rerun recording instead, as fast as possible")
