@@ -34,6 +34,7 @@ from tfrec.errors import ConvertError
 from tfrec.formats.messages import open_messages
 from tfrec.formats.output import open_output
 from tfrec.formats.reader import identify_recording, read_recording
+from tfrec.formats.ros.decode import repeated_joints
 from tfrec.model import Robot
 from tfrec.recording import Recording
 from tfrec.resample import log_start_ns
@@ -203,6 +204,10 @@ def convert(
             raise
         outputs.commit()
     _warn(report, where)
+    for d in derivations:
+        unseen = {name: count for name, count in d.repeated.items() if name not in d.warned}
+        if unseen:
+            warnings.warn(repeated_joints(where, d.joint_topic, unseen), stacklevel=2)
     return ConvertResult(path, kind, report, (start_s, end_s))
 
 

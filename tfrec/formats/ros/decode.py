@@ -14,7 +14,7 @@ deserializer.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -28,8 +28,10 @@ __all__ = [
     "MessageLayout",
     "RawMessages",
     "TFAccumulator",
+    "first_positions",
     "match_layout",
     "message_layout",
+    "repeated_joints",
     "stamp_ns",
     "transforms_of",
 ]
@@ -325,8 +327,57 @@ class _Accumulator:
         raise NotImplementedError
 
 
+def first_positions(names: Sequence[str]) -> tuple[tuple[str, ...], list[int] | None, tuple[str, ...]]:
+    """The joints a JointState names, each once, and where each one's position is: the first time it is
+    named — robot_state_publisher fills a ``std::map`` with ``insert`` (ROS 1) or ``emplace`` (ROS 2),
+    which keep a name's first value.
+
+    Returns:
+        (the names in order of first appearance, the index of each one's position — None when no name is
+        repeated, so that every index is its own —, the names given more than once).
+    """
+    if len(set(names)) == len(names):
+        return tuple(names), None, ()
+    first: dict[str, int] = {}
+    repeated: dict[str, None] = {}
+    for i, name in enumerate(names):
+        if name in first:
+            repeated[name] = None
+        else:
+            first[name] = i
+    return tuple(first), list(first.values()), tuple(repeated)
+
+
+def repeated_joints(where: str, topic: str, repeated: Mapping[str, int], messages: int | None = None, *,
+                    first: bool = False) -> str:
+    """The warning about joints that /joint_states messages name more than once.
+
+    Args:
+        where: the recording.
+        topic: the joint states' topic.
+        repeated: joint name → messages that name it more than once.
+        messages: the messages read (None: not counted).
+        first: only the first ``messages`` were read (a summary).
+    """
+    names = list(repeated)
+    joints = f"joint '{names[0]}'" if len(names) == 1 else "joints " + ", ".join(f"'{n}'" for n in names[:5]) + (
+        f" and {len(names) - 5} more" if len(names) > 5 else "")
+    count = max(repeated.values())
+    if messages is None:
+        how_many = f"{count:,} message{'s' if count != 1 else ''}"
+    else:
+        how_many = f"{count:,} of the {'first ' if first else ''}{messages:,} message{'s' if messages != 1 else ''}"
+    return (f"{where}: {topic} names {joints} more than once in a message ({how_many}): the first position is "
+            "taken, as robot_state_publisher takes it")
+
+
 class JointStateAccumulator(_Accumulator):
-    """Collects sensor_msgs/JointState messages into (time, names, positions) segments."""
+    """Collects sensor_msgs/JointState messages into (time, names, positions) segments.
+
+    Attributes:
+        repeated: joint name → how many messages name it more than once (its first position is taken,
+            :func:`first_positions`).
+    """
 
     kind = "joint_states"
 
@@ -335,6 +386,16 @@ class JointStateAccumulator(_Accumulator):
         self._segments: list[tuple[tuple[str, ...], NDArray[np.int64], Array]] = []
         self._pending_names: tuple[str, ...] | None = None
         self._pending: list[tuple[int, Array]] = []
+        self.repeated: dict[str, int] = {}
+
+    def _once(self, names: tuple[str, ...], positions: Array, messages: int) -> tuple[tuple[str, ...], Array]:
+        """``names`` each once with their first position (``positions`` (N, len(names))), counting the repeats."""
+        unique, keep, repeated = first_positions(names)
+        if keep is None:
+            return names, positions
+        for name in repeated:
+            self.repeated[name] = self.repeated.get(name, 0) + messages
+        return unique, positions[:, keep]
 
     def _check(self, layout: MessageLayout, data: bytes | memoryview) -> bool:
         msg = self.deserialize(bytes(data))
@@ -368,6 +429,7 @@ class JointStateAccumulator(_Accumulator):
         assert self.layout is not None
         self._flush_pending()
         time, names, positions = self._decode(self.layout, rows)
+        names, positions = self._once(names, positions, len(rows))
         self._segments.append((names, time if times is None else times, positions))
 
     def _add_message(self, msg: Any, time_ns: int | None) -> None:
@@ -375,6 +437,8 @@ class JointStateAccumulator(_Accumulator):
         position = np.full(len(names), np.nan)
         given = np.asarray(msg.position, dtype=np.float64)[: len(names)]
         position[: len(given)] = given
+        names, positions = self._once(names, position.reshape(1, -1), 1)
+        position = positions[0]
         if names != self._pending_names:
             self._flush_pending()
             self._pending_names = names
