@@ -25,6 +25,9 @@ __all__ = [
     "TfrecError",
     "TrajectoryError",
     "WriteError",
+    "display_path",
+    "one_line",
+    "printable",
 ]
 
 
@@ -93,3 +96,19 @@ def display_path(path: str | os.PathLike[str] | None) -> str:
 def one_line(text: str) -> str:
     """A library's error message on one line: runs of whitespace (newlines too) become one space."""
     return " ".join(text.split())
+
+
+def printable(text: str, *, keep: str = "") -> str:
+    """``text`` as a terminal may show it: every character that is not printable is written as its Python
+    escape — control characters (ESC ``\\x1b``, CR ``\\r``, BEL ``\\x07``, NUL), format characters such as a
+    right-to-left override (``\\u202e``), the lone surrogates that stand for the undecodable bytes of a file
+    name (``\\udcff``) — so that a name from an input (a file found in a folder, a topic, frame or joint name)
+    cannot clear the screen, move the cursor, recolour a verdict or set the window title.
+
+    Args:
+        text: what is to be shown.
+        keep: characters left as they are: ``"\\n\\t"`` for text of several lines that tfrec laid out itself.
+    """
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() or c in keep else c.encode("unicode_escape").decode("ascii") for c in text)

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Any
+
+from tfrec.cli._common import show
 
 __all__ = ["add_parser"]
 
@@ -56,5 +57,5 @@ def _cmd_plot(ns: argparse.Namespace) -> int:
 
         warnings.warn(recording.read_error, stacklevel=1)
     plot_recording(recording, ns.output, robot=robot, frames=ns.frames, namespace=namespace, force=ns.force)
-    print(f"wrote {ns.output}", file=sys.stdout)
+    show(f"wrote {ns.output}")
     return 0
