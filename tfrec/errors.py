@@ -80,17 +80,19 @@ class FleetError(TfrecError):
 
 
 def display_path(path: str | os.PathLike[str] | None) -> str:
-    """A path as a user would type it in messages: relative to the working folder when inside it."""
+    """A path as a user would type it in messages and titles: relative to the working folder when inside it,
+    with the characters a terminal acts on and the bytes that are not UTF-8 escaped (:func:`printable`: a
+    matplotlib title or a Rerun name cannot hold a lone surrogate)."""
     if path is None:
         return "<string>"
     p = Path(path)
     cwd = Path.cwd().resolve()
     if cwd == Path(cwd.anchor):  # from / every path is "relative": keep it as given
-        return str(p)
+        return printable(str(p))
     try:
-        return str(p.resolve().relative_to(cwd))
+        return printable(str(p.resolve().relative_to(cwd)))
     except ValueError:
-        return str(p)
+        return printable(str(p))
 
 
 def one_line(text: str) -> str:

@@ -470,3 +470,20 @@ def test_a_hostile_mesh_uri_is_a_warning_and_the_link_is_logged_without_it(
     assert not warnings_of(outcome, "link 'tip'")
     replayed = run(["replay", "arm.mcap", "--save", "again.rrd", "--package-path", "ws"], tmp_path)
     assert len(warnings_of(replayed, "mesh for link 'base'")) == 1
+
+
+# -- found by the fuzz suite ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("position", [1 << 63, (1 << 64) - 1, 1 << 40])
+def test_a_chunk_info_record_pointing_past_the_file_reads_the_bag_record_by_record(
+        tmp_path: Path, marm_recording: Recording, position: int) -> None:
+    """A chunk_pos of 2**63 or more is past what seek() takes (a ValueError traceback before)."""
+    bag = write_bag(tmp_path / "in.bag", [Publisher(marm_recording)], kind="ros1")
+    data = bytearray(bag.read_bytes())
+    at = data.rfind(b"chunk_pos=") + len(b"chunk_pos=")
+    data[at : at + 8] = struct.pack("<Q", position)
+    bag.write_bytes(bytes(data))
+    for argv in (["info", "in.bag"], ["replay", "--check", "in.bag"], ["diff", "in.bag", "in.bag"]):
+        outcome = run(argv, tmp_path)
+        assert warnings_of(outcome, "points past the end of the file"), outcome.stderr

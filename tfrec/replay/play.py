@@ -211,7 +211,7 @@ class _Streams:
 def _recording_id(replay: Replay) -> str:
     """The same replay of the same file gives the same id (and the same .rrd)."""
     digest = hashlib.sha256()
-    digest.update(os.path.abspath(replay.path).encode())
+    digest.update(os.fsencode(os.path.abspath(replay.path)))  # a name that is not UTF-8 too
     for robot in replay.robots:
         key = f"{robot.key}|" if len(replay.robots) > 1 else ""
         digest.update(f"{key}|{replay.start_ns}|{replay.end_ns}|{sorted(robot.tf)}|"

@@ -148,6 +148,8 @@ class _IndexedBag:
                 if _op(fields) != OP_CHUNK_INFO or uint32_field(fields, "ver") != 1:
                     raise _Unusable("the index lacks a chunk info record")
                 (chunk_pos,) = struct.unpack("<Q", fields["chunk_pos"])
+                if chunk_pos >= size:  # (a position past 2**63 is past what seek() takes)
+                    raise _Unusable(f"a chunk info record points past the end of the file (byte {chunk_pos:,})")
                 pairs = np.frombuffer(stream.read(data_len), dtype="<u4").reshape(-1, 2)
                 counts = {int(conn): int(count) for conn, count in pairs}
                 if len(counts) != uint32_field(fields, "count") or set(counts) - set(self.connections):
