@@ -80,6 +80,7 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
         write_bag(root / name, robots, kind=kind, extra=extra)
     moved = FrameSeries(series.time_ns, series.translation + 0.5, series.rotation)
     write_bag(root / "b", [Publisher(replace(hostile, tf={**hostile.tf, ("base", f"f{HOSTILE[0]}"): moved}))], kind="mcap")
+    write_bag(root / "tf-only.bag", [Publisher(rec, topics=("/tf",))], kind="ros1")  # no description: no robot name
     return root
 
 
@@ -207,3 +208,29 @@ def test_inspect_urdf_writes_the_same_document_without_terminal_controls(folder:
         assert "&#x202E;" in outcome.stdout and "\r" not in outcome.stdout
         shown, original = ET.fromstring(outcome.stdout.encode()), ET.fromstring(path.read_bytes())
         assert [(e.tag, e.attrib) for e in shown.iter()] == [(e.tag, e.attrib) for e in original.iter()]
+
+
+@pytest.mark.parametrize("source", ["rec.mcap", "tf-only.bag"])
+@pytest.mark.parametrize("argv", [
+    ["replay", "IN", "--save", "out.rrd"],
+    ["convert", "IN", "out.rrd"],
+    ["diff", "IN", "IN", "--rrd", "out.rrd"],
+    ["plot", "IN", "-o", "out.png"],
+    ["info", "IN", "--graph", "out.dot"],
+    ["info", "IN", "--graph", "out.svg"],
+    ["replay", "--check", "IN", "--plot", "out.svg"],
+    ["diff", "IN", "IN", "--plot", "out.png"],
+])
+def test_a_file_name_that_is_not_utf8_reaches_pictures_and_rerun_escaped(folder: Path, tmp_path: Path,
+                                                                          argv: list[str], source: str) -> None:
+    """Titles, graph names and Rerun's recording names are UTF-8 text: the name's bytes that are not UTF-8 are shown
+    as their escapes (a UnicodeEncodeError traceback before)."""
+    import os
+
+    name = os.fsdecode(b"\xff\xfe" + Path(source).suffix.encode())
+    shutil.copy(folder / source, tmp_path / name)
+    outcome = run([name if a == "IN" else a for a in argv], tmp_path, codes=(0, 1))
+    if source == "rec.mcap" or (argv[0] in ("replay", "convert") and argv[-1].endswith(".rrd")):
+        assert (tmp_path / argv[-1]).is_file(), outcome.stderr
+    else:  # a TF-only bag has no joints to plot, no description to check against: one error line
+        assert outcome.code == 2 or (tmp_path / argv[-1]).is_file()

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tfrec._atomic import AtomicOutputs, check_target
-from tfrec.errors import ReplayError
+from tfrec.errors import ReplayError, printable
 from tfrec.recording import FrameSeries, JointStates
 from tfrec.replay.pacing import BATCH_WALL_S, Clock, MonotonicClock, Pacer, batches
 from tfrec.replay.prepared import Replay, RobotReplay
@@ -106,7 +106,7 @@ def play(
     span_ns = max(span_ns, 1)
     robots = [robot.displayed() for robot in replay.robots]
     named = next((robot.robot for robot in robots if robot.robot is not None), None)
-    name = named.name if named is not None and len(robots) == 1 else Path(replay.path).name
+    name = named.name if named is not None and len(robots) == 1 else printable(Path(replay.path).name)
     passes = sent = 0
     slept = 0.0
     try:
