@@ -34,7 +34,7 @@ from tfrec.errors import ConvertError
 from tfrec.formats.messages import open_messages
 from tfrec.formats.output import open_output
 from tfrec.formats.reader import identify_recording, read_recording
-from tfrec.formats.ros.decode import repeated_joints
+from tfrec.formats.ros.joint_names import repeated_joints
 from tfrec.model import Robot
 from tfrec.recording import Recording
 from tfrec.resample import log_start_ns

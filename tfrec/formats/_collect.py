@@ -31,8 +31,9 @@ from tfrec.conventions import (
     robot_topic_kind,
 )
 from tfrec.errors import ReadError
-from tfrec.formats.ros.decode import JointStateAccumulator, TFAccumulator, repeated_joints, transforms_of
+from tfrec.formats.ros.decode import JointStateAccumulator, TFAccumulator, transforms_of
 from tfrec.formats.ros.definitions import foreign_layout
+from tfrec.formats.ros.joint_names import repeated_joints
 from tfrec.recording import FrameSeries, JointStates, Recording, RobotTopics, TopicStats
 from tfrec.robots import robot_name
 

@@ -413,8 +413,9 @@ def joint_states_in_order(data: RawMessages, *, ros1: bool, layout: MessageLayou
     Raises:
         ReadError: a message that is no JointState.
     """
-    from tfrec.formats.ros.decode import first_positions, stamp_ns
+    from tfrec.formats.ros.decode import stamp_ns
     from tfrec.formats.ros.encode import ns_from_stamps
+    from tfrec.formats.ros.joint_names import first_positions
 
     n = len(data)
     if layout is None and n:
