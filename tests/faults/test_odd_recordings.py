@@ -210,7 +210,7 @@ def _ros1_bag(path: Path, connections: list[tuple[str, str, str | None, str | No
 
 
 def _mcap(path: Path, channels: list[tuple[str, str, str, list[bytes], dict[str, str]]],
-          robot: Recording | None = None) -> Path:
+          robot: Recording | None = None, *, encoding: str = "ros2msg") -> Path:
     """An MCAP written by mcap's writer: the robot's topics (rosbags' CDR and Humble's definitions), then channels
     (topic, type, ros2msg definition, messages, channel metadata) as given."""
     from mcap.writer import Writer
@@ -231,7 +231,7 @@ def _mcap(path: Path, channels: list[tuple[str, str, str, list[bytes], dict[str,
                 data = bytes(store.serialize_cdr(msg, msgtype))
                 writer.add_message(made[topic], log_time=time_ns, data=data, publish_time=time_ns)
         for topic, msgtype, definition, datas, metadata in channels:
-            channel = writer.register_channel(topic, "cdr", writer.register_schema(msgtype, "ros2msg", definition.encode()),
+            channel = writer.register_channel(topic, "cdr", writer.register_schema(msgtype, encoding, definition.encode()),
                                               metadata=metadata)
             for i, data in enumerate(datas):
                 writer.add_message(channel, log_time=START_NS + i * 20_000_000, data=data, publish_time=START_NS)
@@ -427,6 +427,20 @@ def test_a_definition_whose_types_recurse_or_nest_deeply_is_one_warning(tmp_path
     run(["convert", target, "same" + Path(target).suffix], tmp_path)
     crossed = run(["convert", target, other], tmp_path)
     assert warnings_of(crossed, "/graph: 3 messages not written: pkg/msg/Node: its message definition")
+
+
+IDL_RECURSIVE = ("module pkg { module msg { struct Node { sequence<pkg::msg::Node> children; }; }; };\n"
+                 "module tf2_msgs { module msg { struct TFMessage { sequence<pkg::msg::Node> transforms; }; }; };\n")
+IDL_NESTED = "module a {" * 3000 + "};" * 3000
+
+
+@pytest.mark.parametrize("idl", [IDL_RECURSIVE, IDL_NESTED], ids=["recursive", "3,000 modules deep"])
+def test_a_ros2idl_schema_that_recurses_is_foreign_data(tmp_path: Path, marm_recording: Recording, idl: str) -> None:
+    _mcap(tmp_path / "idl.mcap", [("/tf", "tf2_msgs/msg/TFMessage", idl, INTS_CDR[:3], {})], _robot_only(marm_recording),
+          encoding="ros2idl")
+    for argv in (["info", "idl.mcap"], ["replay", "idl.mcap", "--save", "out.rrd"], ["convert", "idl.mcap", "out.bag"]):
+        outcome = run(argv, tmp_path)
+        assert len(warnings_of(outcome, "/tf (tf2_msgs/msg/TFMessage)")) == 1, outcome.stderr
 
 
 # -- mesh URIs -----------------------------------------------------------------------------------------------------
