@@ -234,3 +234,23 @@ def test_a_file_name_that_is_not_utf8_reaches_pictures_and_rerun_escaped(folder:
         assert (tmp_path / argv[-1]).is_file(), outcome.stderr
     else:  # a TF-only bag has no joints to plot, no description to check against: one error line
         assert outcome.code == 2 or (tmp_path / argv[-1]).is_file()
+
+
+def test_the_command_line_prints_only_through_show() -> None:
+    """One printer (tfrec.cli._common.show): a print(), sys.stdout.write() or json.dump(…, sys.stdout) elsewhere in
+    tfrec/cli would print names unescaped."""
+    import ast
+
+    from tests.conftest import REPO
+
+    found = []
+    for path in sorted((REPO / "tfrec" / "cli").glob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for function in [node for node in ast.walk(tree) if isinstance(node, ast.FunctionDef) and node.name != "show"]:
+            for call in [node for node in ast.walk(function) if isinstance(node, ast.Call)]:
+                text = ast.unparse(call.func)
+                streams = [ast.unparse(arg) for arg in [*call.args, *(k.value for k in call.keywords)]]
+                if text == "print" or text in ("sys.stdout.write", "sys.stderr.write") or (
+                        text in ("json.dump", "sys.stdout.writelines") and any(s.startswith("sys.std") for s in streams)):
+                    found.append(f"{path.name}:{call.lineno}: {ast.unparse(call)[:80]}")
+    assert not found, "\n".join(found)
