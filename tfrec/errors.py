@@ -34,6 +34,9 @@ __all__ = [
     "TfrecWarning",
     "TrajectoryError",
     "WriteError",
+    "display_path",
+    "one_line",
+    "printable",
 ]
 
 
@@ -101,17 +104,19 @@ class LegacyXacroWarning(TfrecWarning):
 
 
 def display_path(path: str | os.PathLike[str] | None) -> str:
-    """A path as a user would type it in messages: relative to the working folder when inside it."""
+    """A path as a user would type it in messages and titles: relative to the working folder when inside it,
+    with the characters a terminal acts on and the bytes that are not UTF-8 escaped (:func:`printable`: a
+    matplotlib title or a Rerun name cannot hold a lone surrogate)."""
     if path is None:
         return "<string>"
     p = Path(path)
     cwd = Path.cwd().resolve()
     if cwd == Path(cwd.anchor):  # from / every path is "relative": keep it as given
-        return str(p)
+        return printable(str(p))
     try:
-        return str(p.resolve().relative_to(cwd))
+        return printable(str(p.resolve().relative_to(cwd)))
     except ValueError:
-        return str(p)
+        return printable(str(p))
 
 
 def one_line(text: str) -> str:
@@ -123,3 +128,19 @@ def suggest(name: str, names: Iterable[str]) -> str:
     """`` (did you mean 'x'?)`` for the closest of names (a typo), or ``""``."""
     close = difflib.get_close_matches(name, sorted(set(names)), n=1)
     return f" (did you mean '{close[0]}'?)" if close else ""
+
+
+def printable(text: str, *, keep: str = "") -> str:
+    """``text`` as a terminal may show it: every character that is not printable is written as its Python
+    escape — control characters (ESC ``\\x1b``, CR ``\\r``, BEL ``\\x07``, NUL), format characters such as a
+    right-to-left override (``\\u202e``), the lone surrogates that stand for the undecodable bytes of a file
+    name (``\\udcff``) — so that a name from an input (a file found in a folder, a topic, frame or joint name)
+    cannot clear the screen, move the cursor, recolour a verdict or set the window title.
+
+    Args:
+        text: what is to be shown.
+        keep: characters left as they are: ``"\\n\\t"`` for text of several lines that tfrec laid out itself.
+    """
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() or c in keep else c.encode("unicode_escape").decode("ascii") for c in text)

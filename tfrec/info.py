@@ -21,6 +21,7 @@ from datetime import datetime, timezone
 from typing import Any
 
 from tfrec.conventions import CLOCK_GAP_NS, JOINT_STATES, NS_PER_S, TF, namespace_name
+from tfrec.errors import printable
 from tfrec.formats.reader import identify_recording, read_recording
 from tfrec.recording import Recording
 from tfrec.robots import RecordedRobot, find_robots
@@ -187,7 +188,9 @@ def _robot_name(robot: dict[str, Any]) -> str:
 
 
 def format_summary(summary: dict[str, Any]) -> str:
-    """The readable form of :func:`summarize`'s result, like ``ros2 bag info``."""
+    """The readable form of :func:`summarize`'s result, like ``ros2 bag info``. What the recording names (topics,
+    types, frames, joints, files) is shown escaped where it holds a character that is not printable
+    (:func:`tfrec.errors.printable`), the topics' columns aligned on what is shown."""
     lines = [f"File:        {summary['path']}", f"Format:      {_format_kind(summary)}"]
     if summary["format"] == "rosbag2":
         lines.append(f"Files:       {', '.join(summary['files'])}")
@@ -209,8 +212,8 @@ def format_summary(summary: dict[str, Any]) -> str:
     topics = summary["topics"]
     lines.append(f"Topics ({len(topics)}):")
     rows = [
-        (t["name"], t["type"], f"{t['count']} msg{'s' if t['count'] != 1 else ''}",
-         f"{t['rate_hz']:.3f} Hz" if t["rate_hz"] is not None else "", t["durability"] or "")
+        (printable(t["name"]), printable(t["type"]), f"{t['count']} msg{'s' if t['count'] != 1 else ''}",
+         f"{t['rate_hz']:.3f} Hz" if t["rate_hz"] is not None else "", printable(t["durability"] or ""))
         for t in topics
     ]
     widths = [max((len(row[i]) for row in rows), default=0) for i in range(5)]
@@ -225,4 +228,4 @@ def format_summary(summary: dict[str, Any]) -> str:
         for robot in robots:
             lines.append(f"  {robot['key']}: {_robot_name(robot)}")
             lines += _robot_lines(robot, "    ")
-    return "\n".join(lines)
+    return "\n".join(printable(line) for line in lines)

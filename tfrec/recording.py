@@ -96,11 +96,14 @@ class JointStates:
         time_ns: int64 (N,) header stamps, non-decreasing.
         names: the union of the joint names of all messages, in order of first appearance.
         positions: float64 (N, J); NaN where a message has no position for a joint.
+        repeated: joints that some message names more than once; their first position is the one
+            taken, as robot_state_publisher takes it.
     """
 
     time_ns: NDArray[np.int64]
     names: tuple[str, ...]
     positions: Array
+    repeated: tuple[str, ...] = ()
 
     def __len__(self) -> int:
         return len(self.time_ns)

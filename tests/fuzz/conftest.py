@@ -18,6 +18,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import CORPUS, ROBOTS
+from tfrec.recording import Recording
 
 BAGS = CORPUS.parent / "bags"
 
@@ -250,6 +251,14 @@ def description_seeds(seed_root: Path) -> list[DescriptionSeed]:
 @pytest.fixture(scope="session")
 def recording_seeds(seed_root: Path) -> list[RecordingSeed]:
     return _recording_seeds(seed_root)
+
+
+@pytest.fixture(scope="session")
+def odd_seed(recording_seeds: list[RecordingSeed], seed_root: Path) -> Recording:
+    """The data of tfrec's marm.mcap, from which the odd recordings are written."""
+    from tfrec.formats import read_recording
+
+    return read_recording(seed_root / "rec" / "marm.mcap")
 
 
 @pytest.fixture(scope="session")

@@ -8,7 +8,8 @@ stderr or an output file. Time is CPU time, never wall-clock time: the machine i
 counts seconds of a clock on the wall fails when another job runs beside it.
 Where a run meets files at its outputs' places (issue #20): nothing but its outputs changes, nothing at all when
 it fails, and no temporary is left (:func:`untouched_violations`, over :func:`snapshot` s of the folder before and
-after).
+after).; no character that drives a terminal (ESC, CR, BEL, a right-to-left override —
+anything not printable but line breaks and tabs) reaches stdout or stderr (issue 20).
 
 Two modes, chosen by the environment variable ``TFREC_FUZZ``:
 
@@ -241,6 +242,9 @@ def contract_violations(outcome: Outcome, *, codes: Sequence[int] = (0,), output
         problems.append(f"stderr has lines that are neither an error nor a warning: {strays[:3]!r}")
     if outcome.seconds > RUN_TIMEOUT_S:
         problems.append(f"took {outcome.seconds:.1f} s of CPU time")
+    controls = sorted({c for c in outcome.stdout + outcome.stderr if not c.isprintable() and c not in "\n\t"})
+    if controls:
+        problems.append(f"characters that drive a terminal reached it: {controls[:5]!r}")
     if PASSWD_LINE.decode() in outcome.stdout or PASSWD_LINE.decode() in outcome.stderr:
         problems.append("a line of /etc/passwd was printed")
     for path in outputs:
@@ -331,8 +335,9 @@ def save_failure(name: str, argv: Sequence[str], *, cwd: Path, inputs: Sequence[
         elif item.exists() or item.is_symlink():
             shutil.copy2(item, destination, follow_symlinks=False)
     (target / "command.txt").write_text(
-        f"PYTHONPATH={shlex.quote(str(REPO))} {shlex.quote(sys.executable)} -m tfrec {shlex.join(argv)}\n")
+        f"PYTHONPATH={shlex.quote(str(REPO))} {shlex.quote(sys.executable)} -m tfrec {shlex.join(argv)}\n",
+        errors="surrogateescape")  # a file name that is not UTF-8: its own bytes
     (target / "outcome.txt").write_text(
         f"exit code: {outcome.code}\nCPU seconds: {outcome.seconds:.2f}\n--- stderr\n{outcome.stderr}\n"
-        f"--- crash\n{outcome.crash or ''}\n")
+        f"--- crash\n{outcome.crash or ''}\n", errors="backslashreplace")
     return target

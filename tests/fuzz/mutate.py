@@ -14,6 +14,7 @@ import os
 import sqlite3
 import struct
 import zlib
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 from xml.dom import minidom
@@ -23,8 +24,11 @@ from hypothesis import strategies as st  # the first serialization, so that ever
 
 __all__ = [
     "FOREIGN_NAMES",
+    "HOSTILE_NAMES",
     "HOSTILE_NUMBERS",
     "HOSTILE_TEXT",
+    "HOSTILE_URIS",
+    "OddRecording",
     "csv_text",
     "foreign_bytes",
     "foreign_tree",
@@ -33,6 +37,8 @@ __all__ = [
     "mutated_mcap",
     "mutated_ros1_bag",
     "mutated_sqlite_bag",
+    "odd_recording",
+    "write_odd_recording",
     "write_tree",
     "xml_text",
     "yaml_text",
@@ -55,6 +61,24 @@ HOSTILE_TEXT = [
     "/dev/zero", "/proc/self/environ", "package://robot/meshes/none.stl", "file:///dev/zero",
 ]
 """Strings a description should reject or take literally, never run, read from elsewhere, or hang on."""
+
+HOSTILE_URIS = [
+    "package://inline_robot/meshes/part%00.stl", "package://inline_robot/meshes/%00", "file:///etc/passwd%00.stl",
+    "file:///dev/zero%00", "package://inline_robot/%2e%2e/%2e%2e/etc/passwd", "package://inline_robot/meshes%2F..%2F..%2F..",
+    "package://inline_robot/meshes/%2E%2E/%2e%2E/config/limits.yaml", "package://inline_robot/meshes/%5C..%5C..%5Cpart.stl",
+    "package://inline_robot/meshes/%zz%2.stl", "package://inline_robot/meshes/%ff%fe.stl", "package://../etc/passwd",
+    "package://./meshes/part.stl", "package:///etc/passwd", "package://%2e%2e/etc/passwd", "package://inline%00robot/x.stl",
+    "package://inline_robot/meshes/%E2%80%AEpart.stl", "package://inline_robot/meshes/%1B%5B2Jpart.stl",
+    "file://localhost/etc/passwd", "file://%2e%2e/%2e%2e/etc/passwd", "file:///proc/self/environ", "file:",
+    "package://inline_robot/meshes/part.stl%00.png", "package://inline_robot/meshes/part.stl?x=%00#%00",
+]
+"""Mesh and file URIs whose percent-encoding hides a NUL, a way out of the package, an invalid escape, a terminal
+escape sequence: each is a warning (the visual skipped) or one line, and confinement holds."""
+
+HOSTILE_NAMES = ["\x1b[2J", "\r", "\x07", "\x1b]0;title\x07", "\u202e", "\x1b[31mFAIL\x1b[0m", "\n", "\x00", "\x9b2J",
+                 "\udcff"]
+"""Pieces of topic, frame, joint and file names that would drive a terminal: clear the screen, return to the line's
+start, ring, set the window title, reverse the text, recolour, break the line; and a byte that is not UTF-8."""
 
 _INTERESTING_INTS = [0, 1, 0x7F, 0x80, 0xFF, 0x7FFF, 0xFFFF, 0x7FFFFFFF, 0x80000000, 0xFFFFFFFF, 1 << 32, 1 << 40,
                      (1 << 62), (1 << 63) - 1, 1 << 63, (1 << 64) - 1]
@@ -118,12 +142,23 @@ def xml_text(draw: st.DrawFn, text: str, *, max_ops: int = 3) -> bytes:
         elements = _elements(doc)
         element = elements[draw(st.integers(0, len(elements) - 1))]
         kind = draw(st.sampled_from(["value", "value", "value", "number", "number", "drop-attr", "add-attr",
-                                     "delete", "duplicate", "move", "rename", "unprefix", "empty", "nest"]))
+                                     "delete", "duplicate", "move", "rename", "unprefix", "empty", "nest", "mesh",
+                                     "name"]))
         parent = element.parentNode
         is_root = parent is doc
         if kind in ("value", "number", "drop-attr") and not element.attributes.length:
             kind = "add-attr"
-        if kind == "value":
+        if kind == "mesh":  # a mesh (any, or a new one) with a hostile URI
+            meshes = doc.getElementsByTagName("mesh")
+            target = meshes[draw(st.integers(0, len(meshes) - 1))] if meshes else element
+            target.setAttribute("filename", draw(st.sampled_from(HOSTILE_URIS)))
+        elif kind == "name":  # a link, joint or robot name with a character XML may hold but a terminal acts on
+            named = [e for e in elements if e.hasAttribute("name") or e.hasAttribute("link")] or [element]
+            target = named[draw(st.integers(0, len(named) - 1))]
+            attribute = "name" if target.hasAttribute("name") else "link"
+            target.setAttribute(attribute, target.getAttribute(attribute) + draw(st.sampled_from(
+                ["\u202e", "\u200f", "\ufeff", "\u2028", "&#x202E;", "\t"])))
+        elif kind == "value":
             name = draw(st.sampled_from(sorted(element.attributes.keys())))
             element.setAttribute(name, draw(st.sampled_from(HOSTILE_TEXT + HOSTILE_NUMBERS)))
         elif kind == "number":
@@ -520,3 +555,193 @@ def long_name(draw: st.DrawFn, suffix: str) -> str:
     room = size - len(suffix.encode())
     width = len(char.encode())
     return char * (room // width) + "x" * (room % width) + suffix
+
+
+# ---- odd but well-formed recordings ------------------------------------------------------------------------------
+
+_SEPARATOR = "=" * 80 + "\n"
+
+
+@dataclass(frozen=True)
+class OddRecording:
+    """A well-formed recording whose content is odd (issue 20): what :func:`write_odd_recording` writes.
+
+    Attributes:
+        kind: ``mcap`` or ``ros1``.
+        file_piece: put in the file's name (a terminal escape sequence, a byte that is not UTF-8).
+        repeat: (the joint a /joint_states message names a second time, where the second name goes, how far its
+            second position is from its first); None: no joint named twice.
+        renames: (what — ``joint``, ``frame``, ``topic``, ``namespace`` —, the piece added to its name).
+        redefine: topic → (its definition as the file gives it, the md5sum as the file gives it — ``own``, ``*``,
+            ``""``, ``known`` —, its messages: ``standard`` or ``ints``, the MCAP channel's type hash: ``none``,
+            ``right``, ``wrong``).
+    """
+
+    kind: str
+    file_piece: str
+    repeat: tuple[int, int, float] | None
+    renames: tuple[tuple[str, str], ...]
+    redefine: tuple[tuple[str, tuple[str, str, str, str]], ...]
+
+
+def _chain(n: int) -> str:
+    return _SEPARATOR.join(["pkg/T0 f\n"] + [f"MSG: pkg/T{i}\npkg/T{i + 1} f\n" for i in range(n)] + [f"MSG: pkg/T{n}\nint32 v\n"])
+
+
+def _definitions(msgtype: str) -> list[str]:
+    """Definitions of a type tfrec reads, other than ROS's (and ROS's with comments and constants: still its layout)."""
+    short = msgtype.replace("/msg/", "/")
+    return [
+        "int32 x\n", "", "%%% not a definition\n", f"{short}[] self\n", f"{short} child\nint32 v\n",
+        "pkg/Edge[] edges\n" + _SEPARATOR + f"MSG: pkg/Edge\n{short} to\n",
+        "geometry_msgs/TransformStamped[] transforms\n" + _SEPARATOR +
+        "MSG: geometry_msgs/TransformStamped\ngeometry_msgs/TransformStamped[] next\n",
+        _chain(65), _chain(900), _chain(5000), "".join(f"float64 f{i}\n" for i in range(3000)),
+        "STANDARD-RENAMED", "STANDARD-RETYPED", "STANDARD-COMMENTED",
+    ]
+
+
+@st.composite
+def odd_recording(draw: st.DrawFn) -> OddRecording:
+    """What an odd recording holds: a joint named twice in /joint_states, names with terminal escape sequences (a
+    joint, a frame, a topic, a namespace, the file), robot topics whose type is defined with another layout — a
+    field renamed or retyped, a type that contains itself (directly, through an array, through another type), types
+    nested 65 to 5,000 deep or 3,000 wide, no definition, one that does not parse — with md5sums that match it, ROS's,
+    ``*`` or none, and MCAP type hashes."""
+    kind = draw(st.sampled_from(["mcap", "ros1"]))
+    repeat = None
+    if draw(st.booleans()):
+        repeat = (draw(st.integers(0, 7)), draw(st.integers(0, 9)), draw(st.sampled_from([0.0, 0.5, float("nan")])))
+    names = [name for name in HOSTILE_NAMES if name != "\udcff"]  # a message's strings are UTF-8
+    renames = tuple(draw(st.lists(st.tuples(st.sampled_from(["joint", "frame", "topic", "namespace"]),
+                                            st.sampled_from(names)), max_size=3)))
+    topics = draw(st.lists(st.sampled_from(["/tf", "/tf_static", "/joint_states", "/robot_description"]),
+                           max_size=2, unique=True))
+    redefine = []
+    for topic in topics:
+        msgtype = {"/tf": "tf2_msgs/msg/TFMessage", "/tf_static": "tf2_msgs/msg/TFMessage",
+                   "/joint_states": "sensor_msgs/msg/JointState", "/robot_description": "std_msgs/msg/String"}[topic]
+        redefine.append((topic, (draw(st.sampled_from(_definitions(msgtype))),
+                                 draw(st.sampled_from(["own", "*", "", "known"])),
+                                 draw(st.sampled_from(["standard", "ints"])),
+                                 draw(st.sampled_from(["none", "right", "wrong"])))))
+    piece = draw(st.sampled_from(["", "", *HOSTILE_NAMES]))
+    return OddRecording(kind, piece.replace("/", "").replace("\x00", ""), repeat, renames, tuple(redefine))
+
+
+def _odd_data(plan: OddRecording, rec: Any) -> tuple[Any, list[Any], str]:
+    """The recording's data with the joint named twice and the names changed; the extra messages; the namespace."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from tfrec.recording import JointStates
+
+    js = rec.joint_states
+    names, positions = list(js.names), [js.positions[:, k] for k in range(len(js.names))]
+    if plan.repeat is not None:
+        k, at, offset = plan.repeat
+        k %= len(names)
+        names.insert(at % (len(names) + 1), names[k])
+        positions.insert(at % (len(positions) + 1), positions[k] + offset)
+    tf, namespace, extra_topics = dict(rec.tf), "", []
+    for what, piece in plan.renames:
+        if what == "joint":
+            names[0] += piece
+        elif what == "frame" and tf:
+            parent, child = next(iter(tf))
+            tf[(parent, child + piece)] = tf.pop((parent, child))
+        elif what == "topic":
+            extra_topics.append("/t" + piece)
+        else:
+            namespace = "/ns" + piece
+    data = replace(rec, joint_states=JointStates(js.time_ns, tuple(names), np.stack(positions, axis=1)), tf=tf)
+    return data, extra_topics, namespace
+
+
+def write_odd_recording(plan: OddRecording, rec: Any, folder: Path) -> Path:
+    """Write ``plan`` of the recording ``rec`` (a :class:`tfrec.recording.Recording`) into ``folder``: an MCAP
+    written by mcap's writer, or a ROS 1 bag written by tfrec's (which writes an md5sum or a definition that is
+    empty, as rosbags' does not); returns its path."""
+    import hashlib
+
+    from tests.bag_builders import Robot, robot_messages
+    from tests.recording_helpers import _typestore
+
+    ros1 = plan.kind == "ros1"
+    store = _typestore(ros1)
+    data, extra_topics, namespace = _odd_data(plan, rec)
+    messages = robot_messages(Robot(data, namespace=namespace), ros1=ros1)
+    start = rec.start_ns or 0
+    messages += [(topic, "std_msgs/msg/String", start, store.types["std_msgs/msg/String"](data=topic))
+                 for topic in extra_topics]
+    messages.sort(key=lambda m: m[2])
+    redefined = dict(plan.redefine)
+    path = folder / ("in" + plan.file_piece + (".bag" if ros1 else ".mcap"))
+    channels: dict[str, tuple[str, str, str, dict[str, str]]] = {}
+    for topic, msgtype, _, _ in messages:
+        if topic in channels:
+            continue
+        text, md5sum = store.generate_msgdef(msgtype, ros_version=1 if ros1 else 2)
+        metadata: dict[str, str] = {}
+        change = redefined.get(topic.removeprefix(namespace))
+        if change is not None:
+            definition, md5_mode, _, type_hash = change
+            definition = _standard_variant(definition, text)
+            md5sum = {"own": hashlib.md5(definition.encode()).hexdigest(), "known": md5sum}.get(md5_mode, md5_mode)
+            text = definition
+            if type_hash != "none" and not ros1:
+                metadata["topic_type_hash"] = store.hash_rihs01(msgtype) if type_hash == "right" else "RIHS01_" + "0" * 64
+        channels[topic] = (msgtype, text, md5sum, metadata)
+    rows = []
+    for i, (topic, msgtype, time_ns, msg) in enumerate(messages):
+        raw = bytes(store.serialize_ros1(msg, msgtype) if ros1 else store.serialize_cdr(msg, msgtype))
+        change = redefined.get(topic.removeprefix(namespace))
+        if change is not None and change[2] == "ints":
+            raw = struct.pack("<i", i) if ros1 else b"\x00\x01\x00\x00" + struct.pack("<i", i)
+        rows.append((topic, time_ns, raw))
+    (_write_ros1 if ros1 else _write_mcap)(path, channels, rows)
+    return path
+
+
+def _standard_variant(definition: str, standard: str) -> str:
+    """ROS's definition with a field renamed or retyped, or with comments and constants (still ROS's layout)."""
+    lines = standard.split("\n")
+    first = next(i for i, line in enumerate(lines) if line and not line.startswith(("#", "=")) and "=" not in line)
+    kind, _, name = lines[first].partition(" ")
+    if definition == "STANDARD-RENAMED":
+        lines[first] = f"{kind} {name}_renamed"
+    elif definition == "STANDARD-RETYPED":
+        lines[first] = f"int8 {name}"
+    elif definition == "STANDARD-COMMENTED":
+        lines[first] = f"# a comment\n\nint32 UNUSED=7\n{lines[first]}   # why"
+    else:
+        return definition
+    return "\n".join(lines)
+
+
+def _write_mcap(path: Path, channels: dict[str, tuple[str, str, str, dict[str, str]]],
+                rows: list[tuple[str, int, bytes]]) -> None:
+    from mcap.writer import Writer
+
+    with open(path, "wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2")
+        ids = {topic: writer.register_channel(topic, "cdr", writer.register_schema(msgtype, "ros2msg", text.encode()),
+                                              metadata=metadata)
+               for topic, (msgtype, text, _, metadata) in channels.items()}
+        for topic, time_ns, raw in rows:
+            writer.add_message(ids[topic], log_time=time_ns, data=raw, publish_time=time_ns)
+        writer.finish()
+
+
+def _write_ros1(path: Path, channels: dict[str, tuple[str, str, str, dict[str, str]]],
+                rows: list[tuple[str, int, bytes]]) -> None:
+    from tfrec.formats.rosbag1.writer import Ros1BagWriter
+
+    with Ros1BagWriter(path) as writer:
+        ids = {topic: writer.add_connection(topic, msgtype, msgdef=text, md5sum=md5sum,
+                                            latching=topic.endswith(("tf_static", "robot_description")))
+               for topic, (msgtype, text, md5sum, _) in channels.items()}
+        for topic, time_ns, raw in rows:
+            writer.write(ids[topic], time_ns, raw)

@@ -2,7 +2,9 @@
 byte by byte and record by record, ROS 1 bags (tfrec's and rosbag.js's) with mutated header fields, rosbag2
 folders with a mutated ``metadata.yaml``, damaged sqlite3 tables or a mutated MCAP, and tfrec's ``.rrd``. Each is
 read by ``info``, ``replay --check``, ``replay --save``, ``diff A A`` and ``plot``; the contract is
-:mod:`tests.fuzz.harness`'s."""
+:mod:`tests.fuzz.harness`'s. Odd but well-formed recordings (issue 20: a joint named twice, names with terminal
+escape sequences, robot topics defined with another layout, recursive or deeply nested types) go through those
+commands, ``convert`` and ``check`` of their folder too."""
 
 from __future__ import annotations
 
@@ -14,7 +16,17 @@ from hypothesis import strategies as st
 
 from tests.fuzz.conftest import RecordingSeed, link_tree, replace_file, workdir
 from tests.fuzz.harness import check_run, fuzz_settings
-from tests.fuzz.mutate import apply_sql, mutated_bytes, mutated_mcap, mutated_ros1_bag, mutated_sqlite_bag, yaml_text
+from tests.fuzz.mutate import (
+    apply_sql,
+    mutated_bytes,
+    mutated_mcap,
+    mutated_ros1_bag,
+    mutated_sqlite_bag,
+    odd_recording,
+    write_odd_recording,
+    yaml_text,
+)
+from tfrec.recording import Recording
 
 # hypothesis warns when it would quote a strategy's arguments (a seed file) in a message: they are saved as files
 pytestmark = pytest.mark.filterwarnings("ignore:Generating overly large repr:hypothesis.errors.HypothesisWarning")
@@ -120,3 +132,27 @@ def test_mutated_rrd(data: st.DataObject, recording_seeds: list[RecordingSeed], 
         target = cwd / "in.rrd"
         target.write_bytes(mutated)
         _run(data, seed, cwd, target, f"rrd-{seed.name}")
+
+
+def _odd_commands(target: str) -> list[tuple[list[str], tuple[int, ...], list[str]]]:
+    """What reads an odd recording: the commands of :func:`_commands`, convert (each format, TF from the joint
+    states) and a check of its folder (whose listing holds its name)."""
+    return _commands(target) + [
+        (["convert", target, "out.mcap"], (0,), ["out.mcap"]),
+        (["convert", target, "out.bag"], (0,), ["out.bag"]),
+        (["convert", target, "out.rrd"], (0,), ["out.rrd"]),
+        (["convert", target, "out.mcap", "--tf-from-joints"], (0,), ["out.mcap"]),
+        (["check", "."], (0, 1), []),
+        (["replay", "--check", target, "--use-log-time"], (0, 1), []),
+    ]
+
+
+@fuzz_settings(short_examples=30)
+@given(data=st.data())
+def test_odd_recordings(data: st.DataObject, odd_seed: Recording, runs: Path) -> None:
+    plan = data.draw(odd_recording(), label="odd recording")
+    with workdir(runs) as cwd:
+        target = write_odd_recording(plan, odd_seed, cwd)
+        argv, codes, outputs = data.draw(st.sampled_from(_odd_commands(target.name)), label="command")
+        check_run(argv, cwd=cwd, inputs=[target], name=f"odd-{plan.kind}", codes=codes,
+                  outputs=[cwd / out for out in outputs])

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn, TextIO
 
 from tfrec.conventions import NS_PER_S, STAMP_LIMIT_NS, STAMP_RANGE
+from tfrec.errors import printable
 
 if TYPE_CHECKING:
     from tfrec.description.launch import LaunchRobot
@@ -31,6 +32,7 @@ __all__ = [
     "load_robot_option",
     "number",
     "package_form",
+    "show",
     "start_time",
     "tolerance",
 ]
@@ -82,6 +84,16 @@ def add_naming_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGro
                                  "that stamps 0, stamps on another clock)")
 
 
+def show(*lines: str, file: TextIO | None = None) -> None:
+    """Print each of ``lines`` on a line of its own, on stdout (or ``file``): the one way the command line
+    prints — results, reports, ``wrote …`` lines, errors and warnings. Whatever a line quotes (a file name
+    found in a folder, a topic, frame or joint name), a character that would drive a terminal — ESC, CR, BEL,
+    a right-to-left override, an undecodable byte of a file name, a line break — is shown escaped
+    (:func:`tfrec.errors.printable`); tabs stay. A report of several lines comes as its lines
+    (``show(*text.split("\\n"))``), each escaped by the formatter that laid it out."""
+    (sys.stdout if file is None else file).write("".join(printable(line, keep="\t") + "\n" for line in lines))
+
+
 class Parser(argparse.ArgumentParser):
     """argparse with usage errors as one line, like every other tfrec error (exit 2); what a ROS user types
     out of habit (``tfrec play``, ``-O out``, ``replay -r 2``) is answered with tfrec's own (:mod:`._habits`)."""
@@ -120,7 +132,9 @@ class Parser(argparse.ArgumentParser):
             message += f": {answer}"
         elif ":=" in message:
             message += " (xacro arguments name:=value go right after ROBOT)"
-        self.exit(2, f"{PROG}: error: {message} (see '{PROG}{' ' + command if command else ''} --help')\n")
+        show(f"{PROG}: error: {printable(message)} (see '{PROG}{' ' + command if command else ''} --help')",
+             file=sys.stderr)
+        self.exit(2)
 
     def error(self, message: str) -> NoReturn:
         if message.startswith("argument COMMAND: invalid choice"):
@@ -130,7 +144,8 @@ class Parser(argparse.ArgumentParser):
             word = message.partition("invalid choice: ")[2].partition(" (choose from")[0]
             if answer is not None:
                 message = f"{word} is not a tfrec command: {answer}"
-        self.exit(2, f"{PROG}: error: {message} (see '{self.prog} --help')\n")
+        show(f"{PROG}: error: {printable(message)} (see '{self.prog} --help')", file=sys.stderr)
+        self.exit(2)
 
 
 _PACKAGE_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")

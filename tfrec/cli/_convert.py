@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from tfrec.cli._common import add_naming_arguments, add_xacro_arguments, load_robot_option
+from tfrec.cli._common import add_naming_arguments, add_xacro_arguments, load_robot_option, show
 
 __all__ = ["add_parser"]
 
@@ -72,25 +72,25 @@ def _cmd_convert(ns: argparse.Namespace) -> int:
                      robot=robot, compression=ns.compression, force=ns.force, package_paths=ns.package_path)
     report = result.report
     if report is None:
-        print(f"wrote {result.target} ({result.description})")
+        show(f"wrote {result.target} ({result.description})")
         return 0
     topics = sum(1 for count in report.written.values() if count)
-    print(f"wrote {result.target} ({result.description}): {report.messages:,} messages on {topics} "
+    show(f"wrote {result.target} ({result.description}): {report.messages:,} messages on {topics} "
           f"topic{'s' if topics != 1 else ''}")
     start, end = result.window
     if start is not None or end is not None:
         span = f"{start or 0:g} s to " + ("the end" if end is None else f"{end:g} s")
         kept = f"; latched at the cut: {', '.join(report.latched)}" if report.latched else ""
-        print(f"cut from {span}{kept}")
+        show(f"cut from {span}{kept}")
     for key, (joints, fixed) in report.derived.items():
         parts = ([f"{joints} joint{'s' if joints != 1 else ''} from /joint_states"] if joints else []) + (
             [f"{fixed} fixed frame{'s' if fixed != 1 else ''} from the description"] if fixed else [])
         if parts:
-            print(f"TF computed{f' for {key}' if key else ''}: {' and '.join(parts)}")
+            show(f"TF computed{f' for {key}' if key else ''}: {' and '.join(parts)}")
     for topic, count in report.replaced.items():
-        print(f"{topic}: {count:,} recorded description{'s' if count != 1 else ''} replaced by --robot's")
+        show(f"{topic}: {count:,} recorded description{'s' if count != 1 else ''} replaced by --robot's")
     if report.left_out:
         count = sum(report.left_out.values())
-        print(f"left out: {len(report.left_out)} topic{'s' if len(report.left_out) != 1 else ''} "
+        show(f"left out: {len(report.left_out)} topic{'s' if len(report.left_out) != 1 else ''} "
               f"({count:,} messages) by --topics/--exclude/--namespace")
     return 0

@@ -12,6 +12,7 @@ from tfrec.cli._common import (
     add_xacro_arguments,
     as_flags,
     number,
+    show,
     tolerance,
 )
 from tfrec.conventions import (
@@ -201,7 +202,7 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
         from tfrec.diff.overlay import write_overlay
 
         write_overlay(comparison, ns.rrd, force=ns.force, package_paths=ns.package_path)
-    sys.stdout.write(report.to_json() + "\n" if ns.json else as_flags(report.to_text()))
+    show(*(report.to_json() if ns.json else as_flags(report.to_text()).rstrip("\n")).split("\n"))
     if ns.plot is not None and recordings:
         from tfrec.plots import plot_diff
 
@@ -211,7 +212,7 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
 
         plot_motion(comparison, ns.plot, force=ns.force)
     if ns.plot is not None:
-        print(f"wrote {ns.plot}", file=sys.stderr if ns.json else sys.stdout)
+        show(f"wrote {ns.plot}", file=sys.stderr if ns.json else sys.stdout)
     if ns.rrd is not None:
-        print(f"wrote {ns.rrd}   (open with: rerun {ns.rrd})", file=sys.stderr if ns.json else sys.stdout)
+        show(f"wrote {ns.rrd}   (open with: rerun {ns.rrd})", file=sys.stderr if ns.json else sys.stdout)
     return 0 if report.equal else 1

@@ -9,8 +9,9 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any, TextIO
 
-from tfrec.cli._common import PROG, add_xacro_arguments, number, tolerance
+from tfrec.cli._common import PROG, add_xacro_arguments, number, show, tolerance
 from tfrec.conventions import CHECK_POS_TOL, CHECK_ROT_TOL
+from tfrec.errors import printable
 
 __all__ = ["add_engine_arguments", "add_parser", "run_diff_folders"]
 
@@ -146,15 +147,15 @@ def _run(ns: argparse.Namespace, tasks: Sequence[Any], *, what: str) -> int:
     finally:
         bar.close()
     for line in failing:
-        print(line)
+        show(line)
     passed, failed = progress.passed + before.passed, progress.failed + before.failed
     errors, total = progress.errors + before.errors, progress.total + before.total
     skipped = f" ({before.done} unchanged, from the report)" if before.done else ""
-    print(f"{total} {what}: {passed} pass, {failed} fail, {errors} error{skipped} in {time.monotonic() - started:.1f} s"
+    show(f"{total} {what}: {passed} pass, {failed} fail, {errors} error{skipped} in {time.monotonic() - started:.1f} s"
           + (f"; report: {ns.report}" if ns.report else ""))
     if total == 0 or errors == total:
         where = " ".join(ns.paths) if getattr(ns, "paths", None) else f"{ns.a} and {ns.b}"
-        print(f"{PROG}: error: {where}: nothing could be read ({errors} of {total} {what} an error; see above)",
+        show(f"{PROG}: error: {printable(where)}: nothing could be read ({errors} of {total} {what} an error; see above)",
               file=sys.stderr)
         return 2
     return 0 if passed == total else 1 if (failed or errors) else 0

@@ -7,7 +7,7 @@ import json
 import sys
 from typing import Any
 
-from tfrec.cli._common import add_naming_arguments
+from tfrec.cli._common import add_naming_arguments, show
 
 __all__ = ["add_parser"]
 
@@ -48,11 +48,7 @@ def _cmd_info(ns: argparse.Namespace) -> int:
         topics = (TF, TF_STATIC, ROBOT_DESCRIPTION)  # a description's root link is the tree of a robot without TF
         render_graph(recorded_graph(read_recording(ns.file, topics=topics, namespace=ns.namespace,
                                                    remap=ns.remap)), ns.graph, force=ns.force)
-    if ns.json:
-        json.dump(summary, sys.stdout, indent=2)
-        sys.stdout.write("\n")
-    else:
-        sys.stdout.write(format_summary(summary).rstrip("\n") + "\n")
+    show(*(json.dumps(summary, indent=2) if ns.json else format_summary(summary).rstrip("\n")).split("\n"))
     if ns.graph is not None:
-        print(f"wrote {ns.graph}", file=sys.stderr if ns.json else sys.stdout)
+        show(f"wrote {ns.graph}", file=sys.stderr if ns.json else sys.stdout)
     return 0

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
-from typing import TYPE_CHECKING, Any, TextIO
+from collections.abc import Iterator
+from typing import TYPE_CHECKING, Any
 
 from tfrec.cli._common import (
     add_robot_arguments,
     fmt,
     load_robot,
+    show,
 )
 
 if TYPE_CHECKING:
@@ -51,22 +52,33 @@ def _joint_label(joint: Joint) -> str:
     return ", ".join(parts)
 
 
-def _print_tree(robot: Robot, out: TextIO) -> None:
+def _tree(robot: Robot) -> Iterator[str]:
+    """The lines of check_urdf's tree."""
     actuated = len(robot.actuated_joints)
-    out.write(f"robot name is: {robot.name}\n")
-    out.write(f"{len(robot.links)} links, {len(robot.joints)} joints ({actuated} actuated)\n")
-    out.write(f"root link: {robot.root}\n")
-    out.write(f"{robot.root}\n")
+    yield f"robot name is: {robot.name}"
+    yield f"{len(robot.links)} links, {len(robot.joints)} joints ({actuated} actuated)"
+    yield f"root link: {robot.root}"
+    yield robot.root
 
     # depth-first with an explicit stack: a chain may be longer than Python's recursion limit
     stack = [(joint, "", i == len(robot.child_joints[robot.root]) - 1)
              for i, joint in enumerate(robot.child_joints[robot.root])][::-1]
     while stack:
         joint, indent, last = stack.pop()
-        out.write(f"{indent}{'└── ' if last else '├── '}{joint.child}  ({joint.name}: {_joint_label(joint)})\n")
+        yield f"{indent}{'└── ' if last else '├── '}{joint.child}  ({joint.name}: {_joint_label(joint)})"
         below = robot.child_joints[joint.child]
         deeper = indent + ("    " if last else "│   ")
         stack.extend([(child, deeper, i == len(below) - 1) for i, child in enumerate(below)][::-1])
+
+
+def _xml_for_terminal(xml: str) -> str:
+    """An XML document that can go to a terminal as it is: line ends as an XML parser reads them (``\\r\\n`` and
+    ``\\r`` are ``\\n``), every other character that is not printable (a right-to-left override in a link's name)
+    as a character reference (``&#x202E;``) — the same document to a parser, nothing that drives a terminal."""
+    xml = xml.replace("\r\n", "\n").replace("\r", "\n")
+    if xml.isprintable():
+        return xml
+    return "".join(c if c.isprintable() or c in "\n\t" else f"&#x{ord(c):X};" for c in xml)
 
 
 def robot_to_json(robot: Robot) -> dict[str, Any]:
@@ -103,12 +115,11 @@ def _cmd_inspect(ns: argparse.Namespace) -> int:
         from tfrec.plots import render_graph, robot_graph
 
         render_graph(robot_graph(robot), ns.graph, force=ns.force)
-        print(f"wrote {ns.graph}  ({len(robot.links)} links, {len(robot.joints)} joints)")
+        show(f"wrote {ns.graph}  ({len(robot.links)} links, {len(robot.joints)} joints)")
     elif ns.urdf:
-        sys.stdout.write(robot.urdf if robot.urdf.endswith("\n") else robot.urdf + "\n")
+        show(*_xml_for_terminal(robot.urdf).removesuffix("\n").split("\n"))
     elif ns.json:
-        json.dump(robot_to_json(robot), sys.stdout, indent=2)
-        sys.stdout.write("\n")
+        show(*json.dumps(robot_to_json(robot), indent=2).split("\n"))
     else:
-        _print_tree(robot, sys.stdout)
+        show(*_tree(robot))
     return 0

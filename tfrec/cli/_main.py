@@ -22,8 +22,9 @@ from tfrec.cli._common import (
     PROG,
     Parser,
     as_flags,
+    show,
 )
-from tfrec.errors import LegacyXacroWarning, TfrecError
+from tfrec.errors import LegacyXacroWarning, TfrecError, printable
 
 __all__ = ["main", "main_exit"]
 
@@ -54,15 +55,7 @@ def _show_warning(message: Warning | str, category: type[Warning], filename: str
     text = str(message)
     if issubclass(category, LegacyXacroWarning):
         text = text.replace(LegacyXacroWarning.SILENCE, "--quiet-legacy")
-    print(f"{PROG}: warning: {_printable(as_flags(text))}", file=sys.stderr)
-
-
-def _printable(message: str) -> str:
-    """A message on one line whatever it quotes: a control character from an input (a newline in an MCAP's
-    profile or a topic name, a terminal escape sequence, a right-to-left override) is shown escaped."""
-    if message.isprintable():
-        return message
-    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in message)
+    show(f"{PROG}: warning: {printable(as_flags(text))}", file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -83,18 +76,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             return int(ns.handler(ns))
         except TfrecError as err:
-            print(f"{PROG}: error: {_printable(as_flags(str(err)))}", file=sys.stderr)
+            show(f"{PROG}: error: {printable(as_flags(str(err)))}", file=sys.stderr)
             return 2
         except _Terminated:
-            print(f"{PROG}: terminated", file=sys.stderr)
+            show(f"{PROG}: terminated", file=sys.stderr)
             return 143
         except KeyboardInterrupt:
-            print(f"{PROG}: interrupted", file=sys.stderr)
+            show(f"{PROG}: interrupted", file=sys.stderr)
             return 130
         except BrokenPipeError:
             return 0
         except MemoryError:  # a limit on the process's memory (ulimit -v, a container) met by a valid input
-            print(f"{PROG}: error: {_printable(_inputs(ns))}out of memory (the process's memory limit was reached)",
+            show(f"{PROG}: error: {printable(_inputs(ns))}out of memory (the process's memory limit was reached)",
                   file=sys.stderr)
             return 2
         except OSError as err:
@@ -102,11 +95,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                 raise
             # a path the system cannot take (a name over 255 bytes, a path over PATH_MAX), met wherever it is used
             where = f"{os.fsdecode(err.filename)}: " if err.filename is not None else _inputs(ns)
-            print(f"{PROG}: error: {_printable(where)}{err.strerror or 'File name too long'} (a name has at most 255 "
-                  "bytes, a path 4095)", file=sys.stderr)
+            show(f"{PROG}: error: {printable(where)}{err.strerror or 'File name too long'} (a name has at most 255 "
+                 "bytes, a path 4095)", file=sys.stderr)
             return 2
         except ImportError as err:  # a library that cannot load: not installed, or no address space left to map it
-            print(f"{PROG}: error: cannot load {err.name or 'a library'}: {_printable(' '.join(str(err).split()))}",
+            show(f"{PROG}: error: cannot load {err.name or 'a library'}: {printable(' '.join(str(err).split()))}",
                   file=sys.stderr)
             return 2
 

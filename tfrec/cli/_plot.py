@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Any
 
-from tfrec.cli._common import load_robot_option
+from tfrec.cli._common import load_robot_option, show
 
 __all__ = ["add_parser"]
 
@@ -54,5 +53,5 @@ def _cmd_plot(ns: argparse.Namespace) -> int:
 
         warnings.warn(recording.read_error, stacklevel=1)
     plot_recording(recording, ns.output, robot=robot, frames=ns.frames, namespace=namespace, force=ns.force)
-    print(f"wrote {ns.output}", file=sys.stdout)
+    show(f"wrote {ns.output}")
     return 0

@@ -14,6 +14,7 @@ from tfrec.cli._common import (
     add_robot_arguments,
     command,
     load_robot_and_launch,
+    show,
     start_time,
 )
 from tfrec.conventions import (
@@ -173,20 +174,20 @@ def _record_robot(ns: argparse.Namespace, robot: Robot, launch: LaunchRobot | No
         progress.close()
     seconds = (result.end_time_ns - result.start_time_ns) / NS_PER_S
     if robot.moving_joints:
-        print(f"recorded {robot.name}: {result.samples} samples over {seconds:g} s "
+        show(f"recorded {robot.name}: {result.samples} samples over {seconds:g} s "
               f"({len(trajectory.joint_names)} actuated joints, --traj {ns.traj})")
     else:  # empty joint states keep the clock; robot_state_publisher publishes no /tf for them
         links = f"{len(robot.links)} link{'s' if len(robot.links) != 1 else ''}"
-        print(f"recorded {robot.name}: {result.samples} samples over {seconds:g} s (no moving joints, {links}: "
-              "empty /joint_states messages, nothing on /tf)")
+        show(f"recorded {robot.name}: {result.samples} samples over {seconds:g} s (no moving joints, {links}: "
+             "empty /joint_states messages, nothing on /tf)")
     if plan.bag_dir is not None:
-        print(f"wrote {plan.bag_dir}/  (rosbag2: metadata.yaml + {plan.mcap.name if plan.mcap else ''})")
+        show(f"wrote {plan.bag_dir}/  (rosbag2: metadata.yaml + {plan.mcap.name if plan.mcap else ''})")
     elif plan.ros1_bag is not None:
-        print(f"wrote {plan.ros1_bag}  (ROS 1 bag)")
+        show(f"wrote {plan.ros1_bag}  (ROS 1 bag)")
     elif plan.mcap is not None:
-        print(f"wrote {plan.mcap}")
+        show(f"wrote {plan.mcap}")
     if plan.rrd is not None:
-        print(f"wrote {plan.rrd}")
+        show(f"wrote {plan.rrd}")
     hints = []
     if plan.rrd is not None:
         hints.append(f"{command('rerun')} {plan.rrd}")
@@ -194,5 +195,5 @@ def _record_robot(ns: argparse.Namespace, robot: Robot, launch: LaunchRobot | No
     if target is not None:
         hints.append(f"{command('tfrec')} info {target}")
     if hints:
-        print("open with: " + "   |   ".join(hints))
+        show("open with: " + "   |   ".join(hints))
     return 0

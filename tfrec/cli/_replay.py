@@ -13,6 +13,7 @@ from tfrec.cli._common import (
     as_flags,
     load_robot_option,
     number,
+    show,
     tolerance,
 )
 from tfrec.conventions import (
@@ -123,17 +124,13 @@ def _cmd_replay(ns: argparse.Namespace) -> int:
     status = 0
     if ns.check:
         report = check_replay(replay, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol)
-        if ns.json:
-            json.dump(report.to_dict(), sys.stdout, indent=2)
-            sys.stdout.write("\n")
-        else:
-            sys.stdout.write(as_flags(format_check(report)))
+        show(*(json.dumps(report.to_dict(), indent=2) if ns.json else as_flags(format_check(report)).rstrip("\n")).split("\n"))
         status = 0 if report.passed else 1
         if ns.plot is not None:
             from tfrec.plots import plot_check
 
             plot_check(report, ns.plot, force=ns.force)
-            print(f"wrote {ns.plot}", file=sys.stderr if ns.json else sys.stdout)
+            show(f"wrote {ns.plot}", file=sys.stderr if ns.json else sys.stdout)
         if not live:
             return status
     replay_to_rerun(replay, save=ns.save, connect=ns.connect, rate=ns.rate, loop=ns.loop,
@@ -142,6 +139,6 @@ def _cmd_replay(ns: argparse.Namespace) -> int:
     derived = f", {replay.derived_summary()}" if replay.derived else ""
     keys = [robot.key for robot in replay.robots]
     robots = f", {len(keys)} robots ({', '.join(key or '/' for key in keys)})" if len(keys) > 1 else ""
-    print(f"replayed {ns.file}: {span:g} s{robots}{derived}" + (f"; wrote {ns.save}" if ns.save else ""),
+    show(f"replayed {ns.file}: {span:g} s{robots}{derived}" + (f"; wrote {ns.save}" if ns.save else ""),
           file=sys.stdout if ns.save and not ns.json else sys.stderr)
     return status

@@ -14,7 +14,7 @@ states and logged when they were.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -51,6 +51,8 @@ class Derivation:
         description_topic: its ``/robot_description``.
         description: a description given instead of the recorded one (``robot``), or None.
         messages: /tf messages computed so far.
+        repeated: joint → joint state messages that name it more than once (the first position is taken).
+        warned: the joints of ``repeated`` the input's summary already warned about.
     """
 
     key: str
@@ -64,6 +66,8 @@ class Derivation:
     description_topic: str
     description: str | None = None
     messages: int = 0
+    repeated: dict[str, int] = field(default_factory=dict)
+    warned: tuple[str, ...] = ()
 
     def transforms(self, data: RawMessages, *, ros1: bool, out_ros1: bool) -> Iterator[tuple[NDArray[np.intp], NDArray[np.uint8]]]:
         """The /tf messages of a batch of joint state messages: (which joint state message each
@@ -76,7 +80,9 @@ class Derivation:
         """
         if not self.joints or not len(data):
             return
-        stamps, names, positions = joint_states_in_order(data, ros1=ros1)
+        stamps, names, positions, repeated = joint_states_in_order(data, ros1=ros1)
+        for name, count in repeated.items():
+            self.repeated[name] = self.repeated.get(name, 0) + count
         states = JointStates(stamps, names, positions)
         model_names, model_positions = joint_positions(self.model, states)
         wanted = [k for k, name in enumerate(model_names) if name in self.joints]
@@ -156,7 +162,8 @@ def plan_derivations(summary: Recording, *, mode: bool | None, robot: Robot | No
             out.append(Derivation(r.key, model, prefix, moving if derive else (),
                                   r.joint_states_namespace + JOINT_STATES, r.tf_namespace + TF, r.tf_namespace + TF_STATIC,
                                   fixed if derive else {}, r.namespace + ROBOT_DESCRIPTION,
-                                  robot.urdf if robot is not None else None))
+                                  robot.urdf if robot is not None else None,
+                                  warned=r.joint_states.repeated if r.joint_states is not None else ()))
     if mode and not found:
         raise ConvertError(f"{where}: `tf_from_joints`: no {JOINT_STATES} or {ROBOT_DESCRIPTION} in the recording")
     if mode and not any(d.joints or d.static for d in out) and missing:

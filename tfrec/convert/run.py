@@ -36,6 +36,7 @@ from tfrec.formats.kinds import MCAP, ROS1_BAG, ROSBAG2, RRD
 from tfrec.formats.messages import open_messages
 from tfrec.formats.output import open_output
 from tfrec.formats.reader import identify_recording, read_recording
+from tfrec.formats.ros.joint_names import repeated_joints
 from tfrec.model import Robot
 from tfrec.recording import Recording
 from tfrec.resample import log_start_ns
@@ -212,6 +213,10 @@ def convert(
             raise
         outputs.commit()
     _warn(report, where)
+    for d in derivations:
+        unseen = {name: count for name, count in d.repeated.items() if name not in d.warned}
+        if unseen:
+            warnings.warn(repeated_joints(where, d.joint_topic, unseen), stacklevel=2)
     return ConvertResult(path, kind, report, (start_s, end_s))
 
 

@@ -24,6 +24,7 @@ from tfrec.convert.joints import Derivation
 from tfrec.errors import ConvertError
 from tfrec.formats.output import MessageWriter
 from tfrec.formats.ros.connection import Connection, MessageBatch, MessageSource, raw_messages
+from tfrec.formats.ros.definitions import has_known_layout
 from tfrec.formats.rosbag2.metadata import qos_durability
 from tfrec.formats.translate import Translation, Untranslatable, standard_connection, string_message, translation
 
@@ -151,7 +152,7 @@ class Copier:
             c = replace(c, latched=True, qos="")
         plan = self._plans[conn] = _Plan(c.topic, self.selected(c.topic), c.latched)
         plan.derivations = [d for d in self.derivations if d.joints and d.joint_topic == c.topic
-                            and c.msgtype == "sensor_msgs/msg/JointState"]
+                            and c.msgtype == "sensor_msgs/msg/JointState" and has_known_layout(c)]
         plan.replaced = any(d.description is not None and d.description_topic == c.topic for d in self.derivations)
         if plan.selected and not plan.replaced:
             try:

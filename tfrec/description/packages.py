@@ -157,10 +157,13 @@ class PackageFinder:
         :attr:`twins` (see :meth:`warn_twins`).
 
         Raises:
-            DescriptionError: no package of that name in any searched place.
+            DescriptionError: no package of that name in any searched place, or a name that is not one
+                folder's (``..``, ``""``, a slash or a NUL): it would name a folder outside the package.
         """
         if name in self._cache:
             return self._cache[name]
+        if name in ("", ".", "..") or any(c in name for c in "/\\\0"):
+            raise DescriptionError(f"package name {name!r} is not the name of a package; refused")
         copies = self._lookup(name)
         if not copies:
             places = self.searched()
@@ -223,9 +226,14 @@ class PackageFinder:
             relative = unquote(sub)
             if relative.startswith(("/", "\\")) or ".." in Path(relative).parts or "\\.." in relative:
                 raise DescriptionError(f"{uri}: leaves package '{pkg}' (a '..' or absolute path); refused")
+            if "\0" in relative:  # percent-encoded (%00): no file has it in its name, and the OS refuses it
+                raise DescriptionError(f"{uri}: a NUL character (%00) in the path; refused")
             return self.find(pkg) / relative
         if uri.startswith("file://"):
-            return Path(unquote(urlparse(uri).path))
+            decoded = unquote(urlparse(uri).path)
+            if "\0" in decoded:
+                raise DescriptionError(f"{uri}: a NUL character (%00) in the path; refused")
+            return Path(decoded)
         path = Path(uri).expanduser()
         if not path.is_absolute() and relative_to is not None:
             path = Path(relative_to).resolve().parent / path

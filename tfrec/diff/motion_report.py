@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from tfrec.diff.report import Difference, Largest, at_time
+from tfrec.errors import printable
 
 __all__ = ["DescriptionDiffReport", "LinkDelta", "Side"]
 
@@ -143,7 +144,7 @@ class DescriptionDiffReport:
             lines.append(f"  worst configuration{at_time(self.worst['time_ns'])}: {joints}")
         if self.notes:
             lines += ["", "notes:", *(f"  {note}" for note in self.notes)]
-        return "\n".join(lines) + "\n"
+        return "".join(printable(line) + "\n" for line in lines)  # what the descriptions name, escaped
 
     def to_dict(self) -> dict[str, Any]:
         worst = dict(self.worst)

@@ -21,6 +21,7 @@ from tfrec._atomic import AtomicOutputs
 from tfrec._outputs import check_target
 from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.diff.motion import MotionComparison, Posed
+from tfrec.errors import printable
 from tfrec.formats.kinds import RRD
 from tfrec.formats.rrd.overlay import OverlayErrors, OverlayRobot
 from tfrec.formats.rrd.overlay import write_overlay as write_rrd
@@ -54,8 +55,9 @@ def write_overlay(
     origin = (data_start_ns(recordings[0]) or 0) if recordings else DEFAULT_START_TIME_NS
     errors = OverlayErrors(c.links, c.position_error, c.rotation_error, c.position_tol, c.rotation_tol)
     with AtomicOutputs(replace=force) as outputs:
-        write_rrd(outputs.path(target, kind=RRD), a=_robot(c.a), b=_robot(c.b), stamp_ns=c.time_ns + origin, errors=errors,
-                  recording_id=_recording_id(c), name=f"diff {c.a.side.title} ↔ {c.b.side.title}",
+        write_rrd(outputs.path(target, kind=RRD), a=_robot(c.a), b=_robot(c.b), stamp_ns=c.time_ns + origin,
+                  errors=errors, recording_id=_recording_id(c),
+                  name=f"diff {printable(c.a.side.title)} ↔ {printable(c.b.side.title)}",
                   package_paths=package_paths)
         outputs.commit()
     return target
@@ -88,7 +90,8 @@ def _recording_id(c: MotionComparison) -> str:
     """The same comparison gives the same id."""
     digest = hashlib.sha256()
     for posed in (c.a, c.b):
-        digest.update((posed.side.robot.urdf if posed.side.robot is not None else posed.side.path).encode() + b"\0")
+        shown = posed.side.robot.urdf if posed.side.robot is not None else posed.side.path
+        digest.update(shown.encode("utf-8", "surrogateescape") + b"\0")  # a file name that is not UTF-8 too
     digest.update(np.ascontiguousarray(c.time_ns).tobytes())
     digest.update(np.ascontiguousarray(c.position_error).tobytes())
     digest.update(np.ascontiguousarray(c.rotation_error).tobytes())

@@ -6,6 +6,7 @@ import json
 from dataclasses import dataclass, field
 from typing import Any
 
+from tfrec.errors import printable
 from tfrec.recording import Recording
 
 __all__ = ["DiffReport", "Difference", "Largest", "at_time", "format_time"]
@@ -140,7 +141,7 @@ class DiffReport:
             lines.append("")
             lines.append("notes:")
             lines.extend(f"  {note}" for note in self.notes)
-        return "\n".join(lines) + "\n"
+        return "".join(printable(line) + "\n" for line in lines)  # what the recordings name, escaped
 
     def to_dict(self) -> dict[str, Any]:
         def side(rec: Recording, origin_ns: int | None) -> dict[str, Any]:

@@ -32,6 +32,8 @@ from tfrec.conventions import (
 )
 from tfrec.errors import ReadError
 from tfrec.formats.ros.decode import JointStateAccumulator, TFAccumulator, transforms_of
+from tfrec.formats.ros.definitions import foreign_layout
+from tfrec.formats.ros.joint_names import repeated_joints
 from tfrec.recording import FrameSeries, JointStates, Recording, RobotTopics, TopicStats
 from tfrec.robots import robot_name
 
@@ -232,6 +234,7 @@ class Collector:
         self.topics: dict[str, TopicStats] = {}
         self.decoded: dict[str, _Decoded] = {}
         self._arrivals = 0
+        self._foreign: set[str] = set()
         if options.use_log_time:
             recording.time_base = "log"
 
@@ -241,9 +244,26 @@ class Collector:
         """A recorded topic's name as it is played (see :meth:`ReadOptions.resolve`)."""
         return self.options.resolve(topic)
 
-    def decodes(self, topic: str, msgtype: str) -> bool:
-        """Whether messages of this (resolved) topic are decoded (else only counted)."""
-        return self.options.decodes(topic, msgtype)
+    def decodes(self, topic: str, msgtype: str, *, definition: str = "", definition_encoding: str = "",
+                type_hash: str = "") -> bool:
+        """Whether messages of this (resolved) topic, of a publisher with this type, definition and type hash
+        (md5sum in ROS 1), are decoded (else only counted). A type tfrec reads whose definition is not the
+        layout ROS gives it is foreign data (:func:`~tfrec.formats.ros.definitions.foreign_layout`): not
+        decoded, with one warning per topic."""
+        if not self.options.decodes(topic, msgtype):
+            return False
+        reason = foreign_layout(msgtype, ros1=self.ros1, definition=definition, definition_encoding=definition_encoding,
+                                type_hash=type_hash)
+        if reason is None:
+            return True
+        if topic not in self._foreign:
+            self._foreign.add(topic)
+            kind = robot_topic_kind(topic)
+            what = {JOINT_STATES: "joint states", ROBOT_DESCRIPTION: "a robot description"}.get(
+                kind[1] if kind else "", "TF")
+            warnings.warn(f"{self.recording.path}: {topic} ({msgtype}): {reason}; its messages are not read as "
+                          f"{what} (foreign data: listed, and copied as they are by convert)", stacklevel=3)
+        return False
 
     def set_deserializer(self, topic: str, deserialize: Callable[[bytes], Any]) -> None:
         """Decode the messages of ``topic`` (resolved, :meth:`decodes`) with ``deserialize`` as a
@@ -328,8 +348,12 @@ class Collector:
             elif decoded.kind == JOINT_STATES and decoded.accumulator is not None and decoded.accumulator.messages:
                 assert isinstance(decoded.accumulator, JointStateAccumulator)
                 time, names, positions = decoded.accumulator.result()
-                part["joint_states"] = JointStates(time, names, positions)
+                repeated = decoded.accumulator.repeated
+                part["joint_states"] = JointStates(time, names, positions, tuple(repeated))
                 self._warn_zero_stamps(topic, time)
+                if repeated:
+                    warnings.warn(repeated_joints(self.recording.path, topic, repeated, decoded.taken,
+                                                  first=self.options.summary), stacklevel=4)
             elif decoded.kind == TF and decoded.accumulator is not None:
                 assert isinstance(decoded.accumulator, TFAccumulator)
                 part["tf"] = tf = _frames(decoded.accumulator)

@@ -159,6 +159,14 @@ def _json_value(value: Any) -> Any:
     return value
 
 
+def _utf8(value: Any) -> Any:
+    """A value for Parquet, whose strings are UTF-8: the bytes of a file name that are not UTF-8 (lone surrogates in
+    Python) are written as their escapes (``\\udcff``), as JSON lines write them; everything else as it is."""
+    if isinstance(value, str) and not value.isprintable():
+        return value.encode("utf-8", "backslashreplace").decode("utf-8")
+    return value
+
+
 @final
 class ReportWriter:
     """Writes a report row by row; the report appears, complete, when it is closed.
@@ -193,7 +201,9 @@ class ReportWriter:
         try:
             self._temp = self._outputs.path(self.path, kind=kind)
             if self.format == ".jsonl":
-                self._text = open(self._temp, "w", encoding="utf-8")  # noqa: SIM115 - closed by close() or abort()
+                # a file name with bytes that are not UTF-8 (a lone surrogate in Python) is written as its JSON
+                # escape, "\\udcff", which JSON readers decode back to the same name
+                self._text = open(self._temp, "w", encoding="utf-8", errors="backslashreplace")  # noqa: SIM115
             else:
                 import pyarrow.parquet as pq
 
@@ -229,7 +239,8 @@ class ReportWriter:
         if self._buffer and self._parquet is not None:
             import pyarrow as pa
 
-            self._parquet.write_table(pa.Table.from_pylist(self._buffer, schema=self._schema))
+            self._parquet.write_table(pa.Table.from_pylist([{k: _utf8(v) for k, v in row.items()} for row in self._buffer],
+                                                           schema=self._schema))
             self._buffer = []
 
     def close(self) -> None:

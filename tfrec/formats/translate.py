@@ -33,8 +33,9 @@ from numpy.typing import NDArray
 
 from tfrec.formats.ros.connection import Connection
 from tfrec.formats.ros.decode import MessageLayout, RawMessages, match_layout, message_layout
+from tfrec.formats.ros.definitions import DefinitionError, has_known_layout, parse_definition
 from tfrec.formats.ros.encode import TFMessageEncoder, encode_string
-from tfrec.formats.ros.types import TF_MESSAGE_DEFINITION, deserializer, typestore
+from tfrec.formats.ros.types import deserializer, known_ros1_typestore, typestore
 from tfrec.formats.rosbag2.metadata import QOS_LATCHED, QOS_VOLATILE, qos_yaml
 
 __all__ = [
@@ -84,41 +85,24 @@ def _closure(store: Any, msgtype: str) -> dict[str, Any]:
 
 
 def _types(msgtype: str, definition: str, definition_encoding: str, ros1: bool) -> dict[str, Any]:
-    """The field definitions of a type and the types it uses: from the file's definition, else the
-    distro's store (Noetic's for ROS 1, with ``tf2_msgs/TFMessage``; Humble's for ROS 2).
+    """The field definitions of a type and the types it uses: from the file's definition (parsed and
+    checked, :func:`~tfrec.formats.ros.definitions.parse_definition`), else the distro's store
+    (Noetic's for ROS 1, with ``tf2_msgs/TFMessage``; Humble's for ROS 2).
 
     Raises:
-        Untranslatable: a definition that does not parse, or none and a type the distro does not know.
+        Untranslatable: a definition that does not parse, defines a type that contains itself or is too
+            large; or none and a type the distro does not know.
     """
-    from rosbags.typesys import get_types_from_idl, get_types_from_msg
-    from rosbags.typesys.base import TypesysError
-
-    try:
-        if definition_encoding == "ros2idl" and definition:
-            separator = "=" * 80 + "\n"
-            parts = [part.split("\n", 1)[1] for part in definition.split(separator)[1:]] \
-                if definition.startswith(separator + "IDL: ") else [definition]
-            found: dict[str, Any] = {}
-            for part in parts:
-                found.update(get_types_from_idl(part))
-        elif definition:
-            found = dict(get_types_from_msg(definition, msgtype))
-        else:
-            store = typestore(ros1=ros1)
-            if ros1 and msgtype == "tf2_msgs/msg/TFMessage":
-                found = dict(get_types_from_msg(TF_MESSAGE_DEFINITION, msgtype))
-                found.update(_closure(store, "geometry_msgs/msg/TransformStamped"))
-            elif msgtype in store.fielddefs:
-                found = _closure(store, msgtype)
-            else:
-                distro = "ROS 1 Noetic" if ros1 else "ROS 2 Humble"
-                raise Untranslatable(f"the file has no message definition of {msgtype}, and {distro} does not know it")
-    except (TypesysError, ValueError, IndexError, KeyError) as err:
-        first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
-        raise Untranslatable(f"its message definition does not parse (rosbags: {first[:80]})") from err
-    if msgtype not in found:
-        raise Untranslatable(f"its message definition does not define {msgtype}")
-    return found
+    if definition:
+        try:
+            return dict(parse_definition(msgtype, definition, definition_encoding or ("ros1msg" if ros1 else "ros2msg")))
+        except DefinitionError as err:
+            raise Untranslatable(str(err)) from err
+    store = known_ros1_typestore() if ros1 else typestore()
+    if msgtype not in store.fielddefs:
+        distro = "ROS 1 Noetic" if ros1 else "ROS 2 Humble"
+        raise Untranslatable(f"the file has no message definition of {msgtype}, and {distro} does not know it")
+    return _closure(store, msgtype)
 
 
 def _store(types: dict[str, Any], *, ros1_header: bool, rename: tuple[str, str] | None = None) -> Any:
@@ -323,11 +307,12 @@ def translation(connection: Connection, *, encoding: str, sample: bytes | memory
         qos = qos_yaml([QOS_LATCHED if connection.latched else QOS_VOLATILE])
         target = Connection(connection.topic, plan.msgtype, "cdr", plan.definition, "ros2msg", connection.latched,
                             qos, plan.type_hash)
-    return Translation(connection, target, plan.convert, FAST_KINDS.get(plan.msgtype), note=note)
+    kind = FAST_KINDS.get(plan.msgtype) if has_known_layout(connection) else None
+    return Translation(connection, target, plan.convert, kind, note=note)
 
 
-def _decodes(connection: Connection, sample: bytes | memoryview) -> bool:
-    """Whether the connection's definition (its distro's without one) decodes ``sample``."""
+def _undecodable(connection: Connection, sample: bytes | memoryview) -> str | None:
+    """Why the connection's definition (its distro's without one) does not decode ``sample``; None when it does."""
     from rosbags.serde import SerdeError
     from rosbags.typesys.base import TypesysError
 
@@ -336,21 +321,26 @@ def _decodes(connection: Connection, sample: bytes | memoryview) -> bool:
                               connection.ros1), ros1_header=connection.ros1)
         decode = store.deserialize_ros1 if connection.ros1 else store.deserialize_cdr
         decode(sample, connection.msgtype)
-    except (Untranslatable, TypesysError, SerdeError, struct.error, IndexError, KeyError, ValueError,
-            UnicodeDecodeError):
-        return False
-    return True
+    except Untranslatable as err:
+        return err.reason
+    except (TypesysError, SerdeError, struct.error, IndexError, KeyError, ValueError, UnicodeDecodeError):
+        return "the message definition in the file does not decode its messages"
+    return None
 
 
 def _fitting(connection: Connection, sample: bytes | memoryview) -> tuple[Connection, str]:
-    """The connection with a definition that decodes its messages, and a note when it is not the file's."""
-    if _decodes(connection, sample):
+    """The connection with a definition that decodes its messages, and a note when it is not the file's.
+
+    The distro's definition replaces the file's only for a type whose layout is not foreign
+    (:func:`~tfrec.formats.ros.definitions.has_known_layout`): a /tf of another layout stays foreign data."""
+    problem = _undecodable(connection, sample)
+    if problem is None:
         return connection, ""
     plain = replace(connection, definition="", definition_encoding="", type_hash="")
-    if _decodes(plain, sample):
+    if has_known_layout(connection) and _undecodable(plain, sample) is None:
         distro = "ROS 1 Noetic" if connection.ros1 else "ROS 2 Humble"
-        return plain, f"the message definition in the file does not decode its messages; {distro}'s is used"
-    return connection, "the message definition in the file does not decode its messages (they are copied as they are)"
+        return plain, f"{problem}; {distro}'s is used"
+    return connection, f"{problem} (they are copied as they are)"
 
 
 def _completed(connection: Connection) -> Connection:
@@ -406,8 +396,8 @@ def tf_message_rows(parents: Sequence[str], children: Sequence[str], time_ns: ND
     return TFMessageEncoder(parents, children, ros1=ros1).encode(time_ns, translation, rotation)
 
 
-def joint_states_in_order(data: RawMessages, *, ros1: bool,
-                          layout: MessageLayout | None = None) -> tuple[NDArray[np.int64], tuple[str, ...], NDArray[np.float64]]:
+def joint_states_in_order(data: RawMessages, *, ros1: bool, layout: MessageLayout | None = None
+                          ) -> tuple[NDArray[np.int64], tuple[str, ...], NDArray[np.float64], dict[str, int]]:
     """The header stamps, joint names and positions of ``sensor_msgs/JointState`` messages, in
     their order: a message's row is NaN for a joint it does not name (or gives no position of).
 
@@ -416,11 +406,16 @@ def joint_states_in_order(data: RawMessages, *, ros1: bool,
         ros1: ROS 1 serialization rather than CDR.
         layout: the fixed layout most messages have (else learnt from the first).
 
+    Returns:
+        (stamps, names, positions, repeated): ``repeated`` maps a joint that a message names more than
+        once to how many messages do; the first position is taken (:func:`~tfrec.formats.ros.decode.first_positions`).
+
     Raises:
         ReadError: a message that is no JointState.
     """
     from tfrec.formats.ros.decode import stamp_ns
     from tfrec.formats.ros.encode import ns_from_stamps
+    from tfrec.formats.ros.joint_names import first_positions
 
     n = len(data)
     if layout is None and n:
@@ -429,7 +424,10 @@ def joint_states_in_order(data: RawMessages, *, ros1: bool,
         except (ValueError, UnicodeDecodeError):
             layout = None
     rows, good, rest = (None, np.zeros(0, np.intp), list(range(n))) if layout is None else match_layout(layout, data)
-    names: dict[str, int] = {name: k for k, name in enumerate(layout.names)} if layout is not None else {}
+    repeated: dict[str, int] = {}
+    names: dict[str, int] = {}
+    if layout is not None:
+        names = {name: k for k, name in enumerate(first_positions(layout.names)[0])}
     decoded = []
     if rest:
         decode = deserializer("sensor_msgs/msg/JointState", ros1=ros1)
@@ -447,9 +445,20 @@ def joint_states_in_order(data: RawMessages, *, ros1: bool,
         if layout.floats[0] >= 0 and layout.names:
             at = layout.floats[0]
             block = np.ascontiguousarray(rows[:, at : at + 8 * len(layout.names)]).view("<f8")
-            positions[np.ix_(good, np.arange(len(layout.names)))] = block
+            unique, keep, twice = first_positions(layout.names)
+            if keep is not None:
+                block = block[:, keep]
+            for name in twice:
+                repeated[name] = repeated.get(name, 0) + len(rows)
+            columns = np.array([names[name] for name in unique], dtype=np.intp)
+            positions[np.ix_(good, columns)] = block
     for i, stamp, message_names, position in decoded:
         stamps[i] = stamp
-        for name, value in zip(message_names, position.tolist()):
-            positions[i, names[name]] = value
-    return stamps, tuple(names), positions
+        unique, keep, twice = first_positions(message_names)
+        for name in twice:
+            repeated[name] = repeated.get(name, 0) + 1
+        for k, name in zip(keep if keep is not None else range(len(unique)), unique):
+            if k < len(position):
+                positions[i, names[name]] = position[k]
+    return stamps, tuple(names), positions, repeated
+

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from tfrec.errors import TfrecError, display_path, one_line
+from tfrec.errors import TfrecError, display_path, one_line, printable
 from tfrec.model import Joint, JointType, Robot
 from tfrec.plots._figure import PlotError, graph_format, natural_key, refuse_existing, write_text
 from tfrec.plots._layout import tidy_layout
@@ -193,7 +193,7 @@ def recorded_graph(recording: Recording) -> TreeGraph:
     n_static = sum(edge.kind != DYNAMIC for edge in edges)
     span = f", {recording.duration_ns / 1e9:.2f} s" if recording.start_ns is not None else ""
     return TreeGraph(
-        name=os.path.basename(os.path.normpath(recording.path)) or "tf",
+        name=printable(os.path.basename(os.path.normpath(recording.path))) or "tf",
         title=f"TF tree recorded in {display_path(recording.path)}",
         subtitle=f"{len(frames)} frame{'s' if len(frames) != 1 else ''}, {n_static} on /tf_static, {len(edges) - n_static + len(both)} on /tf"
                  f" ({recording.format}{span})",

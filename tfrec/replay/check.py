@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tfrec.conventions import CHECK_POS_TOL, CHECK_ROT_TOL
-from tfrec.errors import ReplayError
+from tfrec.errors import ReplayError, printable
 from tfrec.kinematics.fk import dynamic_transforms, static_transforms
 from tfrec.kinematics.rotations import rotation_error
 from tfrec.model import Joint, JointType
@@ -329,7 +329,9 @@ def _time(value: float | None) -> str:
 
 def format_check(report: CheckReport) -> str:
     """The report as a table, one row per frame (naming its robot when there are several), then the
-    verdict naming the failing frames — per robot, with the robots that could not be checked."""
+    verdict naming the failing frames — per robot, with the robots that could not be checked. Names that hold
+    a character that is not printable are shown escaped (:func:`tfrec.errors.printable`), the columns aligned
+    on what is shown."""
     several = len(report.robots) + len(report.unchecked) > 1
     header: tuple[str, ...] = ("frame", "parent", "topic", "samples", "max transl. (m)", "at t (s)",
                                "max rot. (rad)", "at t (s)", "")
@@ -338,11 +340,11 @@ def format_check(report: CheckReport) -> str:
     rows: list[tuple[str, ...]] = []
     for f in report.frames:
         ok = f.passed(report.pos_tol, report.rot_tol)
-        row = (f.frame, f.parent, f.topic, str(f.samples),
+        row = (printable(f.frame), printable(f.parent), printable(f.topic), str(f.samples),
                _number(f.translation_m), _time(f.translation_time_s if f.translation_m else None),
                _number(f.rotation_rad), _time(f.rotation_time_s if f.rotation_rad else None),
                "ok" if ok else f"FAIL {f.problem or ''}".strip())
-        rows.append((f.robot or "/", *row) if several else row)
+        rows.append((printable(f.robot or "/"), *row) if several else row)
     widths = [max(len(row[i]) for row in [header, *rows]) for i in range(len(header) - 1)]
     lines = [f"re-simulated TF of {report.path} (tolerances {report.pos_tol:g} m, {report.rot_tol:g} rad)"]
     for cells in [header, *rows] if rows else []:  # no frame (a robot of one link): no table
@@ -350,13 +352,13 @@ def format_check(report: CheckReport) -> str:
     lines.extend(f"note: {note}" for note in report.notes)
     if not several:
         lines.append(_verdict(report.frames, report, "the description"))
-        return "\n".join(lines) + "\n"
-    for key in report.robots:
-        frames = [f for f in report.frames if f.robot == key]
-        lines.append(f"robot {key or '/'}: " + _verdict(frames, report, "its description"))
-    for key, reason in report.unchecked.items():
-        lines.append(f"robot {key or '/'}: NOT CHECKED: {reason}")
-    return "\n".join(lines) + "\n"
+    else:
+        for key in report.robots:
+            frames = [f for f in report.frames if f.robot == key]
+            lines.append(f"robot {key or '/'}: " + _verdict(frames, report, "its description"))
+        for key, reason in report.unchecked.items():
+            lines.append(f"robot {key or '/'}: NOT CHECKED: {reason}")
+    return "".join(printable(line) + "\n" for line in lines)
 
 
 def _verdict(frames: list[FrameCheck], report: CheckReport, description: str) -> str:

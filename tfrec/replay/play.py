@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from tfrec._atomic import AtomicOutputs
 from tfrec._outputs import check_target
-from tfrec.errors import ReplayError
+from tfrec.errors import ReplayError, printable
 from tfrec.formats.kinds import RRD
 from tfrec.recording import FrameSeries, JointStates
 from tfrec.replay.pacing import BATCH_WALL_S, Clock, MonotonicClock, Pacer, batches
@@ -108,7 +108,7 @@ def play(
     span_ns = max(span_ns, 1)
     robots = [robot.displayed() for robot in replay.robots]
     named = next((robot.robot for robot in robots if robot.robot is not None), None)
-    name = named.name if named is not None and len(robots) == 1 else Path(replay.path).name
+    name = named.name if named is not None and len(robots) == 1 else printable(Path(replay.path).name)
     passes = sent = 0
     slept = 0.0
     try:
@@ -213,7 +213,7 @@ class _Streams:
 def _recording_id(replay: Replay) -> str:
     """The same replay of the same file gives the same id (and the same .rrd)."""
     digest = hashlib.sha256()
-    digest.update(os.path.abspath(replay.path).encode())
+    digest.update(os.fsencode(os.path.abspath(replay.path)))  # a name that is not UTF-8 too
     for robot in replay.robots:
         key = f"{robot.key}|" if len(replay.robots) > 1 else ""
         digest.update(f"{key}|{replay.start_ns}|{replay.end_ns}|{sorted(robot.tf)}|"

@@ -46,6 +46,7 @@ from tfrec.formats.mcap.summary import (
     chunk_fields,
     parse_channel,
     parse_header,
+    parse_schema,
     read_summary_section,
     summary_records,
 )
@@ -53,7 +54,7 @@ from tfrec.formats.ros.connection import Connection, MessageBatch, MessageSource
 from tfrec.formats.ros.decode import RawMessages
 from tfrec.formats.rosbag2.metadata import qos_durability
 
-__all__ = ["McapMessages", "parse_schema_record"]
+__all__ = ["McapMessages"]
 
 _BATCH = 32768
 """Messages outside chunks (an unchunked file) handed over at once, at most."""
@@ -62,26 +63,6 @@ _MESSAGE = struct.Struct("<HIQQ")
 
 _Found = tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64], RawMessages]
 """Messages found in a chunk: channel ids, log times, publish times, data."""
-
-
-def parse_schema_record(view: memoryview, pos: int) -> tuple[int, str, str, bytes]:
-    """A Schema record's id, name, encoding and data (the body starts at ``view[pos]``).
-
-    Raises:
-        struct.error, UnicodeDecodeError: a damaged record.
-    """
-    schema_id, size = struct.unpack_from("<HI", view, pos)
-    at = pos + 6
-    name = bytes(view[at : at + size]).decode()
-    at += size
-    (size,) = struct.unpack_from("<I", view, at)
-    encoding = bytes(view[at + 4 : at + 4 + size]).decode()
-    at += 4 + size
-    (size,) = struct.unpack_from("<I", view, at)
-    data = bytes(view[at + 4 : at + 4 + size])
-    if len(data) != size:
-        raise struct.error("the schema's data runs past the record")
-    return schema_id, name, encoding, data
 
 
 class _File:
@@ -195,7 +176,7 @@ class McapMessages(MessageSource):
     def _record(self, view: memoryview, opcode: int, pos: int, length: int) -> None:
         """A schema or channel record's body at ``view[pos : pos + length]`` (others are ignored)."""
         if opcode == OP_SCHEMA:
-            schema_id, name, encoding, data = parse_schema_record(view, pos)
+            schema_id, name, encoding, data = parse_schema(view, pos)
             self._file.schemas[schema_id] = (name, encoding, data)
         elif opcode == OP_CHANNEL:
             self._channel(parse_channel(view, pos, length))

@@ -100,10 +100,24 @@ def parse_header(body: bytes) -> tuple[str, str]:
     return profile, library
 
 
-def parse_schema(view: memoryview, pos: int) -> tuple[int, str]:
-    """A Schema record's id and name (the body starts at ``view[pos]``)."""
-    schema_id, name_len = struct.unpack_from("<HI", view, pos)
-    return schema_id, bytes(view[pos + 6 : pos + 6 + name_len]).decode()
+def parse_schema(view: memoryview, pos: int) -> tuple[int, str, str, bytes]:
+    """A Schema record's id, name, encoding and data (the body starts at ``view[pos]``).
+
+    Raises:
+        struct.error, UnicodeDecodeError: a damaged record.
+    """
+    schema_id, size = struct.unpack_from("<HI", view, pos)
+    at = pos + 6
+    name = bytes(view[at : at + size]).decode()
+    at += size
+    (size,) = struct.unpack_from("<I", view, at)
+    encoding = bytes(view[at + 4 : at + 4 + size]).decode()
+    at += 4 + size
+    (size,) = struct.unpack_from("<I", view, at)
+    data = bytes(view[at + 4 : at + 4 + size])
+    if len(data) != size:
+        raise struct.error("the schema's data runs past the record")
+    return schema_id, name, encoding, data
 
 
 class ChannelRecord(NamedTuple):
@@ -262,7 +276,7 @@ def read_summary(stream: IO[bytes], size: int) -> McapSummary | None:
     summary = McapSummary()
     for opcode, pos, length in summary_records(view):
         if opcode == OP_SCHEMA:
-            schema_id, name = parse_schema(view, pos)
+            schema_id, name, _, _ = parse_schema(view, pos)
             summary.schemas[schema_id] = name
         elif opcode == OP_CHANNEL:
             channel = parse_channel(view, pos, length)

@@ -126,7 +126,7 @@ class McapWalker:
         self.where = where
         self.size = size
         self.offset = 0
-        self.schemas: dict[int, str] = {}
+        self.schemas: dict[int, tuple[str, str, bytes]] = {}  # id → (name, encoding, data)
         self.channels: dict[int, _Channel] = {}
         self.pending = 0
         self.damage: list[Damage] = []
@@ -391,13 +391,16 @@ class McapWalker:
                 channel.times.append(log_time)
                 self.pending += 1
         elif opcode == OP_SCHEMA:
-            schema_id, name = parse_schema(view, pos)
-            self.schemas[schema_id] = name
+            schema_id, name, encoding, data = parse_schema(view, pos)
+            self.schemas[schema_id] = (name, encoding, data)
         elif opcode == OP_CHANNEL:
             record = parse_channel(view, pos, length)
             if record.id not in self.channels:
-                topic, msgtype = self.collector.resolve(record.topic), self.schemas.get(record.schema_id, "")
-                decoded = self.collector.decodes(topic, msgtype)
+                topic = self.collector.resolve(record.topic)
+                msgtype, encoding, data = self.schemas.get(record.schema_id, ("", "", b""))
+                decoded = self.collector.decodes(topic, msgtype, definition=data.decode("utf-8", "replace"),
+                                                 definition_encoding=encoding,
+                                                 type_hash=record.metadata.get("topic_type_hash", ""))
                 if decoded and record.encoding != "cdr":
                     raise ReadError(f"{self.where}: topic {topic} is encoded as '{record.encoding}', not cdr")
                 if decoded:

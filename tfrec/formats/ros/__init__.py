@@ -1,7 +1,8 @@
 """ROS messages as bytes: vectorized encoding of the messages tfrec writes, as CDR or ROS 1 bytes
-(:mod:`.encode`), bulk decoding (:mod:`.decode`), rosbags' type stores and deserializers (:mod:`.types`),
-and raw messages with their connections (:mod:`.connection`)."""
+(:mod:`.encode`), bulk decoding (:mod:`.decode`; a joint named twice: :mod:`.joint_names`), rosbags' type
+stores and deserializers (:mod:`.types`), the message definitions a recording carries, checked and compared
+with the layouts tfrec reads (:mod:`.definitions`), and raw messages with their connections (:mod:`.connection`)."""
 
 from __future__ import annotations
 
-__all__ = ["connection", "decode", "encode", "types"]
+__all__ = ["connection", "decode", "definitions", "encode", "joint_names", "types"]

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tfrec.formats.ros.encode import CDR_HEADER, align, ns_from_stamps
+from tfrec.formats.ros.joint_names import first_positions
 
 __all__ = [
     "JointStateAccumulator",
@@ -326,7 +327,12 @@ class _Accumulator:
 
 
 class JointStateAccumulator(_Accumulator):
-    """Collects sensor_msgs/JointState messages into (time, names, positions) segments."""
+    """Collects sensor_msgs/JointState messages into (time, names, positions) segments.
+
+    Attributes:
+        repeated: joint name → how many messages name it more than once (its first position is taken,
+            :func:`first_positions`).
+    """
 
     kind = "joint_states"
 
@@ -335,6 +341,16 @@ class JointStateAccumulator(_Accumulator):
         self._segments: list[tuple[tuple[str, ...], NDArray[np.int64], Array]] = []
         self._pending_names: tuple[str, ...] | None = None
         self._pending: list[tuple[int, Array]] = []
+        self.repeated: dict[str, int] = {}
+
+    def _once(self, names: tuple[str, ...], positions: Array, messages: int) -> tuple[tuple[str, ...], Array]:
+        """``names`` each once with their first position (``positions`` (N, len(names))), counting the repeats."""
+        unique, keep, repeated = first_positions(names)
+        if keep is None:
+            return names, positions
+        for name in repeated:
+            self.repeated[name] = self.repeated.get(name, 0) + messages
+        return unique, positions[:, keep]
 
     def _check(self, layout: MessageLayout, data: bytes | memoryview) -> bool:
         msg = self.deserialize(bytes(data))
@@ -368,6 +384,7 @@ class JointStateAccumulator(_Accumulator):
         assert self.layout is not None
         self._flush_pending()
         time, names, positions = self._decode(self.layout, rows)
+        names, positions = self._once(names, positions, len(rows))
         self._segments.append((names, time if times is None else times, positions))
 
     def _add_message(self, msg: Any, time_ns: int | None) -> None:
@@ -375,6 +392,8 @@ class JointStateAccumulator(_Accumulator):
         position = np.full(len(names), np.nan)
         given = np.asarray(msg.position, dtype=np.float64)[: len(names)]
         position[: len(given)] = given
+        names, positions = self._once(names, position.reshape(1, -1), 1)
+        position = positions[0]
         if names != self._pending_names:
             self._flush_pending()
             self._pending_names = names

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Callable
-from functools import cache, lru_cache
+from functools import cache
 from typing import Any
 
 from tfrec.errors import ReadError, RecordingError
@@ -18,8 +18,8 @@ __all__ = [
     "TF_MESSAGE_DEFINITION",
     "UndecodableMessage",
     "deserializer",
+    "known_ros1_typestore",
     "ros1_message_definition",
-    "ros1_typestore",
     "topic_deserializer",
     "typestore",
 ]
@@ -47,25 +47,17 @@ def typestore(*, ros1: bool = False) -> Any:
     return get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
 
 
-@lru_cache(maxsize=8)
-def ros1_typestore(definitions: tuple[tuple[str, str], ...]) -> Any:
-    """Noetic's type store with a ROS 1 bag's own message definitions added, in order.
-
-    Args:
-        definitions: (type, message definition) pairs from the bag's connection records. A
-            definition that clashes with one already in the store is left out: the store's is used.
-    """
-    if not definitions:
-        return typestore(ros1=True)
+@cache
+def known_ros1_typestore() -> Any:
+    """rosbags' type store of ROS 1 Noetic with the TF types Noetic's store lacks: ``tf2_msgs/TFMessage``
+    and ROS 1's ``tf/tfMessage`` (the same layout). The messages tfrec decodes are decoded with it — never
+    with a recording's own definitions, which decide only whether a topic has this layout
+    (:func:`tfrec.formats.ros.definitions.foreign_layout`)."""
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-    from rosbags.typesys.base import TypesysError
 
     store = get_typestore(Stores.ROS1_NOETIC)
-    for msgtype, msgdef in definitions:
-        try:
-            store.register(get_types_from_msg(msgdef, msgtype))
-        except TypesysError:
-            pass
+    for msgtype in ("tf2_msgs/msg/TFMessage", "tf/msg/tfMessage"):
+        store.register(get_types_from_msg(TF_MESSAGE_DEFINITION, msgtype))
     return store
 
 
@@ -130,7 +122,7 @@ def ros1_message_definition(msgtype: str) -> tuple[str, str]:
     """
     from rosbags.typesys.base import TypesysError
 
-    store: Any = ros1_typestore((("tf2_msgs/msg/TFMessage", TF_MESSAGE_DEFINITION),))
+    store: Any = known_ros1_typestore()
     try:
         text, md5sum = store.generate_msgdef(_full_type(msgtype), ros_version=1)
     except TypesysError as err:

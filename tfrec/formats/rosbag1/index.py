@@ -30,9 +30,10 @@ from numpy.typing import NDArray
 from tfrec.errors import ReadError
 from tfrec.formats._collect import Collector, ReadOptions, count_differences
 from tfrec.formats._compression import decompress
+from tfrec.formats.ros.connection import Connection
 from tfrec.formats.ros.decode import RawMessages
 from tfrec.formats.ros.encode import ns_from_stamps
-from tfrec.formats.ros.types import ros1_typestore, topic_deserializer
+from tfrec.formats.ros.types import known_ros1_typestore, topic_deserializer
 from tfrec.formats.rosbag1.reader import (
     COMPRESSIONS,
     OP_BAG_HEADER,
@@ -112,7 +113,7 @@ class _IndexedBag:
         self.size = size
         self.collector = collector
         self.where = where
-        self.connections: dict[int, tuple[str, str, str, bool]] = {}  # conn → (topic, type, definition, latched)
+        self.connections: dict[int, Connection] = {}  # topics as recorded
         self.chunks: list[_Chunk] = []
         self.stats: dict[int, TopicStats] = {}
 
@@ -147,6 +148,8 @@ class _IndexedBag:
                 if _op(fields) != OP_CHUNK_INFO or uint32_field(fields, "ver") != 1:
                     raise _Unusable("the index lacks a chunk info record")
                 (chunk_pos,) = struct.unpack("<Q", fields["chunk_pos"])
+                if chunk_pos >= size:  # (a position past 2**63 is past what seek() takes)
+                    raise _Unusable(f"a chunk info record points past the end of the file (byte {chunk_pos:,})")
                 pairs = np.frombuffer(stream.read(data_len), dtype="<u4").reshape(-1, 2)
                 counts = {int(conn): int(count) for conn, count in pairs}
                 if len(counts) != uint32_field(fields, "count") or set(counts) - set(self.connections):
@@ -192,18 +195,16 @@ class _IndexedBag:
             _Unusable: a chunk that does not decompress, or whose records are not where the index says.
         """
         collector = self.collector
-        topics = {conn: collector.resolve(topic) for conn, (topic, _, _, _) in self.connections.items()}
-        decoded = {conn for conn, (_, msgtype, _, _) in self.connections.items()
-                   if collector.decodes(topics[conn], msgtype)}
-        if decoded:
-            store = ros1_typestore(tuple((msgtype, msgdef) for conn, (_, msgtype, msgdef, _) in
-                                         sorted(self.connections.items()) if conn in decoded and msgdef))
-            for conn in sorted(decoded):
-                collector.set_deserializer(topics[conn], topic_deserializer(
-                    self.connections[conn][1], where=self.where, topic=topics[conn], ros1=True, store=store))
+        topics = {conn: collector.resolve(c.topic) for conn, c in self.connections.items()}
+        decoded = {conn for conn, c in self.connections.items()
+                   if collector.decodes(topics[conn], c.msgtype, definition=c.definition, type_hash=c.type_hash)}
+        for conn in sorted(decoded):
+            collector.set_deserializer(topics[conn], topic_deserializer(
+                self.connections[conn].msgtype, where=self.where, topic=topics[conn], ros1=True,
+                store=known_ros1_typestore()))
         indexed: dict[int, int] = {}
-        for conn, (_, msgtype, _, latched) in self.connections.items():
-            self.stats[conn] = TopicStats(msgtype, "latched" if latched else None)
+        for conn, c in self.connections.items():
+            self.stats[conn] = TopicStats(c.msgtype, "latched" if c.latched else None)
         for chunk in self.chunks:
             for conn, count in chunk.counts.items():
                 indexed[conn] = indexed.get(conn, 0) + count
@@ -362,8 +363,8 @@ def read_rosbag1(path: Path, options: ReadOptions) -> Recording:
     collector.finish()
     read: dict[str, int] = {}
     counted: dict[str, int] = {}
-    for conn, (topic, _, _, _) in bag.connections.items():
-        name = collector.resolve(topic)
+    for conn, connection in bag.connections.items():
+        name = collector.resolve(connection.topic)
         read[name] = read.get(name, 0) + bag.stats[conn].count
         counted[name] = counted.get(name, 0) + indexed.get(conn, 0)
     differ = count_differences(read, counted, index="its chunk info records")

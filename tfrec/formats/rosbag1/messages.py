@@ -17,6 +17,7 @@ from __future__ import annotations
 import os
 import struct
 from collections.abc import Callable, Generator, Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import IO
 
@@ -25,7 +26,7 @@ from numpy.typing import NDArray
 
 from tfrec.errors import ReadError
 from tfrec.formats._compression import MAX_CHUNK_BYTES, decompress, salvage
-from tfrec.formats.ros.connection import Connection, MessageBatch, MessageSource
+from tfrec.formats.ros.connection import MessageBatch, MessageSource
 from tfrec.formats.ros.decode import RawMessages
 from tfrec.formats.ros.encode import ns_from_stamps
 from tfrec.formats.rosbag1.index import message_spans
@@ -142,14 +143,8 @@ class Ros1Messages(MessageSource):
         conn = uint32_field(fields, "conn")
         if conn in self._conns:
             return
-        info = header_fields(data)
-        recorded, msgtype, msgdef, latched = connection_of(fields, info)
-        self._conns[conn] = self.connection_id(Connection(
-            topic=self.resolve(recorded), msgtype=msgtype, encoding="ros1", definition=msgdef,
-            definition_encoding="ros1msg" if msgdef else "", latched=latched,
-            type_hash=info.get("md5sum", b"").decode("ascii", "replace"),
-            callerid=info.get("callerid", b"").decode("utf-8", "replace"),
-        ))
+        found = connection_of(fields, header_fields(data))
+        self._conns[conn] = self.connection_id(replace(found, topic=self.resolve(found.topic)))
 
     def _index_data(self, stream: IO[bytes], size: int) -> dict[int, NDArray[np.void]]:
         """The index data records after a chunk (the stream is left after them)."""

@@ -22,8 +22,9 @@ from typing import IO
 from tfrec.errors import ReadError, one_line
 from tfrec.formats._collect import Collector, ReadOptions, ReadStopped, read_error_line, with_article
 from tfrec.formats._compression import MAX_CHUNK_BYTES, decompress, salvage
+from tfrec.formats.ros.connection import Connection
 from tfrec.formats.ros.encode import ns_from_stamps
-from tfrec.formats.ros.types import ros1_typestore, topic_deserializer
+from tfrec.formats.ros.types import known_ros1_typestore, topic_deserializer
 from tfrec.formats.rosbag1._records import (
     OP_BAG_HEADER,
     OP_CHUNK,
@@ -107,9 +108,9 @@ def time_field(fields: dict[str, bytes], name: str) -> int:
     return ns_from_stamps(int(sec), int(nsec))
 
 
-def connection_of(fields: dict[str, bytes], info: dict[str, bytes]) -> tuple[str, str, str, bool]:
-    """A connection record's topic (as recorded), message type (``pkg/msg/Type``), message
-    definition and whether it latches, from its header ``fields`` and its data's fields ``info``.
+def connection_of(fields: dict[str, bytes], info: dict[str, bytes]) -> Connection:
+    """A connection record as a :class:`~tfrec.formats.ros.connection.Connection` (its topic as
+    recorded, not yet resolved), from its header ``fields`` and its data's fields ``info``.
 
     Raises:
         ValueError: a connection without a message type.
@@ -119,10 +120,14 @@ def connection_of(fields: dict[str, bytes], info: dict[str, bytes]) -> tuple[str
     topic = fields.get("topic", info.get("topic", b"")).decode("utf-8", "replace")
     if "type" not in info:
         raise ValueError("a connection without a message type")
-    msgtype = normalize_msgtype(info["type"].decode("utf-8", "replace"))
     msgdef = info.get("message_definition", b"").decode("utf-8", "replace")
-    latched = info.get("latching", b"0") not in (b"", b"0")
-    return topic, msgtype, msgdef, latched
+    return Connection(
+        topic=topic, msgtype=normalize_msgtype(info["type"].decode("utf-8", "replace")), encoding="ros1",
+        definition=msgdef, definition_encoding="ros1msg" if msgdef else "",
+        latched=info.get("latching", b"0") not in (b"", b"0"),
+        type_hash=info.get("md5sum", b"").decode("ascii", "replace"),
+        callerid=info.get("callerid", b"").decode("utf-8", "replace"),
+    )
 
 
 class RecordDamaged(Exception):
@@ -189,15 +194,14 @@ def index_connections(stream: IO[bytes], header: dict[str, bytes], body_start: i
 
 
 class _Connection(TopicStats):
-    """A connection: its topic, message definition, whether its messages are decoded, and those
+    """A connection: its topic, whether its messages are decoded, and those
     taken (log time, raw message); its count with durability ``latched`` for a latching topic."""
 
-    __slots__ = ("decoded", "messages", "msgdef", "topic")
+    __slots__ = ("decoded", "messages", "topic")
 
-    def __init__(self, topic: str, msgtype: str, msgdef: str, decoded: bool, latched: bool) -> None:
+    def __init__(self, topic: str, msgtype: str, decoded: bool, latched: bool) -> None:
         super().__init__(msgtype, "latched" if latched else None)
         self.topic = topic
-        self.msgdef = msgdef
         self.decoded = decoded
         self.messages: list[tuple[int, bytes]] = []
 
@@ -310,10 +314,10 @@ class _Ros1Reader:
                 self.span = (start, end) if self.span is None else (min(self.span[0], start), max(self.span[1], end))
 
     def _connection(self, conn: int, fields: dict[str, bytes], info: dict[str, bytes]) -> None:
-        recorded, msgtype, msgdef, latched = connection_of(fields, info)
-        topic = self.collector.resolve(recorded)
-        decoded = self.collector.decodes(topic, msgtype)
-        self.connections[conn] = _Connection(topic, msgtype, msgdef, decoded, latched)
+        found = connection_of(fields, info)
+        topic = self.collector.resolve(found.topic)
+        decoded = self.collector.decodes(topic, found.msgtype, definition=found.definition, type_hash=found.type_hash)
+        self.connections[conn] = _Connection(topic, found.msgtype, decoded, found.latched)
 
     def _chunk(self, fields: dict[str, bytes], data: bytes, start: int, *, cut: bool) -> int:
         """A chunk record at byte ``start``; returns the messages taken from it."""
@@ -366,8 +370,7 @@ class _Ros1Reader:
 
     def finish(self, where: str) -> None:
         """Decode the messages taken, in log-time order per topic, and count every topic."""
-        store = ros1_typestore(tuple((connection.type, connection.msgdef) for connection in self.connections.values()
-                                     if connection.decoded and connection.msgdef))
+        store = known_ros1_typestore()
         topics: dict[str, list[tuple[int, bytes]]] = {}
         for connection in self.connections.values():
             if connection.count:

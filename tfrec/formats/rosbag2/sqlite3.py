@@ -29,6 +29,7 @@ import numpy as np
 
 from tfrec.errors import ReadError, one_line
 from tfrec.formats._collect import DECODE_BATCH, Collector, read_error_line
+from tfrec.formats.ros.definitions import INTERPRETED, MAX_DEFINITION_CHARS
 from tfrec.formats.ros.types import topic_deserializer
 from tfrec.formats.rosbag2.metadata import qos_durability
 from tfrec.recording import TopicStats
@@ -84,17 +85,39 @@ def _topics(db: sqlite3.Connection) -> dict[int, dict[str, Any]]:
     return {row[columns.index("id")]: dict(zip(columns, row)) for row in cursor}
 
 
-def _register(topics: dict[int, dict[str, Any]], collector: Collector, where: str) -> dict[int, str]:
-    """Each topic row's resolved name; the decoded ones get their deserializer.
+def _definitions(db: sqlite3.Connection, types: set[str]) -> dict[str, tuple[str, str]]:
+    """The ``message_definitions`` rows (rosbag2 Iron and later) of ``types``: type → (encoding, text).
+    Nothing when the table is missing, or is a view or a virtual table (SQL a bag brings is not run)."""
+    try:
+        kind = db.execute("SELECT type, sql FROM sqlite_master WHERE lower(name) = 'message_definitions'").fetchone()
+        if not types or kind is None or kind[0] != "table" or str(kind[1] or "").lstrip().upper().startswith(
+                "CREATE VIRTUAL"):
+            return {}
+        marks = ", ".join("?" * len(types))
+        rows = db.execute("SELECT topic_type, encoding, encoded_message_definition FROM message_definitions "
+                          f"WHERE topic_type IN ({marks}) AND length(encoded_message_definition) <= ?",
+                          (*sorted(types), MAX_DEFINITION_CHARS)).fetchall()
+    except sqlite3.DatabaseError:
+        return {}
+    return {str(msgtype): (str(encoding), str(text)) for msgtype, encoding, text in rows
+            if isinstance(encoding, str) and isinstance(text, str)}
+
+
+def _register(db: sqlite3.Connection, topics: dict[int, dict[str, Any]], collector: Collector, where: str) -> dict[int, str]:
+    """Each topic row's resolved name; the decoded ones (whose types have the layout tfrec reads, by the
+    database's ``message_definitions`` and type hashes) get their deserializer.
 
     Raises:
         ReadError: a decoded topic that is not CDR.
     """
     names: dict[int, str] = {}
+    definitions = _definitions(db, {str(row["type"]) for row in topics.values()} & set(INTERPRETED))
     for topic_id, row in topics.items():
         name, msgtype = collector.resolve(str(row["name"])), str(row["type"])
         names[topic_id] = name
-        if collector.decodes(name, msgtype):
+        encoding, text = definitions.get(msgtype, ("", ""))
+        if collector.decodes(name, msgtype, definition=text, definition_encoding=encoding,
+                             type_hash=str(row.get("type_description_hash") or "")):
             if row.get("serialization_format", "cdr") != "cdr":
                 raise ReadError(f"{where}: topic {name} is not cdr-serialized")
             collector.set_deserializer(name, topic_deserializer(msgtype, where=where, topic=name))
@@ -126,7 +149,7 @@ def read_sqlite3_into(files: Sequence[Path], collector: Collector, *, where: str
         try:
             db.execute("PRAGMA mmap_size = 1073741824")  # pages mapped, not copied (no effect where unsupported)
             topics = _topics(db)
-            names = _register(topics, collector, where)
+            names = _register(db, topics, collector, where)
             stats = {topic_id: _stats(row) for topic_id, row in topics.items()}
             decoded = [topic_id for topic_id, name in names.items() if name in collector.decoded]
             if decoded and not collector.options.summary:
@@ -262,7 +285,7 @@ def _read_rows(db: sqlite3.Connection, collector: Collector, pending: dict[str, 
         topics = _topics(db)
     except (sqlite3.DatabaseError, ValueError):
         raise ReadError(f"{where}: cannot read rosbag2 bag: {one_line(refused)}")
-    names = _register(topics, collector, where)
+    names = _register(db, topics, collector, where)
     for topic_id, row in topics.items():
         collector.topic(names[topic_id], str(row["type"]), _stats(row).durability)
     read = 0
