@@ -8,6 +8,7 @@ import shutil
 import signal
 import time
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -107,3 +108,88 @@ def die_always(key: str) -> list[Row]:
 def buggy(key: str) -> list[Row]:
     """A task that meets a bug."""
     return [Row(file=key, detail=str(1 / 0))]
+
+
+# -- processes: a run's session, a child without root's permission override -------------------------
+
+RAY_ENV = {
+    "RAY_AUTH_MODE": "disabled",
+    "RAY_USAGE_STATS_ENABLED": "0",
+}
+"""What Ray's processes need besides tfrec: no authentication, no usage stats."""
+
+
+def tfrec_env() -> dict[str, str]:
+    """The environment of a ``python -m tfrec`` child: tfrec and these tests importable, Ray quiet."""
+    from tests.conftest import REPO
+
+    return {**os.environ, **RAY_ENV,
+            "PYTHONPATH": os.pathsep.join([str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])])}
+
+
+def session_processes(session: int) -> dict[int, str]:
+    """The live processes (zombies left out) of a session: pid → command line."""
+    out = {}
+    for name in os.listdir("/proc"):
+        if not name.isdigit():
+            continue
+        try:
+            stat = Path(f"/proc/{name}/stat").read_text()
+            command = Path(f"/proc/{name}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+        except OSError:
+            continue
+        fields = stat[stat.rindex(")") + 2 :].split()
+        if int(fields[3]) == session and fields[0] != "Z":
+            out[int(name)] = command.strip()
+    return out
+
+
+def end_session(session: int) -> None:
+    """SIGKILL what is left of a session a test started (by pid: never another's processes)."""
+    for _ in range(3):
+        for pid in session_processes(session):
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        time.sleep(0.2)
+
+
+_CAP_DAC_OVERRIDE, _CAP_DAC_READ_SEARCH, _PR_CAPBSET_DROP = 1, 2, 24
+
+
+def _drop_file_capabilities() -> None:
+    """In a child before exec: leave root's capabilities to bypass file permissions out of the bounding set,
+    so that after exec even root meets ``chmod 000`` (the child is otherwise root as before)."""
+    import ctypes
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    for capability in (_CAP_DAC_OVERRIDE, _CAP_DAC_READ_SEARCH):
+        if libc.prctl(_PR_CAPBSET_DROP, capability, 0, 0, 0) != 0:
+            raise OSError(ctypes.get_errno(), "prctl(PR_CAPBSET_DROP)")
+
+
+def permissions_apply() -> str | None:
+    """None when a child started with :func:`unprivileged` meets file permissions; else why not (for a skip)."""
+    import subprocess
+    import sys
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        locked = Path(folder) / "locked"
+        locked.write_text("x")
+        locked.chmod(0)
+        try:
+            done = subprocess.run([sys.executable, "-c", f"open({str(locked)!r}).read()"], capture_output=True,
+                                  timeout=60, check=False, preexec_fn=unprivileged())
+        except OSError as err:
+            return f"cannot start a child without root's file permission override: {err}"
+        if done.returncode == 0:
+            return "a mode-000 file is readable here even without CAP_DAC_OVERRIDE (a file system that ignores modes?)"
+    return None
+
+
+def unprivileged() -> Callable[[], None] | None:
+    """The ``preexec_fn`` of a child that meets file permissions: as root, one that leaves out the capabilities
+    that override them (:func:`_drop_file_capabilities`); as another user, none is needed."""
+    return _drop_file_capabilities if os.geteuid() == 0 else None
