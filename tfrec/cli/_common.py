@@ -27,6 +27,7 @@ __all__ = [
     "load_robot",
     "load_robot_and_launch",
     "number",
+    "printable",
     "start_time",
     "tolerance",
 ]
@@ -175,10 +176,20 @@ _FLAGS = {
     "bag": "--bag DIR",
     "frame_prefix": "--frame-prefix",
     "overrides": "--set",
+    "ray_timeout_s": "--ray-timeout",
 }
 """Library parameters whose flag is not ``--`` + the name with dashes."""
 
 _PARAMETER = re.compile(r"`([A-Za-z_][A-Za-z0-9_]*)`")
+
+
+def printable(message: str) -> str:
+    """A message on one line whatever it quotes: a control character from an input (a newline in an MCAP's
+    profile or a topic name, a terminal escape sequence, a right-to-left override, a file name found by
+    listing a folder) is shown escaped, so that it cannot clear the screen or recolour a verdict."""
+    if message.isprintable():
+        return message
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in message)
 
 
 def as_flags(message: str) -> str:

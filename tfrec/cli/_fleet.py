@@ -9,7 +9,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any, TextIO
 
-from tfrec.cli._common import PROG, number, tolerance
+from tfrec.cli._common import PROG, number, printable, tolerance
 from tfrec.conventions import CHECK_POS_TOL, CHECK_ROT_TOL
 
 __all__ = ["add_engine_arguments", "add_parser", "run_diff_folders"]
@@ -25,10 +25,22 @@ def add_engine_arguments(parser: argparse.ArgumentParser) -> None:
                             "'tfrec-robotics[ray]')")
     group.add_argument("--address", metavar="ADDR", default=None,
                        help="the Ray cluster to use (default: RAY_ADDRESS, else a local one)")
+    group.add_argument("--ray-timeout", metavar="S", type=_seconds, default=None,
+                       help="give up connecting to the Ray cluster at --address after S seconds (default 30)")
     group.add_argument("--report", metavar="OUT", default=None,
                        help="one row per recording and finding: OUT.parquet or OUT.jsonl (DuckDB, Polars, pandas)")
     group.add_argument("--resume", action="store_true",
                        help="skip recordings whose rows are in --report and that are unchanged since")
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number of seconds") from None
+    if not (value > 0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"{text} is not a number of seconds > 0")
+    return value
 
 
 def add_parser(sub: Any) -> None:
@@ -86,7 +98,7 @@ def run_diff_folders(ns: argparse.Namespace) -> int:
 def _run(ns: argparse.Namespace, tasks: Sequence[Any], *, what: str) -> int:
     """Run the tasks, write the report, draw the bar; the exit code: 0 all pass, 1 any finding, 2 nothing read."""
     from tfrec.errors import FleetError
-    from tfrec.fleet import PASS, SUMMARY, Progress, Row, resume, run, tally
+    from tfrec.fleet import DEFAULT_RAY_TIMEOUT_S, PASS, SUMMARY, Progress, Row, resume, run, tally
 
     kept: list[dict[str, Any]] = []
     if ns.resume:
@@ -112,28 +124,30 @@ def _run(ns: argparse.Namespace, tasks: Sequence[Any], *, what: str) -> int:
 
     writer = None
     started = time.monotonic()
+    engine = {"jobs": ns.jobs, "engine": ns.engine, "address": ns.address, "on_result": on_result,
+              "ray_timeout_s": DEFAULT_RAY_TIMEOUT_S if ns.ray_timeout is None else ns.ray_timeout}
     try:
         if ns.report is not None:
             from tfrec.formats.report import ReportWriter
 
             with ReportWriter(ns.report) as writer:
                 writer.write(kept)
-                progress = run(tasks, jobs=ns.jobs, engine=ns.engine, address=ns.address, on_result=on_result)
+                progress = run(tasks, **engine)
         else:
-            progress = run(tasks, jobs=ns.jobs, engine=ns.engine, address=ns.address, on_result=on_result)
+            progress = run(tasks, **engine)
     finally:
         bar.close()
-    for line in failing:
-        print(line)
+    for line in failing:  # names found by listing folders, details quoting inputs: escaped
+        print(printable(line))
     passed, failed = progress.passed + before.passed, progress.failed + before.failed
     errors, total = progress.errors + before.errors, progress.total + before.total
     skipped = f" ({before.done} unchanged, from the report)" if before.done else ""
-    print(f"{total} {what}: {passed} pass, {failed} fail, {errors} error{skipped} in {time.monotonic() - started:.1f} s"
-          + (f"; report: {ns.report}" if ns.report else ""))
+    print(printable(f"{total} {what}: {passed} pass, {failed} fail, {errors} error{skipped} in "
+                    f"{time.monotonic() - started:.1f} s" + (f"; report: {ns.report}" if ns.report else "")))
     if total == 0 or errors == total:
         where = " ".join(ns.paths) if getattr(ns, "paths", None) else f"{ns.a} and {ns.b}"
-        print(f"{PROG}: error: {where}: nothing could be read ({errors} of {total} {what} an error; see above)",
-              file=sys.stderr)
+        print(f"{PROG}: error: {printable(where)}: nothing could be read ({errors} of {total} {what} an error; "
+              "see above)", file=sys.stderr)
         return 2
     return 0 if passed == total else 1 if (failed or errors) else 0
 

@@ -22,6 +22,7 @@ from tfrec.cli._common import (
     Parser,
     as_flags,
 )
+from tfrec.cli._common import printable as _printable
 from tfrec.errors import TfrecError
 
 __all__ = ["main", "main_exit"]
@@ -51,14 +52,6 @@ def _build_parser() -> argparse.ArgumentParser:
 def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
                   file: TextIO | None = None, line: str | None = None) -> None:
     print(f"{PROG}: warning: {_printable(as_flags(str(message)))}", file=sys.stderr)
-
-
-def _printable(message: str) -> str:
-    """A message on one line whatever it quotes: a control character from an input (a newline in an MCAP's
-    profile or a topic name, a terminal escape sequence, a right-to-left override) is shown escaped."""
-    if message.isprintable():
-        return message
-    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in message)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
