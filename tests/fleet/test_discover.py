@@ -258,3 +258,13 @@ def test_the_command_line_while_files_vanish(command: str, tmp_path: Path, fleet
     key = str(victim) if command == "check" else "marm/random.mcap"
     [row] = [r for r in read_report(report) if r["file"] == key and r["check"] == "summary"]
     assert row["verdict"] == "error" and row["detail"].endswith("cannot read: No such file or directory")
+
+
+def test_a_path_behind_a_folder_it_cannot_enter(locked_tree: Path, tmp_path: Path) -> None:
+    """Given as a PATH, a file in a folder the user cannot enter is an error row saying so, not 'no such file'."""
+    report = tmp_path / "r.jsonl"
+    done = _unprivileged_tfrec(["check", str(locked_tree / "locked" / "inner.mcap"), "--report", str(report)])
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.count("tfrec: error: ") == 1 and "nothing could be read" in done.stderr
+    [row] = read_report(report)
+    assert row["verdict"] == "error" and row["detail"].endswith("cannot read: Permission denied")

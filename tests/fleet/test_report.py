@@ -155,7 +155,7 @@ FOREIGN_PARQUET: dict[str, tuple[Callable[[Path], Path], str]] = {
     "another report format": (
         lambda p: _parquet(p, {"file": ["a"], "check": ["summary"], "verdict": ["pass"]},
                            {b"tfrec.report": b"7", b"tfrec.version": b"9.0.0"}),
-        r"a report of format 7 \(written by tfrec 9\.0\.0\); this tfrec reads format 1"),
+        r"a report of format '7' \(written by tfrec 9\.0\.0\); this tfrec reads format 1"),
     "cut short": (lambda p: p.write_bytes(_real_parquet(p).read_bytes()[:-100]) and p, "not a Parquet file"),
     "a verdict that is none": (lambda p: _parquet(p, {"file": ["a"], "check": ["summary"], "verdict": ["maybe"]}),
                                r"row 1: verdict is \"maybe\""),

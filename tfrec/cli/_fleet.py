@@ -25,22 +25,12 @@ def add_engine_arguments(parser: argparse.ArgumentParser) -> None:
                             "'tfrec-robotics[ray]')")
     group.add_argument("--address", metavar="ADDR", default=None,
                        help="the Ray cluster to use (default: RAY_ADDRESS, else a local one)")
-    group.add_argument("--ray-timeout", metavar="S", type=_seconds, default=None,
+    group.add_argument("--ray-timeout", metavar="S", type=float, default=None,
                        help="give up connecting to the Ray cluster at --address after S seconds (default 30)")
     group.add_argument("--report", metavar="OUT", default=None,
                        help="one row per recording and finding: OUT.parquet or OUT.jsonl (DuckDB, Polars, pandas)")
     group.add_argument("--resume", action="store_true",
                        help="skip recordings whose rows are in --report and that are unchanged since")
-
-
-def _seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a number of seconds") from None
-    if not (value > 0 and value < float("inf")):
-        raise argparse.ArgumentTypeError(f"{text} is not a number of seconds > 0")
-    return value
 
 
 def add_parser(sub: Any) -> None:

@@ -166,7 +166,12 @@ def _expand(path: str) -> list[Path]:
     Raises:
         FleetError: a path that does not exist and is no glob, or a glob that matches nothing.
     """
-    if os.path.lexists(path):
+    try:
+        os.lstat(path)
+        return [Path(path)]
+    except (FileNotFoundError, NotADirectoryError, ValueError):  # ValueError: a NUL in the path
+        pass
+    except OSError:  # there, but it cannot be looked at (a folder on the way it cannot enter): taken, its check says why
         return [Path(path)]
     if not _GLOB_CHARS & set(path):
         raise FleetError(f"{path}: no such file or folder")

@@ -35,6 +35,7 @@ traceback, and the run goes on with the other recordings.
 from __future__ import annotations
 
 import contextlib
+import math
 import multiprocessing
 import os
 import signal
@@ -188,7 +189,9 @@ def execute(task: Task) -> list[Row]:
     return [head, *rows[1:]]
 
 
-def _check_options(jobs: int | None, engine: str, retries: int) -> int:
+def _check_options(jobs: int | None, engine: str, retries: int, ray_timeout_s: float) -> int:
+    if not (isinstance(ray_timeout_s, (int, float)) and 0 < ray_timeout_s < math.inf):
+        raise FleetError(f"`ray_timeout_s` {ray_timeout_s!r} is not a number of seconds > 0")
     if engine not in ENGINES:
         raise FleetError(f"engine '{engine}' is not one of {', '.join(ENGINES)}")
     if jobs is not None and jobs < 1:
@@ -228,7 +231,7 @@ def run(
         FleetError: bad options, Ray not installed, or no Ray cluster at ``address`` within ``ray_timeout_s``.
         KeyboardInterrupt: Ctrl-C, once the workers are stopped.
     """
-    jobs = _check_options(jobs, engine, retries)
+    jobs = _check_options(jobs, engine, retries, ray_timeout_s)
     if address is not None and engine != "ray":
         raise FleetError("address is for engine='ray' only")
     state = _Tally(Progress(total=len(tasks)), on_result)

@@ -32,6 +32,8 @@ import warnings
 from collections.abc import Iterator
 from pathlib import Path
 
+from tfrec.errors import FleetError
+
 __all__ = ["REAPER_POLL_S", "Reaper", "quiet_resource_tracker", "quiet_stderr", "watch_parent"]
 
 REAPER_POLL_S = 0.5
@@ -119,10 +121,14 @@ class Reaper:
         # ours, closed once it said it is ready, so that it never holds the caller's pipes; stdin: the pipe whose
         # end-of-file means "this process is gone".
         self.token = secrets.token_hex(8)
-        self._process = subprocess.Popen(
-            [sys.executable, "-I", "-S", str(_REAPER), str(os.getpid()), str(REAPER_POLL_S), self.token],
-            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, close_fds=True,
-        )
+        try:
+            self._process = subprocess.Popen(
+                [sys.executable, "-I", "-S", str(_REAPER), str(os.getpid()), str(REAPER_POLL_S), self.token],
+                stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, close_fds=True,
+            )
+        except OSError as err:
+            raise FleetError(f"cannot start the process that ends a local Ray cluster with its driver: "
+                             f"{err.strerror or err}") from None
         if self._process.stdout is not None:
             with self._process.stdout:
                 self._process.stdout.readline()  # "ready": it knows which processes were here before it

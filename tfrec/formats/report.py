@@ -292,9 +292,9 @@ def _schema_problem(schema: Any) -> str | None:
     metadata = schema.metadata or {}
     version = metadata.get(b"tfrec.report")
     if version is not None and version != str(REPORT_FORMAT_VERSION).encode():
-        wrote = metadata.get(b"tfrec.version", b"?").decode("ascii", "replace")
-        return (f"a report of format {version.decode('ascii', 'replace')[:20]} (written by tfrec {wrote[:20]}); this "
-                f"tfrec reads format {REPORT_FORMAT_VERSION}")
+        wrote = metadata.get(b"tfrec.version", b"?")[:20].decode("ascii", "backslashreplace")
+        return (f"a report of format '{version[:20].decode('ascii', 'backslashreplace')}' (written by tfrec {wrote}); "
+                f"this tfrec reads format {REPORT_FORMAT_VERSION}")
     names = set(schema.names)
     missing = _REQUIRED - names
     if missing:
@@ -430,7 +430,7 @@ def _parquet_rows(file: Path) -> list[dict[str, Any]]:
 
     try:
         rows: list[dict[str, Any]] = pq.read_table(file).to_pylist()
-    except (pa.ArrowException, ValueError) as err:
+    except (pa.ArrowException, ValueError, OSError) as err:  # OSError: Arrow's for damaged pages too
         raise ReadError(f"{file}: not a tfrec report: its data cannot be read ({one_line(str(err))[:200]})") from None
     return rows
 
