@@ -156,6 +156,16 @@ def test_malformed_addresses(address: str, tmp_path: Path) -> None:
     assert "is not an address of a Ray cluster (host:port, ray://host:port, auto or local)" in line
 
 
+def test_ray_address_from_the_environment(tmp_path: Path) -> None:
+    recording = tmp_path / "r.mcap"
+    recording.write_bytes(b"")
+    done = subprocess.run([sys.executable, "-m", "tfrec", "check", str(recording), "--engine", "ray"], cwd=REPO,
+                          env={**tfrec_env(), "RAY_ADDRESS": "head-node"}, capture_output=True, text=True, timeout=180,
+                          check=False)
+    assert (done.returncode, done.stderr) == (2, "tfrec: error: RAY_ADDRESS 'head-node' is not an address of a Ray "
+                                                 "cluster (host:port, ray://host:port, auto or local)\n")
+
+
 def test_split_address() -> None:
     assert split_address("10.0.0.5:6379") == ("10.0.0.5", 6379)
     assert split_address("ray://head.example:10001") == ("head.example", 10001)

@@ -26,7 +26,7 @@ def add_engine_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--address", metavar="ADDR", default=None,
                        help="the Ray cluster to use (default: RAY_ADDRESS, else a local one)")
     group.add_argument("--ray-timeout", metavar="S", type=float, default=None,
-                       help="give up connecting to the Ray cluster at --address after S seconds (default 30)")
+                       help="give up connecting to the Ray cluster at --address after S seconds (default 20)")
     group.add_argument("--report", metavar="OUT", default=None,
                        help="one row per recording and finding: OUT.parquet or OUT.jsonl (DuckDB, Polars, pandas)")
     group.add_argument("--resume", action="store_true",

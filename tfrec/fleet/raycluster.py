@@ -39,8 +39,9 @@ from tfrec.fleet.lifetime import Reaper, quiet_stderr
 
 __all__ = ["DEFAULT_RAY_TIMEOUT_S", "RAY_MISSING", "cluster", "import_ray", "probe", "split_address", "target_of"]
 
-DEFAULT_RAY_TIMEOUT_S = 30.0
-"""How long connecting to a Ray cluster at an address may take (``--ray-timeout``)."""
+DEFAULT_RAY_TIMEOUT_S = 20.0
+"""How long connecting to a Ray cluster at an address may take (``--ray-timeout``): a cluster answers in
+a few seconds, and a command that cannot reach one ends within half a minute, start-up included."""
 
 RAY_MISSING = "engine='ray' needs Ray: pip install 'tfrec-robotics[ray]'"
 """The message of the :class:`FleetError` raised when Ray is not installed."""
@@ -60,8 +61,12 @@ def target_of(address: str | None) -> str:
     return address or os.environ.get("RAY_ADDRESS") or "local"
 
 
-def split_address(address: str) -> tuple[str, int]:
+def split_address(address: str, *, name: str = "`address`") -> tuple[str, int]:
     """``(host, port)`` of ``host:port``, ``[v6]:port`` or ``ray://host:port``.
+
+    Args:
+        address: the address.
+        name: what the message calls it (``RAY_ADDRESS`` when it came from the environment).
 
     Raises:
         FleetError: anything else.
@@ -72,7 +77,7 @@ def split_address(address: str) -> tuple[str, int]:
     port = int(port_text) if port_text.isdigit() and port_text.isascii() else -1
     odd = not host.isprintable() or any(c.isspace() or c in "/[]" for c in host)
     if not sep or not host or odd or not 0 < port < 65536:
-        raise FleetError(f"`address` {address!r} is not an address of a Ray cluster ({_USAGE})")
+        raise FleetError(f"{name} {address!r} is not an address of a Ray cluster ({_USAGE})")
     return host, port
 
 
@@ -85,7 +90,7 @@ def import_ray(address: str | None, *, timeout_s: float = DEFAULT_RAY_TIMEOUT_S)
     """
     target = target_of(address)
     if target not in ("local", "auto"):
-        split_address(target)
+        split_address(target, name="`address`" if address else "RAY_ADDRESS")
     if target != "local" and "ray" not in sys.modules:
         os.environ.setdefault("RAY_py_gcs_connect_timeout_s", str(max(1, math.ceil(timeout_s))))
     try:
@@ -114,10 +119,11 @@ def cluster(ray: Any, *, jobs: int, address: str | None, timeout_s: float = DEFA
         options["num_cpus"] = jobs
         reaper = Reaper()  # before the cluster: it must see each of its processes start
     try:
-        if target != "local":
-            _reachable(ray, target, timeout_s)
-        with reaper.marking() if reaper is not None else contextlib.nullcontext():
-            _init(ray, target, options, connecting=target != "local")
+        if reaper is None:
+            _connect(ray, target, options, timeout_s=timeout_s, name="`address`" if address else "RAY_ADDRESS")
+        else:
+            with reaper.marking():
+                _init(ray, target, options, failed="cannot start a local Ray cluster")
         try:
             yield
         finally:
@@ -129,16 +135,29 @@ def cluster(ray: Any, *, jobs: int, address: str | None, timeout_s: float = DEFA
             reaper.close()
 
 
-def _init(ray: Any, target: str, options: dict[str, Any], *, connecting: bool) -> None:
-    # One attempt of Ray's connection loop (each waits up to RAY_py_gcs_connect_timeout_s), read by ray.init itself.
-    wait = {"RAY_gcs_server_port_wait_time_s": "1"} if connecting else {}
-    with _environment(wait), quiet_stderr(), warnings.catch_warnings():
+def _connect(ray: Any, target: str, options: dict[str, Any], *, timeout_s: float, name: str) -> None:
+    """Connect to the cluster at ``target`` (``name`` says where it came from): probed, then one attempt of
+    Ray's connection loop (each waits up to ``RAY_py_gcs_connect_timeout_s``, read by ``ray.init`` itself)."""
+    where = _bootstrap(ray, target, name)
+    if where is not None:
+        host, port = split_address(where, name=name)
+        tls = os.environ.get("RAY_USE_TLS", "").lower() in ("1", "true")  # a TLS handshake first: no HTTP/2 seen
+        problem = probe(host, port, timeout_s=timeout_s, grpc=not tls)
+        if problem is not None:
+            shown = "" if target.removeprefix("ray://") == f"{host}:{port}" else f" ({host}:{port})"
+            raise FleetError(f"{name} {target}{shown}: no Ray cluster there: {problem}")
+    with _environment({"RAY_gcs_server_port_wait_time_s": "1"}):
+        _init(ray, target, options, failed=f"{name} {target}: cannot connect to a Ray cluster")
+
+
+def _init(ray: Any, target: str, options: dict[str, Any], *, failed: str) -> None:
+    """``ray.init`` with its output silenced; ``failed`` starts the message of a failure."""
+    with quiet_stderr(), warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
             ray.init(address=target, **options)
         except (ConnectionError, TimeoutError, RuntimeError, ValueError) as err:
-            what = "cannot connect to a Ray cluster" if connecting else "cannot start a local Ray cluster"
-            raise FleetError(f"`address` {target}: {what}: {_ray_says(err)}") from None
+            raise FleetError(f"{failed}: {_ray_says(err)}") from None
 
 
 def _ray_says(err: BaseException) -> str:
@@ -160,36 +179,27 @@ def _environment(values: dict[str, str]) -> Iterator[None]:
             os.environ.pop(name, None)
 
 
-def _reachable(ray: Any, target: str, timeout_s: float) -> None:
-    """Raise :class:`FleetError` unless something that speaks gRPC answers where Ray would connect."""
-    host, port = split_address(_bootstrap(ray, target))
-    tls = os.environ.get("RAY_USE_TLS", "").lower() in ("1", "true")  # a TLS handshake first: HTTP/2 is not seen
-    problem = probe(host, port, timeout_s=timeout_s, grpc=not tls)
-    if problem is not None:
-        where = "" if target.removeprefix("ray://") == f"{host}:{port}" else f" ({host}:{port})"
-        raise FleetError(f"`address` {target}{where}: no Ray cluster there: {problem}")
-
-
-def _bootstrap(ray: Any, target: str) -> str:
+def _bootstrap(ray: Any, target: str, name: str) -> str | None:
     """The ``host:port`` Ray connects to for ``target``: ``auto`` read where Ray reads it, ``localhost``
-    and ``127.0.0.1`` replaced by this machine's address as Ray replaces them."""
+    and ``127.0.0.1`` replaced by this machine's address as Ray replaces them; None when that cannot be
+    told (``auto`` with a Ray whose reading of addresses moved: Ray alone is asked then)."""
     if target.startswith("ray://"):
         return target
     if target != "auto":
-        split_address(target)  # a malformed address: our message, not Ray's
+        split_address(target, name=name)  # a malformed address: our message, not Ray's
     try:
         from ray._private import services  # Ray's own reading of an address (not public API)
 
         canonical = services.canonicalize_bootstrap_address
     except (ImportError, AttributeError):
-        return target
+        return None if target == "auto" else target
     try:
         with quiet_stderr(), warnings.catch_warnings():
             warnings.simplefilter("ignore")
             found = canonical(target)
     except (ConnectionError, ValueError, RuntimeError) as err:
-        raise FleetError(f"`address` {target}: {_ray_says(err)}") from None
-    return str(found) if found else target
+        raise FleetError(f"{name} {target}: {_ray_says(err)}") from None
+    return str(found) if found else None
 
 
 def probe(host: str, port: int, *, timeout_s: float, grpc: bool = True) -> str | None:
