@@ -162,8 +162,8 @@ def test_ray_address_from_the_environment(tmp_path: Path) -> None:
     done = subprocess.run([sys.executable, "-m", "tfrec", "check", str(recording), "--engine", "ray"], cwd=REPO,
                           env={**tfrec_env(), "RAY_ADDRESS": "head-node"}, capture_output=True, text=True, timeout=180,
                           check=False)
-    assert (done.returncode, done.stderr) == (2, "tfrec: error: RAY_ADDRESS 'head-node' is not an address of a Ray "
-                                                 "cluster (host:port, ray://host:port, auto or local)\n")
+    assert (done.returncode, done.stderr) == (2, ("tfrec: error: RAY_ADDRESS 'head-node' is not an address of a Ray "
+                                                 "cluster (host:port, ray://host:port, auto or local)\n"))
 
 
 def test_split_address() -> None:
