@@ -206,7 +206,7 @@ def test_check_on_a_two_node_cluster(two_nodes: tuple[str, tuple[int, int]], fle
 def test_a_killed_driver_takes_its_local_cluster_with_it(tmp_path: Path) -> None:
     """SIGKILL of `tfrec check --engine ray` (a local cluster of its own): GCS, raylet, agents and workers are
     gone within seconds, not the minute Ray's agents would wait for the dead GCS."""
-    from tests.fleet.test_lifetime import kill_driver_and_expect_nothing_left, start_check, wait_for
+    from tests.fleet.helpers import kill_driver_and_expect_nothing_left, start_check, wait_for
     from tests.recording_helpers import load_robot, write_mcap
     from tfrec.trajectory.generators import make_trajectory
 

@@ -142,6 +142,11 @@ def _real_parquet(path: Path) -> Path:
     return path
 
 
+def _cut_short(path: Path) -> Path:
+    path.write_bytes(path.read_bytes()[:-100])
+    return path
+
+
 FOREIGN_PARQUET: dict[str, tuple[Callable[[Path], Path], str]] = {
     "other columns": (lambda p: _parquet(p, {"name": ["a"], "value": [1.0]}),
                       "it has no check, file, verdict column"),
@@ -156,7 +161,7 @@ FOREIGN_PARQUET: dict[str, tuple[Callable[[Path], Path], str]] = {
         lambda p: _parquet(p, {"file": ["a"], "check": ["summary"], "verdict": ["pass"]},
                            {b"tfrec.report": b"7", b"tfrec.version": b"9.0.0"}),
         r"a report of format '7' \(written by tfrec 9\.0\.0\); this tfrec reads format 1"),
-    "cut short": (lambda p: p.write_bytes(_real_parquet(p).read_bytes()[:-100]) and p, "not a Parquet file"),
+    "cut short": (lambda p: _cut_short(_real_parquet(p)), "not a Parquet file"),
     "a verdict that is none": (lambda p: _parquet(p, {"file": ["a"], "check": ["summary"], "verdict": ["maybe"]}),
                                r"row 1: verdict is \"maybe\""),
     "a null file": (lambda p: _parquet(p, {"file": [None, "b"], "check": ["summary"] * 2, "verdict": ["pass"] * 2}),
