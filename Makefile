@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 PIP    := $(BIN)/python -m pip --disable-pip-version-check -q
 
-.PHONY: demo test fuzz lint bench clean screenshots
+.PHONY: demo test test-slow test-lowest fuzz lint bench clean screenshots
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -31,8 +31,26 @@ demo: $(VENV)/.installed
 	@echo "  $(BIN)/tfrec info <file>.mcap    (topics, rates, joints, frames)"
 	@echo "Or activate the environment first ('. $(BIN)/activate') and type tfrec and rerun."
 
+# The default tier: every test but those marked `slow` (Ray clusters, many subprocesses, pictures), a few
+# minutes on 2 cores. CI runs both tiers, with the newest and the lowest allowed versions (docs/ci.md).
 test: $(VENV)/.installed-test
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -m "not slow"
+
+test-slow: $(VENV)/.installed-test
+	$(BIN)/python -m pytest -q -m slow
+
+# The default tier again in .venv-lowest, with every dependency at the lowest version pyproject.toml allows
+# (.ci/lowest.txt): a lower bound that no longer works fails here, not on a user's machine.
+LOWEST := .venv-lowest
+$(LOWEST)/.installed: pyproject.toml .ci/lowest.txt
+	rm -rf $(LOWEST)
+	$(PYTHON) -m venv $(LOWEST)
+	$(LOWEST)/bin/python -m pip --disable-pip-version-check -q install --upgrade pip
+	$(LOWEST)/bin/python -m pip --disable-pip-version-check -q install -c .ci/lowest.txt -e '.[test]'
+	@touch $@
+
+test-lowest: $(LOWEST)/.installed
+	$(LOWEST)/bin/python -m pytest -q -p no:cacheprovider -m "not slow"
 
 # The long fuzz run (docs/security.md): tests/fuzz with TFREC_FUZZ_EXAMPLES random mutations per target (default
 # 300), each run of tfrec in its own process under a 1 GiB address-space limit and a timeout. `make test` runs a
@@ -51,7 +69,7 @@ bench: $(VENV)/.installed-test
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done
 
 clean:
-	rm -rf $(VENV) .pytest_cache .hypothesis build dist
+	rm -rf $(VENV) $(LOWEST) .pytest_cache .hypothesis build dist
 
 # docs/images/*.png from the current code, in a headless Rerun viewer (needs Mesa's Vulkan driver:
 # apt-get install mesa-vulkan-drivers); not part of `make test`

@@ -18,8 +18,64 @@ ROBOTS = REPO / "robots"
 SHARED = next((folder / "shared" for folder in REPO.parents if (folder / "shared").is_dir()), REPO.parent / "shared")
 """../shared: beside the repository, or beside a folder of worktrees that holds it."""
 CORPUS = SHARED / "corpus"
+"""Real robot description packages written by others (urdf_tutorial, turtlebot3, ur_description, franka_description,
+robotiq), read-only; kept outside the repository."""
 BAGS = SHARED / "bags"
-"""Recordings written by other tools (rosbag2's and rosbag.js's test bags), read-only."""
+"""Recordings written by other tools (rosbag2's and rosbag.js's test bags), read-only; kept outside the repository."""
+
+CORPUS_ABSENT = ("../shared/corpus is not here: it holds real robot packages by others (urdf_tutorial, turtlebot3, "
+                 "ur_description, franka_description, robotiq), kept outside this repository; the tests that compare "
+                 "tfrec with them run where it exists — skipping them is fine")
+"""The skip reason of every test that needs :data:`CORPUS` (pytest -ra shows it once, with a count)."""
+BAGS_ABSENT = ("../shared/bags is not here: it holds real bags written by other tools (rosbag2's and rosbag.js's own "
+               "test bags), kept outside this repository; the tests that read them run where it exists — skipping "
+               "them is fine")
+"""The skip reason of every test that needs :data:`BAGS`."""
+
+
+SLOW_TIER = (
+    # Ray clusters; Ray imported in child processes that find no cluster; drivers killed with what they started
+    "tests/fleet/test_ray.py",
+    "tests/fleet/test_ray_address.py",
+    "tests/fleet/test_lifetime.py",
+    "tests/fleet/test_engine.py::test_a_dead_worker_costs_its_task_only",
+    # the README tour, command by command
+    "tests/test_docs.py::test_readme_tour_works_as_typed",
+    # pictures: matplotlib plots and graphs in every format
+    "tests/plots/test_plots.py",
+    "tests/cli/test_pictures_cli.py",
+    "tests/plots/test_tree.py::test_large_robot_stays_within_bounds",
+    "tests/plots/test_tree.py::test_corpus_graph_in_every_format",
+    # Rerun recordings written and read back in a child process
+    "tests/diff/test_diff.py::test_mcap_against_its_own_rrd",
+    "tests/test_real_bags.py::test_an_rrd_of_a_multi_robot_replay_is_read_back_robot_by_robot",
+    "tests/test_real_bags.py::test_an_rrd_of_another_application_is_refused",
+    "tests/replay/test_replay.py::test_an_rrd_not_written_by_tfrec_is_refused",
+    "tests/convert/test_convert.py::test_rerun_output",
+    "tests/test_without_joints.py::test_info_replay_check_and_plot_work[cube-rrd]",
+    "tests/test_without_joints.py::test_info_replay_check_and_plot_work[statue-rrd]",
+    "tests/formats/test_rrd.py::test_a_write_that_fails_midway_is_a_recording_error",
+    # bombs and floods, each in a process of its own under memory limits
+    "tests/faults/test_hostile_recordings.py::test_an_rrd_that_aborts_reruns_reader_is_one_line",
+    "tests/faults/test_hostile_recordings.py::test_a_ros1_bz2_chunk_inflating_to_4_gib_is_skipped",
+    "tests/faults/test_hostile_recordings.py::test_a_zstd_bomb_as_a_message_of_a_compressed_rosbag2_bag_is_one_line",
+    "tests/faults/test_hostile_recordings.py::test_check_of_a_folder_with_a_fifo_and_a_device_is_error_rows",
+    "tests/faults/test_writing_faults.py::test_record_and_replay_save_onto_a_full_disk_give_one_line",
+    "tests/faults/test_hostile_descriptions.py::test_millions_of_short_csv_rows_are_one_line_in_bounded_memory",
+    "tests/faults/test_hostile_descriptions.py::test_hostile_meshes_are_skipped_with_a_warning_naming_the_link",
+    "tests/formats/test_decompress_limits.py::test_the_bombs_are_small",
+    "tests/description/test_sandbox.py::test_deep_xml_is_nested_too_deeply_not_recursion",
+    "tests/description/test_sandbox.py::test_exponential_macros_side_by_side_are_refused",
+    "tests/trajectory/test_keyframes.py::test_many_rows_in_seconds",
+)
+"""The slow tier (``make test-slow``, run by CI; ``make test`` leaves it out): test files, or test names
+(a prefix: every parametrization, and every test whose name starts so), kept in this one list."""
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    for item in items:
+        if item.nodeid.startswith(SLOW_TIER):
+            item.add_marker(pytest.mark.slow)
 
 
 @pytest.fixture
@@ -30,7 +86,7 @@ def robots() -> Path:
 @pytest.fixture
 def corpus() -> Path:
     if not CORPUS.is_dir():
-        pytest.skip("../shared/corpus is absent")
+        pytest.skip(CORPUS_ABSENT)
     return CORPUS
 
 

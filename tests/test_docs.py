@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import REPO
+from tests.conftest import CORPUS_ABSENT, REPO
 
 API = REPO / "docs" / "api.md"
 _BLOCK = re.compile(r"```python\n(.*?)```", re.DOTALL)
@@ -27,7 +27,7 @@ def _examples() -> list[tuple[str, str]]:
 def test_api_example_runs(where: str, code: str, monkeypatch: pytest.MonkeyPatch,
                           capsys: pytest.CaptureFixture[str]) -> None:
     if "../shared/corpus" in code and not (REPO.parent / "shared" / "corpus").is_dir():  # the examples' own path
-        pytest.skip(f"{REPO.parent / 'shared' / 'corpus'} is absent")
+        pytest.skip(CORPUS_ABSENT)
     monkeypatch.chdir(REPO)
     with warnings.catch_warnings():  # an example may warn (mbot's legacy macro calls): that is not a failure
         warnings.simplefilter("ignore")
@@ -82,5 +82,5 @@ def test_readme_tour_works_as_typed(tmp_path: Path) -> None:
                                  + "\n".join(printed[position:position + 40])
                                  + f"\nstderr:\n{run.stderr}") from None
     for name in ("marm.mcap", "marm.rrd", "marm-tree.png", "marm-check.png", "marm4.bag", "marm-diff.png",
-                 "marm-vs-long.rrd", "marm4-tail.mcap", "marm-joints.png", "fleet.parquet"):
+                 "marm-vs-long.rrd", "marm-vs-long.png", "marm4-tail.mcap", "marm-joints.png", "fleet.parquet", "cube.mcap"):
         assert (work / name).stat().st_size > 0, name

@@ -48,6 +48,25 @@ def test_record_again_matches_golden(tmp_path: Path, name: str, capsys: pytest.C
                             joint_tol=TOLERANCE["joint_tol"])
 
 
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_record_again_is_the_golden_byte_for_byte(tmp_path: Path, name: str, monkeypatch: pytest.MonkeyPatch,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    """`cmp golden.mcap fresh.mcap`: the same command under another name and folder gives the golden's bytes
+    (the header's library string, which names tfrec's version, taken from the golden)."""
+    from mcap.reader import make_reader
+
+    from tfrec.formats.mcap import writer
+
+    with open(GOLDEN / name, "rb") as stream:
+        library = make_reader(stream).get_header().library
+    monkeypatch.setattr(writer, "LIBRARY", library)
+    fresh = tmp_path / "elsewhere" / "fresh.mcap"
+    fresh.parent.mkdir()
+    assert _record(tmp_path, name, "-o", str(fresh), "--no-rrd") == 0
+    capsys.readouterr()
+    assert fresh.read_bytes() == (GOLDEN / name).read_bytes()
+
+
 def test_header_is_not_compared(tmp_path: Path) -> None:
     """Rewrite the MCAP header's library string (same length): still identical by meaning."""
     golden = GOLDEN / "marm-random-2s.mcap"

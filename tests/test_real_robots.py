@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import CORPUS
+from tests.conftest import CORPUS, CORPUS_ABSENT
 from tfrec.description import load_description
 from tfrec.errors import DescriptionError
 from tfrec.recorder import plan_outputs, record
@@ -51,7 +51,7 @@ def _round_trip(path: Path, args: dict[str, str], package_paths: list[Path], tmp
     assert report.passed, report.failures
 
 
-@pytest.mark.skipif(not CORPUS.is_dir(), reason=f"{CORPUS} is absent")
+@pytest.mark.skipif(not CORPUS.is_dir(), reason=CORPUS_ABSENT)
 @pytest.mark.parametrize("name", sorted(CORPUS_ROBOTS))
 def test_corpus_robot_records_and_checks(name: str, tmp_path: Path) -> None:
     rel, args = CORPUS_ROBOTS[name]

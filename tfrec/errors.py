@@ -5,12 +5,19 @@ Library code raises these and never prints; the CLI turns them into one line
 (file, line, element) and name the library's parameters in backquotes (```start_s```); the CLI
 shows each as its flag (``--start``). Foreign errors are chained (``raise ... from err``) so that
 a traceback (``--debug``, tests) keeps the cause.
+
+Recoverable oddities are warnings (``warnings.warn``), shown by the CLI as ``tfrec: warning: ...``;
+:class:`TfrecWarning` is the category of tfrec's warnings, for filters (``warnings.filterwarnings("error",
+category=tfrec.TfrecWarning)``; pytest's ``filterwarnings = ignore::tfrec.LegacyXacroWarning``).
 """
 
 from __future__ import annotations
 
+import difflib
 import os
+from collections.abc import Iterable
 from pathlib import Path
+from typing import ClassVar
 
 __all__ = [
     "ConvertError",
@@ -18,11 +25,13 @@ __all__ = [
     "DiffError",
     "FleetError",
     "KinematicsError",
+    "LegacyXacroWarning",
     "PlotError",
     "ReadError",
     "RecordingError",
     "ReplayError",
     "TfrecError",
+    "TfrecWarning",
     "TrajectoryError",
     "WriteError",
 ]
@@ -76,6 +85,21 @@ class FleetError(TfrecError):
     """A fleet run (``tfrec check``, a directory ``diff``) could not start: no recordings, no engine."""
 
 
+class TfrecWarning(UserWarning):
+    """The category of tfrec's warnings: something recoverable in an input, named as an error would be."""
+
+
+class LegacyXacroWarning(TfrecWarning):
+    """A xacro description written in the Kinetic-era dialect (xacro <= 1.13: ``<property>``, ``<macro>``,
+    ``<include>``, macro calls … without the ``xacro:`` prefix), expanded as ROS Kinetic/Melodic's xacro did
+    (docs/xacro.md); with ``strict_xacro``, left unexpanded as ROS 2's xacro does. Silence it with the
+    filter ``ignore::tfrec.LegacyXacroWarning`` (``warnings.filterwarnings("ignore",
+    category=tfrec.LegacyXacroWarning)``, pytest's ``filterwarnings``), or ``--quiet-legacy``."""
+
+    SILENCE: ClassVar[str] = "the warning filter ignore::tfrec.LegacyXacroWarning"
+    """How its message says to silence it (the CLI says ``--quiet-legacy`` instead)."""
+
+
 def display_path(path: str | os.PathLike[str] | None) -> str:
     """A path as a user would type it in messages: relative to the working folder when inside it."""
     if path is None:
@@ -93,3 +117,9 @@ def display_path(path: str | os.PathLike[str] | None) -> str:
 def one_line(text: str) -> str:
     """A library's error message on one line: runs of whitespace (newlines too) become one space."""
     return " ".join(text.split())
+
+
+def suggest(name: str, names: Iterable[str]) -> str:
+    """`` (did you mean 'x'?)`` for the closest of names (a typo), or ``""``."""
+    close = difflib.get_close_matches(name, sorted(set(names)), n=1)
+    return f" (did you mean '{close[0]}'?)" if close else ""

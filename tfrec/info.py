@@ -168,11 +168,14 @@ def _format_kind(summary: dict[str, Any]) -> str:
 def _robot_lines(robot: dict[str, Any], indent: str) -> list[str]:
     lines = []
     if robot["joints"] is not None:
-        lines.append(f"{indent}Joints ({len(robot['joints'])}): {', '.join(robot['joints'])}")
+        named = ", ".join(robot["joints"]) or "none (its /joint_states messages name no joint)"
+        lines.append(f"{indent}Joints ({len(robot['joints'])}): {named}")
     frames = robot["tf_frames"]
     if frames:
         lines.append(f"{indent}TF frames ({len(frames)} parent → child):")
         lines += [f"{indent}  {f['parent']} → {f['child']}{'  (static)' if f['static'] else ''}" for f in frames]
+    elif robot["name"] is not None:
+        lines.append(f"{indent}TF frames:   none")
     return lines
 
 

@@ -18,11 +18,13 @@ from typing import Any
 
 import numpy as np
 
-from tfrec._atomic import AtomicOutputs, check_target
+from tfrec._atomic import AtomicOutputs
+from tfrec._outputs import OutputKind, check_outputs
 from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.errors import WriteError
+from tfrec.formats.kinds import MCAP, ROS1_BAG, ROSBAG2, RRD
 from tfrec.formats.mcap.writer import McapSink, check_time_range
-from tfrec.formats.rosbag2.metadata import write_bag_metadata
+from tfrec.formats.rosbag2.metadata import bag_storage_name, write_bag_metadata
 from tfrec.kinematics.fk import DEFAULT_CHUNK_SAMPLES, iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
 from tfrec.trajectory.types import JointTrajectory, TrajectoryKind
@@ -32,6 +34,7 @@ __all__ = [
     "RecordResult",
     "RecordingPlan",
     "default_stem",
+    "needs_stem",
     "plan_outputs",
     "record",
     "recording_id",
@@ -65,7 +68,7 @@ class RecordingPlan:
 
 def plan_outputs(
     *,
-    stem: str,
+    stem: str | None,
     out: str | os.PathLike[str] | None = None,
     rrd: str | os.PathLike[str] | None = None,
     bag: str | os.PathLike[str] | None = None,
@@ -73,12 +76,19 @@ def plan_outputs(
     no_rrd: bool = False,
     folder: str | os.PathLike[str] = "recordings",
     force: bool = False,
+    inputs: Sequence[str | os.PathLike[str] | None] = (),
 ) -> RecordingPlan:
     """Decide the output paths and check them before anything is written.
 
+    Args:
+        stem: the name of default outputs (:func:`default_stem`); None when every output is named
+            (:func:`needs_stem` is False), so that they are checked before the robot is loaded.
+        inputs: what the recording reads (the description, a CSV trajectory): never an output.
+
     Raises:
         WriteError: nothing to write, conflicting options, or a target that
-            :func:`tfrec._atomic.check_target` refuses (wrong extension, exists without ``force``).
+            :func:`tfrec._outputs.check_outputs` refuses (wrong extension, exists without ``force``, not
+            what tfrec writes there, an input).
     """
     if no_mcap and no_rrd:
         raise WriteError("`no_mcap` and `no_rrd` together leave nothing to write")
@@ -86,11 +96,13 @@ def plan_outputs(
         raise WriteError("`bag` writes the MCAP inside its folder; it goes with neither `out` nor `no_mcap`")
     if no_rrd and rrd is not None:
         raise WriteError("`rrd` and `no_rrd` contradict each other")
+    if stem is None and needs_stem(out=out, rrd=rrd, bag=bag, no_mcap=no_mcap):
+        raise ValueError("plan_outputs: a default output name needs `stem`")
     bag_dir = Path(bag) if bag is not None else None
     mcap: Path | None = None
     ros1_bag: Path | None = None
     if bag_dir is not None:
-        mcap = bag_dir / f"{bag_dir.name}_0.mcap"
+        mcap = bag_dir / bag_storage_name(bag_dir.name)
     elif out is not None and Path(out).suffix == ".bag":
         ros1_bag = Path(out)
     elif not no_mcap:
@@ -105,15 +117,23 @@ def plan_outputs(
             rrd_path = (ros1_bag or mcap).with_suffix(".rrd")  # type: ignore[union-attr]
         else:
             rrd_path = Path(folder) / f"{stem}.rrd"
+    targets: list[tuple[Path, OutputKind]] = []
     if bag_dir is not None:
-        check_target(bag_dir, suffix=None, what="rosbag2", force=force, folder=True)
+        targets.append((bag_dir, ROSBAG2))
     elif ros1_bag is not None:
-        check_target(ros1_bag, suffix=".bag", what="ROS 1 bag", force=force)
+        targets.append((ros1_bag, ROS1_BAG))
     elif mcap is not None:
-        check_target(mcap, suffix=".mcap", what="MCAP (or ROS 1 .bag)", force=force)
+        targets.append((mcap, MCAP))
     if rrd_path is not None:
-        check_target(rrd_path, suffix=".rrd", what="Rerun", force=force)
+        targets.append((rrd_path, RRD))
+    check_outputs(targets, force=force, inputs=inputs)
     return RecordingPlan(mcap=mcap, rrd=rrd_path, bag_dir=bag_dir, force=force, ros1_bag=ros1_bag)
+
+
+def needs_stem(*, out: str | os.PathLike[str] | None, rrd: str | os.PathLike[str] | None,
+               bag: str | os.PathLike[str] | None, no_mcap: bool) -> bool:
+    """Whether an output goes to its default name (which :func:`default_stem` makes from the robot's name)."""
+    return out is None and bag is None and not (no_mcap and rrd is not None)
 
 
 def recording_id(robot: Robot, trajectory: JointTrajectory, *, start_time_ns: int, frame_prefix: str) -> str:
@@ -198,33 +218,32 @@ def record(
             bag_temp: Path | None = None
             if plan.mcap is not None:
                 if plan.bag_dir is not None:
-                    bag_temp = outputs.path(plan.bag_dir, directory=True)
+                    bag_temp = outputs.path(plan.bag_dir, kind=ROSBAG2)
                     mcap_temp = bag_temp / plan.mcap.name
                 else:
-                    mcap_temp = outputs.path(plan.mcap)
+                    mcap_temp = outputs.path(plan.mcap, kind=MCAP)
                 stream = open(mcap_temp, "wb")  # noqa: SIM115 - closed below
                 streams.append(stream)
-                mcap_sink = McapSink(stream, compression=compression or "zstd", file_name=plan.mcap.name)
+                mcap_sink = McapSink(stream, compression=compression or "zstd")
                 sinks.append(mcap_sink)
             if plan.ros1_bag is not None:
                 from tfrec.formats.rosbag1 import Ros1BagSink
 
-                sinks.append(Ros1BagSink(outputs.path(plan.ros1_bag), compression=compression or "none"))
+                sinks.append(Ros1BagSink(outputs.path(plan.ros1_bag, kind=ROS1_BAG), compression=compression or "none"))
             if plan.rrd is not None:
                 from tfrec.formats.rrd.sink import RerunSink
 
                 sinks.append(RerunSink(
-                    outputs.path(plan.rrd), robot=robot, package_paths=package_paths, frame_prefix=frame_prefix,
+                    outputs.path(plan.rrd, kind=RRD), robot=robot, package_paths=package_paths, frame_prefix=frame_prefix,
                     recording_id=recording_id(robot, trajectory, start_time_ns=start_time_ns,
                                               frame_prefix=frame_prefix),
                 ))
             for sink in sinks:
                 sink.begin(robot_description=robot.urdf, static=static, start_time_ns=start_time_ns)
             done = 0
-            # joint_state_publisher publishes nothing for a robot without moving joints, and
-            # robot_state_publisher no /tf: such a recording holds /robot_description and /tf_static only
-            chunks = iter_dynamic_chunks(robot, trajectory, chunk_samples=chunk_samples, frame_prefix=frame_prefix)
-            for chunk in chunks if robot.moving_joints else ():
+            # a robot without moving joints gets an empty /joint_states message per sample (so the recording
+            # lasts what was asked) and nothing on /tf: robot_state_publisher publishes no /tf for it
+            for chunk in iter_dynamic_chunks(robot, trajectory, chunk_samples=chunk_samples, frame_prefix=frame_prefix):
                 stamps = chunk.time_ns + start_time_ns
                 for sink in sinks:
                     sink.write_chunk(stamp_ns=stamps, joint_names=chunk.names, positions=chunk.positions,
@@ -234,8 +253,8 @@ def record(
                     progress(done, total)
             for sink in sinks:
                 sink.finish()
-            if bag_temp is not None and mcap_sink is not None:
-                write_bag_metadata(bag_temp, mcap_sink.bag_info)
+            if bag_temp is not None and mcap_sink is not None and plan.mcap is not None:
+                write_bag_metadata(bag_temp, mcap_sink.bag_info, file_name=plan.mcap.name)
         except BaseException:
             _abort_sinks(sinks)  # before their temporary files are removed
             raise

@@ -52,11 +52,15 @@ def test_inspect_urdf(capsys: pytest.CaptureFixture[str]) -> None:
         "expanded legacy macro calls" in err
 
 
-def test_legacy_strict_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
-    code, out, err = run(capsys, "inspect", str(ROBOTS / "mbot.xacro"), "--strict-xacro")
-    assert code == 2 and out == ""
-    assert err.count("\n") == 1
-    assert err.startswith("tfrec: error: ") and "macro call <wheel> without the 'xacro:' prefix" in err
+def test_strict_xacro_is_ros2_xacro(capsys: pytest.CaptureFixture[str]) -> None:
+    """--strict-xacro expands as PyPI xacro: mbot's legacy calls are left out (a robot without wheels),
+    and a warning says so; --quiet-legacy silences only that warning."""
+    code, out, err = run(capsys, "inspect", str(ROBOTS / "mbot.xacro"), "--strict-xacro", "--json")
+    assert code == 0 and "left_wheel_link" not in json.loads(out)["links"]
+    assert "tfrec: warning: robots/mbot/mbot_base.xacro: left legacy macro calls without the 'xacro:' prefix: " \
+           "<caster>, <wheel> unexpanded, as ROS 2's xacro does (--strict-xacro)" in err
+    code, out, err = run(capsys, "inspect", str(ROBOTS / "mbot.xacro"), "--json", "--quiet-legacy")
+    assert code == 0 and "left_wheel_link" in json.loads(out)["links"] and err == ""
 
 
 def test_xacro_args_on_command_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -201,11 +205,11 @@ def test_write_errors_name_the_target(tmp_path: Path, capsys: pytest.CaptureFixt
     ):
         if str(target).startswith("/proc"):
             code, _, err = run(capsys, "record", str(ROBOTS / "marm.xacro"), "--duration", "0.1", *argv)
-            assert code == 2 and err.startswith(f"tfrec: error: {target}: cannot write") and ".tmp-" not in err
+            assert code == 2 and err.startswith(f"tfrec: error: {target}: cannot write") and ".tfrec-" not in err
             continue
         code, _, err = run(capsys, "record", str(ROBOTS / "marm.xacro"), "--duration", "0.1", *argv)
         assert code == 2 and err.count("\n") == 1
-        assert err.startswith(f"tfrec: error: {blocker}") and ".tmp-" not in err
+        assert err.startswith(f"tfrec: error: {blocker}") and ".tfrec-" not in err
         assert not target.exists()
 
 
@@ -215,13 +219,13 @@ def test_replay_save_errors_name_the_target(tmp_path: Path, capsys: pytest.Captu
     assert main(["record", str(ROBOTS / "marm.xacro"), "--duration", "0.1", "--no-rrd", "-o", str(source)]) == 0
     capsys.readouterr()
     code, _, err = run(capsys, "replay", str(source), "--save", "/proc/out.rrd")
-    assert code == 2 and err.startswith("tfrec: error: /proc/out.rrd: cannot write") and ".tmp-" not in err
-    assert not [p for p in Path("/proc").iterdir() if p.name.startswith(".out.rrd")]
+    assert code == 2 and err.startswith("tfrec: error: /proc/out.rrd: cannot write") and ".tfrec-" not in err
+    assert not [p for p in Path("/proc").iterdir() if p.name.startswith((".out.rrd", ".tfrec-"))]
     out = tmp_path / "out.rrd"
-    out.write_bytes(b"older")
+    out.write_bytes(b"RRF2older")
     code, _, err = run(capsys, "replay", str(source), "--save", str(out))
     assert code == 2 and err == f"tfrec: error: {out}: already exists (use --force to overwrite)\n"
-    assert out.read_bytes() == b"older" and sorted(p.name for p in tmp_path.iterdir()) == ["out.rrd", "r.mcap"]
+    assert out.read_bytes() == b"RRF2older" and sorted(p.name for p in tmp_path.iterdir()) == ["out.rrd", "r.mcap"]
 
 
 @pytest.mark.parametrize("argv, message", [

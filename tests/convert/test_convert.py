@@ -276,7 +276,7 @@ def test_rerun_output(recorded: Path, tmp_path: Path, capsys: pytest.CaptureFixt
 ])
 def test_errors_are_one_line(recorded: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str],
                              argv: list[str], message: str | None) -> None:
-    (tmp_path / "EXISTS.mcap").write_bytes(b"old")
+    (tmp_path / "EXISTS.mcap").write_bytes(b"\x89MCAP0\r\nold")
     code, out, err = run(capsys, "convert", str(recorded), *(a.format(tmp=tmp_path) for a in argv))
     if message is None:  # nothing to compute: every joint is on the recorded /tf
         assert code == 0 and err == ""
@@ -284,7 +284,7 @@ def test_errors_are_one_line(recorded: Path, tmp_path: Path, capsys: pytest.Capt
     assert code == 2 and out == ""
     assert err == f"tfrec: error: {message.format(tmp=tmp_path, **{'in': recorded})}\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["EXISTS.mcap"]
-    assert (tmp_path / "EXISTS.mcap").read_bytes() == b"old"
+    assert (tmp_path / "EXISTS.mcap").read_bytes() == b"\x89MCAP0\r\nold"
 
 
 def test_missing_and_rerun_inputs(recorded: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -300,7 +300,7 @@ def test_missing_and_rerun_inputs(recorded: Path, tmp_path: Path, capsys: pytest
 def test_an_error_midway_leaves_nothing(recorded: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     from tfrec.formats import translate
 
-    (tmp_path / "out.mcap").write_bytes(b"old")
+    (tmp_path / "out.mcap").write_bytes(b"\x89MCAP0\r\nold")
     calls = []
 
     def failing(self: Any, data: Any) -> Any:
@@ -314,7 +314,7 @@ def test_an_error_midway_leaves_nothing(recorded: Path, tmp_path: Path, monkeypa
     with pytest.raises(WriteError, match="out.mcap: cannot write: No space left on device"):
         convert(recorded, tmp_path / "out.mcap", force=True)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.mcap"]
-    assert (tmp_path / "out.mcap").read_bytes() == b"old"
+    assert (tmp_path / "out.mcap").read_bytes() == b"\x89MCAP0\r\nold"
 
 
 def test_a_damaged_input_converts_up_to_the_damage(recorded: Path, marm_rec: Recording, tmp_path: Path,

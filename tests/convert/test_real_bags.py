@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from tests.conftest import BAGS
+from tests.conftest import BAGS, BAGS_ABSENT
 from tfrec import cli
 from tfrec.formats.reader import read_recording
 
@@ -36,7 +36,7 @@ def rosbags_count(path: Path) -> int:
     return count
 
 
-@pytest.mark.skipif(not BAGS.is_dir(), reason="../shared/bags is absent")
+@pytest.mark.skipif(not BAGS.is_dir(), reason=BAGS_ABSENT)
 @pytest.mark.parametrize("suffix", [".mcap", ".bag"])
 @pytest.mark.parametrize("bag", _shared_bags(), ids=lambda path: path.name)
 def test_every_shared_bag_converts(bag: Path, suffix: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

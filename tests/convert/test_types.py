@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tests.conftest import BAGS
+from tests.conftest import BAGS, BAGS_ABSENT
 from tfrec import cli
 from tfrec.convert import convert
 from tfrec.formats.reader import read_recording
@@ -174,7 +174,7 @@ def test_a_type_without_definition(tmp_path: Path, capsys: pytest.CaptureFixture
     definition, one it does not is dropped from a ROS 1 bag with a line saying why, copied into an MCAP."""
     bag = BAGS / "rosbag2" / "rosbag2_transport__sqlite3_test_bag_for_seek"
     if not bag.is_dir():
-        pytest.skip("../shared/bags is absent")
+        pytest.skip(BAGS_ABSENT)
     assert cli.main(["convert", str(bag), str(tmp_path / "seek.bag")]) == 0
     _, err = capsys.readouterr()
     assert err == (f"tfrec: warning: {bag}: /topic1: 5 messages not written: test_msgs/msg/BasicTypes: the file has "
@@ -194,7 +194,7 @@ def test_ros1_tf_becomes_tf2(tmp_path: Path) -> None:
     """ROS 1's old tf/tfMessage is written as tf2_msgs/msg/TFMessage in ROS 2, and its frames read alike."""
     bag = BAGS / "rosbagjs" / "example.bag"
     if not bag.is_file():
-        pytest.skip("../shared/bags is absent")
+        pytest.skip(BAGS_ABSENT)
     convert(bag, tmp_path / "example.mcap")
     before, after = read_recording(bag), read_recording(tmp_path / "example.mcap")
     assert after.topics["/tf"].type == "tf2_msgs/msg/TFMessage"

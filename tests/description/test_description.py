@@ -12,14 +12,14 @@ import pytest
 
 from tests.conftest import ROBOTS
 from tfrec.description import load_description, parse_urdf, parse_xacro_args
-from tfrec.errors import DescriptionError
+from tfrec.errors import DescriptionError, LegacyXacroWarning
 from tfrec.model import Box, Cylinder, JointType, Sphere
 
 LEGACY = r"expanded legacy macro calls without the 'xacro:' prefix: <caster>, <wheel>"
 
 
 def load_mbot(**kwargs):
-    with pytest.warns(UserWarning, match=LEGACY):
+    with pytest.warns(LegacyXacroWarning, match=LEGACY):
         return load_description(ROBOTS / "mbot.xacro", **kwargs)
 
 
@@ -110,9 +110,13 @@ def test_marm() -> None:
 # ---- the legacy dialect -------------------------------------------------------------------------
 
 
-def test_legacy_calls_fail_under_strict() -> None:
-    with pytest.raises(DescriptionError, match=r"mbot_base\.xacro: macro call <wheel> without the 'xacro:' prefix"):
-        load_description(ROBOTS / "mbot.xacro", strict_xacro=True)
+def test_strict_xacro_leaves_legacy_calls_as_ros2_xacro_does() -> None:
+    """`strict_xacro` is PyPI xacro: mbot's legacy calls stay unexpanded (no wheels), with a warning."""
+    with pytest.warns(LegacyXacroWarning, match=r"mbot_base\.xacro: left legacy macro calls without the 'xacro:' "
+                                                r"prefix: <caster>, <wheel> unexpanded, as ROS 2's xacro does"), \
+            pytest.warns(UserWarning, match=r"ignored 4 elements"):
+        robot = load_description(ROBOTS / "mbot.xacro", strict_xacro=True)
+    assert {link.name for link in robot.links} == {"base_footprint", "base_link", "camera_link"}
 
 
 def test_legacy_call_in_top_file(tmp_path: Path) -> None:
@@ -124,7 +128,7 @@ def test_legacy_call_in_top_file(tmp_path: Path) -> None:
           </xacro:macro>
           <box_link name="a" size="1"/>
         </robot>"""))
-    with pytest.warns(UserWarning, match=r"r\.xacro: expanded legacy macro calls .*<box_link>"):
+    with pytest.warns(LegacyXacroWarning, match=r"r\.xacro: .*expanded legacy macro calls .*<box_link>"):
         robot = load_description(f)
     assert robot.links[0].visuals[0].geometry == Box(size=(1.0, 1.0, 1.0))
 
@@ -245,28 +249,28 @@ def test_malformed_xml_in_included_xacro(tmp_path: Path) -> None:
 def test_missing_include(tmp_path: Path) -> None:
     f = _write(tmp_path, "top.xacro",
                '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro"><xacro:include filename="gone.xacro"/></robot>')
-    with pytest.raises(DescriptionError, match=r"top\.xacro: No such file or directory: .*gone\.xacro"):
+    with pytest.raises(DescriptionError, match=r"top\.xacro:1: No such file or directory: .*gone\.xacro"):
         load_description(f)
 
 
 def test_unknown_package_lists_places(tmp_path: Path) -> None:
     f = _write(tmp_path, "top.xacro", '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
                '<xacro:include filename="$(find no_such_pkg)/x.xacro"/></robot>')
-    with pytest.raises(DescriptionError, match=r"top\.xacro: package 'no_such_pkg' not found; searched: `package_paths` .*elsewhere"):
+    with pytest.raises(DescriptionError, match=r"top\.xacro:1: package 'no_such_pkg' not found; searched: `package_paths` .*elsewhere"):
         load_description(f, package_paths=[tmp_path / "elsewhere"])
 
 
 def test_undefined_property(tmp_path: Path) -> None:
     f = _write(tmp_path, "p.xacro", '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
                '<link name="${nothing_here}"/></robot>')
-    with pytest.raises(DescriptionError, match=r"p\.xacro: .*name 'nothing_here' is not defined"):
+    with pytest.raises(DescriptionError, match=r"p\.xacro:1: .*name 'nothing_here' is not defined"):
         load_description(f)
 
 
 def test_undefined_macro(tmp_path: Path) -> None:
     f = _write(tmp_path, "m.xacro", '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
                '<xacro:no_such_macro a="1"/></robot>')
-    with pytest.raises(DescriptionError, match=r"m\.xacro: unknown macro name: xacro:no_such_macro"):
+    with pytest.raises(DescriptionError, match=r"m\.xacro:1: unknown macro 'no_such_macro'$"):
         load_description(f)
 
 
@@ -330,7 +334,7 @@ def test_validation_after_xacro_names_file_and_element(tmp_path: Path) -> None:
     f = _write(tmp_path, "v.xacro", '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
                '<link name="a"/><link name="b"/>'
                '<joint name="j" type="fixed"><parent link="uper_arm"/><child link="b"/></joint></robot>')
-    with pytest.raises(DescriptionError, match=r"/v\.xacro: joint 'j' names unknown parent link 'uper_arm'$"):
+    with pytest.raises(DescriptionError, match=r"/v\.xacro:1: joint 'j' names unknown parent link 'uper_arm'$"):
         load_description(f)
 
 
@@ -338,7 +342,7 @@ def test_unknown_element_after_xacro_is_ignored_with_a_warning(tmp_path: Path) -
     f = _write(tmp_path, "u.xacro", '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
                '<link name="a"/><gripper side="left"/></robot>')
     with pytest.warns(UserWarning, match=r"u\.xacro: ignored 1 element that URDF does not define \(as urdfdom "
-                      r"does\): <gripper> in <robot>$"):
+                      r"does\): <gripper> \(line 1\)$"):
         robot = load_description(f)
     assert [link.name for link in robot.links] == ["a"]
 
@@ -435,13 +439,13 @@ def test_axis_is_normalized_and_materials_resolve() -> None:
     [
         '<xacro:include filename="self.xacro"/>',
         '<xacro:macro name="m"><xacro:m/></xacro:macro><xacro:m/>',
-        '<xacro:macro name="m"><m/></xacro:macro><xacro:m/>',
+        '<include filename="self.xacro"/>',
     ],
-    ids=["include", "macro", "legacy-macro"],
+    ids=["include", "macro", "legacy-include"],
 )
 def test_endless_recursion_is_one_line(tmp_path: Path, body: str) -> None:
     f = _write(tmp_path, "self.xacro", f'<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">{body}</robot>')
-    with pytest.raises(DescriptionError, match=r"self\.xacro: xacro recursion too deep"), warnings.catch_warnings():
+    with pytest.raises(DescriptionError, match=r"self\.xacro:1: xacro recursion too deep"), warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the legacy call warns before it recurses
         load_description(f)
 

@@ -143,10 +143,10 @@ def test_refused(expr: str, message: str) -> None:
     "[b := [0] * 1000, c := [b] * 1000, [c, c]]",
 ])
 def test_resource_bounds_refuse_quickly(expr: str) -> None:
-    start = time.perf_counter()
+    start = time.process_time()
     with pytest.raises(ExpressionRefused):
         run(expr)
-    assert time.perf_counter() - start < 10  # ~1 s at most on an idle machine
+    assert time.process_time() - start < 30  # a hang guard in CPU seconds (~1 s); speed lives in benchmarks/
 
 
 def test_results_are_bounded() -> None:
@@ -238,10 +238,10 @@ def test_mutating_the_symbol_table_does_not_disable_the_guard() -> None:
     "int.from_bytes(b'\\xff' * 100000, 'big')",
 ])
 def test_each_call_is_bounded(expr: str) -> None:
-    start = time.perf_counter()
+    start = time.process_time()
     with pytest.raises(ExpressionRefused):
         run(expr, s="x" * 10_000)
-    assert time.perf_counter() - start < 5
+    assert time.process_time() - start < 30  # a hang guard in CPU seconds
 
 
 def test_xml_elements_cannot_be_copied_or_rewired() -> None:

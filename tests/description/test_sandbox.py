@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from tests import conftest
-from tests.conftest import REPO, ROBOTS
+from tests.conftest import CORPUS_ABSENT, REPO, ROBOTS
 from tfrec.description._sandbox import (
     SandboxLimits,
     SandboxRefusal,
@@ -53,7 +53,7 @@ def expand(
     finder = PackageFinder(package_paths, near=path, environ=environ or {})
     filename = os.fspath(path)
     with _LOCK, xacro_sandbox(path, finder=finder, package_paths=package_paths, allow_paths=allow_paths,
-                              limits=limits), _patched_xacro(finder, strict=False, legacy=[]) as xacro:
+                              limits=limits), _patched_xacro(finder) as xacro:
         try:
             with contextlib.redirect_stderr(io.StringIO()):
                 xacro.init_stacks(filename)
@@ -69,10 +69,10 @@ def expand(
 
 
 def expand_stock(path: Path, args: Mapping[str, str] | None = None, *, package_paths: Sequence[Path] = ()) -> str:
-    """Expand ``path`` as tfrec/description/xacro.py does today (no sandbox)."""
+    """Expand ``path`` with stock xacro (its $(find) through ``finder``; no sandbox, no legacy dialect)."""
     finder = PackageFinder(package_paths, near=path, environ={})
     filename = os.fspath(path)
-    with _LOCK, _patched_xacro(finder, strict=False, legacy=[]) as xacro, contextlib.redirect_stderr(io.StringIO()):
+    with _LOCK, _patched_xacro(finder) as xacro, contextlib.redirect_stderr(io.StringIO()):
         xacro.init_stacks(filename)
         doc = xacro.parse(None, filename)
         xacro.process_doc(doc, mappings=dict(args or {}))
@@ -130,7 +130,7 @@ def _corpus_entries() -> list[tuple[str, dict[str, str]]]:
 CORPUS_ENTRIES = _corpus_entries() if CORPUS.is_dir() else []
 
 
-@pytest.mark.skipif(not CORPUS.is_dir(), reason="../shared/corpus is absent: the corpus comparison did not run")
+@pytest.mark.skipif(not CORPUS.is_dir(), reason=CORPUS_ABSENT)
 @pytest.mark.parametrize("entry, args", CORPUS_ENTRIES, ids=[f"{e}{' ' if a else ''}{','.join(a)}" for e, a in
                                                               CORPUS_ENTRIES])
 def test_corpus_expands_as_stock_xacro(entry: str, args: dict[str, str]) -> None:
@@ -138,7 +138,7 @@ def test_corpus_expands_as_stock_xacro(entry: str, args: dict[str, str]) -> None
     assert expand(path, args, package_paths=[CORPUS]) == expand_stock(path, args, package_paths=[CORPUS])
 
 
-@pytest.mark.skipif(not CORPUS.is_dir(), reason="../shared/corpus is absent")
+@pytest.mark.skipif(not CORPUS.is_dir(), reason=CORPUS_ABSENT)
 def test_corpus_found_through_siblings_without_package_paths() -> None:
     """The panda finds franka_description as a sibling package: readable without --package-path."""
     path = CORPUS / "franka_description/robots/panda/panda.urdf.xacro"
@@ -258,9 +258,9 @@ def test_refusals_name_the_file_and_expression(tmp_path: Path, expression: str, 
     path = write(tmp_path / "refused.xacro", robot(f"""
   <xacro:property name="fmt" value="{{0.__class__}}"/>
   <link name="{expression}"/>"""))
-    start = time.perf_counter()
+    start = time.process_time()
     message = refused(path, reason)
-    assert time.perf_counter() - start < 10  # ~1 s at most on an idle machine
+    assert time.process_time() - start < 30  # a hang guard in CPU seconds (~1 s); speed lives in benchmarks/
     assert "refused" in message
 
 
@@ -403,9 +403,9 @@ def _doubling_macros(levels: int, body: str) -> str:
 
 def test_exponential_macros_side_by_side_are_refused(tmp_path: Path) -> None:
     path = write(tmp_path / "flat.xacro", _doubling_macros(30, "<xacro:m{0}/><xacro:m{0}/>"))
-    start = time.perf_counter()
+    start = time.process_time()
     refused(path, r"flat\.xacro: <xacro:m\d+> expands past 10,000,000 steps of sibling insertion")
-    assert time.perf_counter() - start < 10
+    assert time.process_time() - start < 30  # a hang guard in CPU seconds
 
 
 def test_exponential_macros_nested_are_refused(tmp_path: Path) -> None:

@@ -83,8 +83,11 @@ LEGACY = f'''<robot name="r" {XACRO}>
 
 
 @pytest.mark.parametrize(("call", "message"), [
-    ('<wheel prefix="left"/>', r"l\.xacro: Undefined parameters \[mass\] \(in macro wheel\)$"),
-    ('<wheel prefix="left" mass="1" radius="2"/>', r'l\.xacro: Invalid parameter "radius" \(in macro wheel\)$'),
+    ('<wheel prefix="left"/>',
+     r"l\.xacro:7: the call of macro 'wheel' lacks parameter 'mass' \(the macro is defined at \S*l\.xacro:2\)$"),
+    ('<wheel prefix="left" mass="1" radius="2"/>',
+     (r"l\.xacro:7: the call of macro 'wheel' gives parameter 'radius', which it does not have \(its parameters: "
+     r"prefix, mass\)$")),
 ])
 def test_a_legacy_call_with_a_missing_or_unknown_parameter_is_an_error(tmp_path: Path, call: str,
                                                                        message: str) -> None:

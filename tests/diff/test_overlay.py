@@ -114,7 +114,7 @@ def test_an_existing_output_is_refused_before_anything_is_compared(overlay: tupl
     comparison = compare_motion(out.parent / "a.xacro", out.parent / "a.xacro", duration_s=0.5)
     with pytest.raises(WriteError, match="not .rrd|\\.rrd"):
         write_overlay(comparison, out.with_suffix(".mcap"))
-    assert not list(out.parent.glob("*.tmp*"))
+    assert not list(out.parent.glob(".tfrec-*"))
 
 
 def test_two_recordings_as_an_overlay(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

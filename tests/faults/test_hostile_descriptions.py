@@ -94,7 +94,7 @@ def test_hostile_meshes_are_skipped_with_a_warning_naming_the_link(robot: Path, 
     outcome = run_tfrec(["record", str(robot), "-o", "out.mcap", "--rrd", "out.rrd", "--duration", "0.2",
                          "--compression", "none"], cwd=tmp_path, isolated=True)
     assert not contract_violations(outcome, outputs=[tmp_path / "out.mcap"]), outcome.stderr
-    assert outcome.code == 0 and outcome.seconds < 20
+    assert outcome.code == 0
     # one warning for the robot: the count, the first few named (MESHES_LISTED), the rest counted
     [line] = [w for w in outcome.stderr.splitlines() if "meshes cannot be shown" in w]
     assert line.startswith(f"tfrec: warning: {len(HOSTILE_MESHES)} meshes cannot be shown (their links are logged "
@@ -177,7 +177,7 @@ def test_malformed_xacro_elements_are_one_line(tmp_path: Path, element: str, tag
         code, _, err = tfrec(command, str(path), "-o", str(tmp_path / "x.mcap"), "--no-rrd") if command == "record" \
             else tfrec(command, str(path))
         assert code == 2
-        assert err == f"tfrec: error: {path}: <{tag}> has no '{attribute}' attribute\n"
+        assert err == f"tfrec: error: {path}:1: <{tag}> has no '{attribute}' attribute\n"
 
 
 def test_deep_xml_says_so(tmp_path: Path) -> None:
@@ -362,7 +362,7 @@ def test_a_find_with_two_packages_is_said_once(tmp_path: Path) -> None:
     path = write(tmp_path / "f.xacro", '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
                                        '<link name="$(find a b)"/></robot>')
     code, _, err = tfrec("inspect", str(path))
-    assert code == 2 and err == f"tfrec: error: {path}: $(find pkg) accepts exactly one argument [find a b]\n"
+    assert code == 2 and err == f"tfrec: error: {path}:1: $(find pkg) accepts exactly one argument [find a b]\n"
 
 
 def test_a_plot_of_frames_at_1e308_m_draws_the_joints(tmp_path: Path) -> None:

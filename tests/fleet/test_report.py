@@ -82,14 +82,16 @@ def test_non_finite_errors(tmp_path: Path) -> None:
 
 def test_the_report_appears_at_close_and_keeps_what_finished(tmp_path: Path) -> None:
     path = tmp_path / "r.parquet"
-    path.write_bytes(b"old")
-    writer = ReportWriter(path)
+    with ReportWriter(path) as writer:
+        writer.write([Row(file="old").to_dict()])
+    old = path.read_bytes()
+    writer = ReportWriter(path, force=True)
     writer.write([Row(file="a").to_dict()])
-    assert path.read_bytes() == b"old" and len(list(tmp_path.iterdir())) == 2
+    assert path.read_bytes() == old and len(list(tmp_path.iterdir())) == 2
     writer.close()
     assert [r["file"] for r in read_report(path)] == ["a"] and len(list(tmp_path.iterdir())) == 1
     for stop in (KeyboardInterrupt, TfrecError):
-        with pytest.raises(stop), ReportWriter(path) as writer:
+        with pytest.raises(stop), ReportWriter(path, force=True) as writer:
             writer.write([Row(file="b").to_dict()])
             raise stop()
         assert [r["file"] for r in read_report(path)] == ["b"]
@@ -99,7 +101,7 @@ def test_a_bug_leaves_the_old_report(tmp_path: Path) -> None:
     path = tmp_path / "r.jsonl"
     with ReportWriter(path) as writer:
         writer.write([Row(file="old").to_dict()])
-    with pytest.raises(ZeroDivisionError), ReportWriter(path) as writer:
+    with pytest.raises(ZeroDivisionError), ReportWriter(path, force=True) as writer:
         writer.write([Row(file="new").to_dict()])
         raise ZeroDivisionError("a bug")
     assert [r["file"] for r in read_report(path)] == ["old"] and len(list(tmp_path.iterdir())) == 1

@@ -169,18 +169,19 @@ def test_file_layout(marm_mcap: Path) -> None:
 
 def test_embedded_rosbag2_metadata(tmp_path: Path, marm: Robot, traj: JointTrajectory) -> None:
     """``ros2 bag record`` ends the MCAP with a ``rosbag2`` metadata record (rosbag2 reads the
-    metadata version from it to parse the channels' QoS)."""
+    metadata version from it to parse the channels' QoS). It names no file: the bytes do not depend on
+    the file's name (metadata.yaml of a bag folder names it)."""
     from mcap.reader import make_reader
 
     path = tmp_path / "named.mcap"
     with open(path, "wb") as stream:
-        record(stream, marm, traj, file_name="named_0.mcap")
+        record(stream, marm, traj)
     with open(path, "rb") as stream:
         (record_,) = list(make_reader(stream).iter_metadata())
     assert record_.name == "rosbag2" and list(record_.metadata) == ["serialized_metadata"]
     info = yaml.safe_load(record_.metadata["serialized_metadata"])
     assert info["version"] == 9 and info["message_count"] == 2 + 2 * len(traj)
-    assert info["relative_file_paths"] == ["named_0.mcap"] and info["files"][0]["message_count"] == info["message_count"]
+    assert info["relative_file_paths"] == [] and info["files"] == []
     topics = {t["topic_metadata"]["name"]: t for t in info["topics_with_message_count"]}
     assert topics["/tf"]["message_count"] == len(traj)
     assert topics["/tf_static"]["topic_metadata"]["offered_qos_profiles"] == [QOS_LATCHED]
@@ -249,7 +250,7 @@ def test_no_moving_joints_and_no_samples(tmp_path: Path) -> None:
     with AnyReader([path, empty]) as reader:
         msgs: list[tuple[str, Any]] = [(c.topic, reader.deserialize(raw, c.msgtype)) for c, _, raw in reader.messages()]
     assert [m.name for topic, m in msgs if topic == "/joint_states"] == [[]] * len(trajectory)
-    assert all(m.transforms == [] for topic, m in msgs if topic == "/tf")
+    assert not [m for topic, m in msgs if topic == "/tf"]  # robot_state_publisher publishes no /tf for them
     assert sum(topic == "/tf_static" for topic, _ in msgs) == 2
     info = summarize(empty)
     assert info["message_count"] == 2 and info["duration_ns"] == 0 and info["start_time"] == "1970-01-01T00:00:00.000000000Z"
@@ -261,16 +262,16 @@ def test_bag_folder(tmp_path: Path, marm: Robot, traj: JointTrajectory) -> None:
     bag = tmp_path / "run1"
     bag.mkdir()
     with open(bag / "run1_0.mcap", "wb") as stream:
-        sink = record(stream, marm, traj, file_name="run1_0.mcap")
-    meta_path = write_bag_metadata(bag, sink.bag_info)
+        sink = record(stream, marm, traj)
+    meta_path = write_bag_metadata(bag, sink.bag_info, file_name="run1_0.mcap")
     text = meta_path.read_text()
-    with open(bag / "run1_0.mcap", "rb") as stream:  # the same metadata as the one embedded in the MCAP
+    with open(bag / "run1_0.mcap", "rb") as stream:  # the metadata embedded in the MCAP, with the file named
         from mcap.reader import make_reader
 
         (embedded,) = make_reader(stream).iter_metadata()
-    assert text == "rosbag2_bagfile_information:\n" + "".join(
-        f"  {line}\n" for line in embedded.metadata["serialized_metadata"].splitlines())
     meta = yaml.safe_load(text)["rosbag2_bagfile_information"]
+    assert {**meta, "relative_file_paths": [], "files": []} == yaml.safe_load(
+        embedded.metadata["serialized_metadata"])
     assert meta["version"] == 9 and meta["storage_identifier"] == "mcap"
     assert meta["relative_file_paths"] == ["run1_0.mcap"] and meta["files"][0]["path"] == "run1_0.mcap"
     assert meta["message_count"] == 2 + 2 * len(traj)

@@ -16,6 +16,7 @@ import pytest
 import rerun as rr
 
 from tests.conftest import CORPUS as SHARED_CORPUS
+from tests.conftest import CORPUS_ABSENT
 from tfrec.description import load_description, parse_urdf
 from tfrec.errors import RecordingError
 from tfrec.formats.rrd import sink as rerun_io
@@ -48,7 +49,7 @@ def load_robot(name: str, **args: str) -> Robot:
     """A robot of robots/ or the corpus, once per session; mbot's legacy-macro warning is expected."""
     path = REPO / "robots" / f"{name}.xacro" if "/" not in name else CORPUS / name
     if "/" in name and not CORPUS.is_dir():
-        pytest.skip("../shared/corpus is absent")
+        pytest.skip(CORPUS_ABSENT)
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=".*legacy macro calls")
         return load_description(path, args=args, package_paths=[CORPUS] if CORPUS.is_dir() else [])

@@ -290,3 +290,18 @@ def replace_file(path: Path, data: bytes) -> None:
     if path.exists() or path.is_symlink():
         path.unlink()
     path.write_bytes(data)
+
+
+@pytest.fixture(scope="session")
+def output_seeds(seed_root: Path, recording_seeds: list[RecordingSeed]) -> dict[str, Path]:
+    """A genuine tfrec output of each kind, by extension ("" for a rosbag2 folder): what ``--force`` may replace."""
+    rec, out = seed_root / "rec", seed_root / "outputs"
+    out.mkdir(exist_ok=True)
+    _quiet_main(["plot", "rec/marm.mcap", "-o", "outputs/out.png"], seed_root)
+    _quiet_main(["plot", "rec/marm.mcap", "-o", "outputs/out.pdf"], seed_root)
+    _quiet_main(["diff", "rec/marm.mcap", "rec/marm.mcap", "--plot", "outputs/out.svg"], seed_root)
+    _quiet_main(["info", "rec/marm.mcap", "--graph", "outputs/out.dot"], seed_root)
+    for report in ("out.jsonl", "out.parquet"):
+        _quiet_main(["check", "rec/marm.mcap", "--report", f"outputs/{report}"], seed_root)
+    return {".mcap": rec / "marm.mcap", ".bag": rec / "marm.bag", ".rrd": rec / "marm.rrd", "": rec / "marm-bag",
+            **{path.suffix: path for path in out.iterdir()}}

@@ -1,5 +1,6 @@
 """Hypothesis strategies that mutate real inputs: bytes, XML descriptions, CSV, YAML, MCAP records, ROS 1
-bag headers and the messages of a sqlite3 bag.
+bag headers and the messages of a sqlite3 bag; and what a user may have where an output goes (their files and
+folders, names near the file system's limits).
 
 Each strategy takes a seed (a real file's content) and draws a short list of mutations applied in turn, so
 that most examples stay close enough to the original to reach deep into tfrec (a flipped byte inside a
@@ -9,6 +10,7 @@ message, a joint whose axis became ``1e200 1e200 1e200``) rather than being refu
 from __future__ import annotations
 
 import contextlib
+import os
 import sqlite3
 import struct
 import zlib
@@ -20,13 +22,18 @@ import xacro.xmlutils  # noqa: F401 — xacro replaces minidom's Element.writexm
 from hypothesis import strategies as st  # the first serialization, so that every example serializes alike
 
 __all__ = [
+    "FOREIGN_NAMES",
     "HOSTILE_NUMBERS",
     "HOSTILE_TEXT",
     "csv_text",
+    "foreign_bytes",
+    "foreign_tree",
+    "long_name",
     "mutated_bytes",
     "mutated_mcap",
     "mutated_ros1_bag",
     "mutated_sqlite_bag",
+    "write_tree",
     "xml_text",
     "yaml_text",
 ]
@@ -88,7 +95,9 @@ def mutated_bytes(draw: st.DrawFn, data: bytes, *, max_ops: int = 4) -> bytes:
 
 _XACRO_TAGS = ["xacro:include", "xacro:property", "xacro:arg", "xacro:if", "xacro:unless", "xacro:macro",
                "xacro:insert_block", "xacro:element", "xacro:attribute", "xacro:call", "link", "joint", "mesh",
-               "origin", "axis", "limit", "mimic", "parent", "child", "robot", "visual", "geometry", "box"]
+               "origin", "axis", "limit", "mimic", "parent", "child", "robot", "visual", "geometry", "box",
+               # the Kinetic-era dialect (xacro <= 1.13): its tags without the prefix (docs/xacro.md)
+               "include", "property", "arg", "if", "unless", "macro", "insert_block", "gazebo"]
 _ATTRIBUTES = ["name", "value", "filename", "type", "xyz", "rpy", "link", "joint", "lower", "upper", "effort",
                "velocity", "params", "default", "macro", "multiplier", "offset", "size", "radius", "length",
                "scale", "ns", "optional", "xacro:name", "soft_lower_limit", "k_position", "rgba"]
@@ -109,7 +118,7 @@ def xml_text(draw: st.DrawFn, text: str, *, max_ops: int = 3) -> bytes:
         elements = _elements(doc)
         element = elements[draw(st.integers(0, len(elements) - 1))]
         kind = draw(st.sampled_from(["value", "value", "value", "number", "number", "drop-attr", "add-attr",
-                                     "delete", "duplicate", "move", "rename", "empty", "nest"]))
+                                     "delete", "duplicate", "move", "rename", "unprefix", "empty", "nest"]))
         parent = element.parentNode
         is_root = parent is doc
         if kind in ("value", "number", "drop-attr") and not element.attributes.length:
@@ -142,6 +151,8 @@ def xml_text(draw: st.DrawFn, text: str, *, max_ops: int = 3) -> bytes:
                 target.appendChild(element)
         elif kind == "rename":
             element.tagName = element.nodeName = draw(st.sampled_from(_XACRO_TAGS))
+        elif kind == "unprefix":  # a xacro tag or a macro call written as the course's Kinetic-era slides do
+            element.tagName = element.nodeName = element.tagName.removeprefix("xacro:")
         elif kind == "empty":
             for child in list(element.childNodes):
                 element.removeChild(child)
@@ -461,3 +472,51 @@ def apply_sql(db3: Path, statements: list[tuple[str, tuple[Any, ...]]]) -> None:
     with contextlib.closing(sqlite3.connect(db3)) as db, db:
         for sql, params in statements:
             db.execute(sql, params)
+
+
+# ---- what a user has where an output goes ------------------------------------------------------------------------
+
+FOREIGN_NAMES = ["notes.txt", "thesis.tex", "metadata.yaml", "out_0.mcap", "bag_0.mcap", "run.mcap", ".hidden",
+                 ".tfrec-1-0123abcd", "sub", "é名前", "a b", "-rf", "x" * 255, "\u202etxt.exe", "\x1b[31m"]
+"""Names a user's folder may hold: ordinary ones, a bag's own, hidden, a temporary's, multibyte, 255 bytes long,
+control characters."""
+
+Tree = dict[str, "bytes | Tree"]
+
+
+@st.composite
+def foreign_bytes(draw: st.DrawFn) -> bytes:
+    """A user's file: it never begins as anything tfrec writes (``user …``)."""
+    return b"user " + draw(st.binary(max_size=256))
+
+
+@st.composite
+def foreign_tree(draw: st.DrawFn, *, depth: int = 2) -> Tree:
+    """A user's folder: files of their own and subfolders (maybe none: an empty folder)."""
+    tree: Tree = {}
+    for name in draw(st.lists(st.sampled_from(FOREIGN_NAMES), max_size=4, unique=True)):
+        tree[name] = draw(foreign_tree(depth=depth - 1)) if depth and draw(st.integers(0, 3)) == 0 else \
+            draw(foreign_bytes())
+    return tree
+
+
+def write_tree(folder: Path, tree: Tree) -> None:
+    """Make ``tree`` in ``folder`` (which may exist: what it holds already is kept)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, content in tree.items():
+        if os.path.lexists(folder / name):
+            continue
+        if isinstance(content, dict):
+            write_tree(folder / name, content)
+        else:
+            (folder / name).write_bytes(content)
+
+
+@st.composite
+def long_name(draw: st.DrawFn, suffix: str) -> str:
+    """An output's name near the file system's limit of 255 bytes (``é`` counts 2, ``名`` 3), ending in ``suffix``."""
+    size = draw(st.sampled_from([200, 240, 248, 249, 250, 254, 255, 256, 300]))
+    char = draw(st.sampled_from(["x", "é", "名"]))
+    room = size - len(suffix.encode())
+    width = len(char.encode())
+    return char * (room // width) + "x" * (room % width) + suffix

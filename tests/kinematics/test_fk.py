@@ -15,6 +15,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from tests.conftest import CORPUS as SHARED_CORPUS
+from tests.conftest import CORPUS_ABSENT
 from tfrec.description import load_description, parse_urdf
 from tfrec.errors import KinematicsError
 from tfrec.kinematics.fk import (
@@ -55,7 +56,7 @@ def load_robot(name: str) -> Robot:
     """Load a robot once per session; the only warning accepted is mbot's legacy macro calls."""
     path, args = {**ROBOTS, **CORPUS_ROBOTS}[name]
     if name in CORPUS_ROBOTS and not CORPUS.is_dir():
-        pytest.skip("../shared/corpus is absent")
+        pytest.skip(CORPUS_ABSENT)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         robot = load_description(path, args=args, package_paths=[CORPUS] if CORPUS.is_dir() else [])

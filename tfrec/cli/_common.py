@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, NoReturn, TextIO
+from typing import TYPE_CHECKING, Any, NoReturn, TextIO
 
 from tfrec.conventions import NS_PER_S, STAMP_LIMIT_NS, STAMP_RANGE
 
@@ -21,12 +22,15 @@ __all__ = [
     "Progress",
     "add_naming_arguments",
     "add_robot_arguments",
+    "add_xacro_arguments",
     "as_flags",
     "command",
     "fmt",
     "load_robot",
     "load_robot_and_launch",
+    "load_robot_option",
     "number",
+    "package_form",
     "printable",
     "start_time",
     "tolerance",
@@ -38,7 +42,7 @@ PROG = "tfrec"
 def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("robot", metavar="ROBOT",
                         help="a .urdf, .xacro or .urdf.xacro file, or a launch file that loads one "
-                             "(.launch, .launch.xml, .launch.yaml)")
+                             "(.launch, .launch.xml, .launch.yaml), or PKG FILE.launch as for roslaunch")
     parser.add_argument("xacro_args", metavar="name:=value", nargs="*", default=[],
                         help="xacro arguments (launch arguments for a launch file), as for ROS")
     parser.add_argument(
@@ -51,11 +55,18 @@ def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
         help="a folder (or file) xacro and launch files may read besides the input's workspace, the packages "
              "found and --package-path folders (repeatable; see docs/security.md)",
     )
+    add_xacro_arguments(parser)
+
+
+def add_xacro_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    """``--strict-xacro`` and ``--quiet-legacy``: what is done with the Kinetic-era xacro dialect (docs/xacro.md)."""
     parser.add_argument(
         "--strict-xacro", action="store_true",
-        help="refuse macro calls without the 'xacro:' prefix (legacy xacro <= 1.13 dialect) "
-             "instead of expanding them with a warning",
+        help="expand xacro exactly as ROS 2's (PyPI) xacro does: the Kinetic-era dialect (<property>, <macro>, "
+             "<include>, macro calls ... without the 'xacro:' prefix) is left unexpanded, with a warning",
     )
+    parser.add_argument("--quiet-legacy", action="store_true",
+                        help="no warning when the Kinetic-era xacro dialect is expanded")
 
 
 def add_naming_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGroup, *, log_time: bool = True) -> None:
@@ -73,12 +84,87 @@ def add_naming_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGro
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse with usage errors as one line, like every other tfrec error (exit 2)."""
+    """argparse with usage errors as one line, like every other tfrec error (exit 2); what a ROS user types
+    out of habit (``tfrec play``, ``-O out``, ``replay -r 2``) is answered with tfrec's own (:mod:`._habits`)."""
+
+    _argv: Sequence[str] = ()
+
+    def parse_args(self, args: Sequence[str] | None = None, namespace: Any = None) -> Any:  # type: ignore[override]
+        self._argv = list(sys.argv[1:] if args is None else args)
+        self._habits_first()
+        ns, extras = self.parse_known_args(self._argv, namespace)
+        if extras:
+            self._unrecognized(getattr(ns, "command", None), extras)
+        return ns
+
+    def _habits_first(self) -> None:
+        """A ROS tool's option that is no option of the command, answered before argparse reads it as an
+        abbreviation of another (``record --all`` is not ``--allow-path``)."""
+        from tfrec.cli._habits import answer_options
+
+        commands = next((a.choices for a in self._actions if isinstance(a, argparse._SubParsersAction)), {})
+        command = next((token for token in self._argv if not token.startswith("-")), None)
+        parser = commands.get(command) if command is not None else None
+        if parser is None:
+            return
+        unknown = [token for token in self._argv
+                   if token.startswith("-") and token.partition("=")[0] not in parser._option_string_actions]
+        if answer_options(command, unknown, self._argv) is not None:
+            self._unrecognized(command, unknown)
+
+    def _unrecognized(self, command: str | None, extras: Sequence[str]) -> NoReturn:
+        from tfrec.cli._habits import answer_options
+
+        message = f"unrecognized arguments: {' '.join(extras)}"
+        answer = answer_options(command, extras, self._argv)
+        if answer is not None:
+            message += f": {answer}"
+        elif ":=" in message:
+            message += " (xacro arguments name:=value go right after ROBOT)"
+        self.exit(2, f"{PROG}: error: {message} (see '{PROG}{' ' + command if command else ''} --help')\n")
 
     def error(self, message: str) -> NoReturn:
-        if message.startswith("unrecognized arguments") and ":=" in message:
-            message += " (xacro arguments name:=value go right after ROBOT)"
+        if message.startswith("argument COMMAND: invalid choice"):
+            from tfrec.cli._habits import answer_command
+
+            answer = answer_command(self._argv)
+            word = message.partition("invalid choice: ")[2].partition(" (choose from")[0]
+            if answer is not None:
+                message = f"{word} is not a tfrec command: {answer}"
         self.exit(2, f"{PROG}: error: {message} (see '{self.prog} --help')\n")
+
+
+_PACKAGE_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
+"""A ROS package name (REP 144: letters, digits and underscores, a letter first; upper case let through)."""
+
+
+def package_form(tokens: Sequence[str], package_paths: Sequence[str]) -> list[str]:
+    """``ROBOT [name:=value ...]`` with roslaunch's ``PKG FILE`` form resolved: when the first token is
+    no file but a package name and the second names a launch file (``marm_description view_marm.launch``),
+    the two become the file found in the package (:func:`tfrec.description.packages.find_in_package`).
+
+    Raises:
+        DescriptionError: no such package, no such file in it, or several.
+    """
+    from tfrec.description.launch import is_launch_file
+
+    if (len(tokens) >= 2 and _PACKAGE_NAME.fullmatch(tokens[0]) and not Path(tokens[0]).is_file()
+            and ":=" not in tokens[1] and is_launch_file(Path(tokens[1]).name)):
+        from tfrec.description.packages import find_in_package
+
+        return [os.fspath(find_in_package(tokens[0], tokens[1], package_paths=package_paths)), *tokens[2:]]
+    return list(tokens)
+
+
+def load_robot_option(ns: argparse.Namespace) -> Robot | None:
+    """``--robot FILE [name:=value ...]`` (or ``--robot PKG FILE.launch ...``) loaded; None without it."""
+    if not ns.robot:
+        return None
+    from tfrec.description import load_description, parse_xacro_args
+
+    ns.robot = package_form(ns.robot, ns.package_path)
+    return load_description(ns.robot[0], args=parse_xacro_args(ns.robot[1:]), package_paths=ns.package_path,
+                            strict_xacro=getattr(ns, "strict_xacro", False))
 
 
 def load_robot(ns: argparse.Namespace) -> Robot:
@@ -88,10 +174,12 @@ def load_robot(ns: argparse.Namespace) -> Robot:
 
 def load_robot_and_launch(ns: argparse.Namespace) -> tuple[Robot, LaunchRobot | None]:
     """The ROBOT argument loaded, and what its launch file says when it is one (its ``name:=value``
-    arguments are then launch arguments, as for roslaunch)."""
+    arguments are then launch arguments, as for roslaunch). ``PKG FILE.launch`` (roslaunch's form) is
+    the launch file found in the package."""
     from tfrec.description import load_description, load_launch, parse_xacro_args
     from tfrec.description.launch import is_launch_file
 
+    ns.robot, *ns.xacro_args = package_form([ns.robot, *ns.xacro_args], ns.package_path)
     args = parse_xacro_args(ns.xacro_args)
     if is_launch_file(ns.robot):
         return load_launch(ns.robot, args=args, package_paths=ns.package_path, strict_xacro=ns.strict_xacro,

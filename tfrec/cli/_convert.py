@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from tfrec.cli._common import add_naming_arguments
+from tfrec.cli._common import add_naming_arguments, add_xacro_arguments, load_robot_option
 
 __all__ = ["add_parser"]
 
@@ -25,7 +25,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     conv.add_argument("file", metavar="IN", help="a .mcap file, a rosbag2 folder or a ROS 1 .bag")
     conv.add_argument("out", metavar="OUT", nargs="?", help="OUT.mcap, OUT.bag or OUT.rrd")
     conv.add_argument("--bag", metavar="DIR", help="write a rosbag2 folder instead (DIR/metadata.yaml + MCAP)")
-    conv.add_argument("--force", action="store_true", help="overwrite an existing output")
+    conv.add_argument("--force", action="store_true", help="replace an existing output tfrec would write there (never another file, nor the input)")
     conv.add_argument("--compression", metavar="C",
                       help="chunk compression: MCAP zstd (default), lz4 or none; ROS 1 none (default), bz2 or lz4")
     what = conv.add_argument_group("what is written")
@@ -50,7 +50,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
                          "replaces the recorded /robot_description")
     tf.add_argument("--package-path", metavar="DIR", action="append", default=[],
                     help="a package, or a folder of packages, for $(find pkg) and package:// meshes (repeatable)")
-    tf.add_argument("--strict-xacro", action="store_true", help="refuse macro calls without the 'xacro:' prefix")
+    add_xacro_arguments(tf)
     conv.formatter_class = argparse.RawDescriptionHelpFormatter
     conv.epilog = ("examples:\n  tfrec convert robot.bag robot.mcap\n"
                    "  tfrec convert run.mcap cut.bag --start 60 --end 90\n"
@@ -61,14 +61,12 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_convert(ns: argparse.Namespace) -> int:
-    from tfrec.convert import convert
+    from tfrec.convert import check_convert_target, convert, output_kind
 
-    robot = None
-    if ns.robot:
-        from tfrec.description import load_description, parse_xacro_args
-
-        robot = load_description(ns.robot[0], args=parse_xacro_args(ns.robot[1:]), package_paths=ns.package_path,
-                                 strict_xacro=ns.strict_xacro)
+    target, kind = output_kind(ns.out, ns.bag)  # checked before anything is read, --robot included
+    check_convert_target(target, kind, compression=ns.compression, force=ns.force,
+                         inputs=[ns.file, ns.robot[0] if ns.robot else None])
+    robot = load_robot_option(ns)
     result = convert(ns.file, ns.out, bag=ns.bag, start_s=ns.start, end_s=ns.end, topics=ns.topics,
                      exclude=ns.exclude, namespace=ns.namespace, remap=ns.remap, tf_from_joints=ns.tf_from_joints,
                      robot=robot, compression=ns.compression, force=ns.force, package_paths=ns.package_path)

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from typing import Any
 
 from tfrec.cli._common import (
     add_naming_arguments,
+    add_xacro_arguments,
     as_flags,
     number,
     tolerance,
@@ -61,16 +63,17 @@ def add_parser(sub: Any) -> None:
                              "that one, the default)")
     motion.add_argument("--package-path", metavar="DIR", action="append", default=[],
                         help="a package, or a folder of packages, for $(find pkg) and package:// (repeatable)")
-    motion.add_argument("--strict-xacro", action="store_true",
-                        help="refuse macro calls without the 'xacro:' prefix instead of expanding them with a warning")
+    add_xacro_arguments(motion)
     out = diff.add_argument_group("output")
     out.add_argument("--rrd", metavar="OUT.rrd", default=None,
                      help="also write both robots moving together as one Rerun recording: A solid and coloured "
                           "by its error, B a translucent ghost, the error over time with the tolerance")
     out.add_argument("--plot", metavar="OUT",
-                     help="(two recordings) draw each frame's translation and rotation error over time, worst frames "
-                          "first, with the tolerance and the first time it is exceeded (OUT.png, .svg or .pdf)")
-    out.add_argument("--force", action="store_true", help="overwrite an existing --rrd or --plot file")
+                     help="draw the errors over time, worst first, with the tolerance and the first time it is "
+                          "exceeded: each TF frame's for two recordings, each link's world displacement over the "
+                          "shared motion for a description (OUT.png, .svg or .pdf)")
+    out.add_argument("--force", action="store_true",
+                     help="replace an existing --rrd, --plot or --report file tfrec would write there (never another file, nor an input)")
     diff.formatter_class = argparse.RawDescriptionHelpFormatter
     diff.epilog = ("examples:\n  tfrec diff golden.mcap new.mcap\n"
                    "  tfrec diff a.mcap b.bag --pos-tol 1e-6 --json\n"
@@ -85,16 +88,25 @@ def add_parser(sub: Any) -> None:
     diff.set_defaults(handler=_cmd_diff)
 
 
-def split_inputs(tokens: list[str]) -> tuple[tuple[str, dict[str, str]], tuple[str, dict[str, str]]]:
-    """``A [name:=value ...] B [name:=value ...]`` → ((A, A's arguments), (B, B's arguments)).
+def split_inputs(tokens: list[str], package_paths: Sequence[str] = ()) -> tuple[tuple[str, dict[str, str]],
+                                                                           tuple[str, dict[str, str]]]:
+    """``A [name:=value ...] B [name:=value ...]`` → ((A, A's arguments), (B, B's arguments)); A or B may be
+    given in roslaunch's form ``PKG FILE.launch`` (:func:`tfrec.cli._common.package_form`).
 
     Raises:
         DiffError: not exactly two inputs, arguments before the first input, or a malformed argument.
+        DescriptionError: a ``PKG FILE`` whose file is not found.
     """
+    from tfrec.cli._common import package_form
     from tfrec.description import parse_xacro_args
 
+    resolved: list[str] = []
+    rest = list(tokens)
+    while rest:
+        first, *rest = package_form(rest, package_paths)
+        resolved.append(first)
     groups: list[tuple[str, list[str]]] = []
-    for token in tokens:
+    for token in resolved:
         if ":=" in token:
             if not groups:
                 raise DiffError(f"xacro argument '{token}' before A: arguments follow the input they belong to")
@@ -126,10 +138,31 @@ def _folder_of_recordings(path: str) -> bool:
     return False
 
 
+def _check_outputs(ns: argparse.Namespace, inputs: list[str | None]) -> None:
+    """``--rrd`` and ``--plot``, checked together before anything is read (:func:`tfrec._outputs.check_outputs`);
+    ``inputs``: A, B, ``--joints`` and ``--traj`` (a CSV file unless it names a kind of trajectory)."""
+    from pathlib import Path
+
+    from tfrec._outputs import OutputKind, check_outputs
+    from tfrec.formats.kinds import RRD
+    from tfrec.trajectory.types import TrajectoryKind
+
+    outputs: list[tuple[Path, OutputKind]] = []
+    if ns.rrd is not None:
+        outputs.append((Path(ns.rrd), RRD))
+    if ns.plot is not None:
+        from tfrec.plots import picture_kind, plot_format
+
+        plot_format(ns.plot)
+        outputs.append((Path(ns.plot), picture_kind(ns.plot)))
+    check_outputs(outputs, force=ns.force, inputs=[path for path in inputs
+                                                   if path not in TrajectoryKind._value2member_map_])
+
+
 def _cmd_diff(ns: argparse.Namespace) -> int:
     from tfrec.diff.inputs import is_recording_path
 
-    (a, args_a), (b, args_b) = split_inputs(ns.inputs)
+    (a, args_a), (b, args_b) = split_inputs(ns.inputs, ns.package_path)
     if _folder_of_recordings(a) and _folder_of_recordings(b) and not args_a and not args_b:
         from tfrec.cli._fleet import run_diff_folders
 
@@ -140,17 +173,7 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
                                 "(use `report` for the results)")
         ns.a, ns.b = a, b
         return run_diff_folders(ns)
-    if ns.rrd is not None:
-        from pathlib import Path
-
-        from tfrec._atomic import check_target
-
-        check_target(Path(ns.rrd), suffix=".rrd", what="Rerun", force=ns.force)
-    if ns.plot is not None:
-        from tfrec.plots import plot_format, refuse_existing
-
-        plot_format(ns.plot)
-        refuse_existing(ns.plot, force=ns.force)
+    _check_outputs(ns, [a, b, ns.joints, ns.traj])
     tolerances = {"pos_tol": ns.pos_tol, "rot_tol": ns.rot_tol, "joint_tol": ns.joint_tol}
     recordings = is_recording_path(a) and is_recording_path(b) and not args_a and not args_b
     if recordings:
@@ -162,7 +185,7 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
         report: Any = compare(a, b, topics=ns.topics, absolute=ns.absolute, namespace=ns.namespace, remap=ns.remap,
                               use_log_time=ns.use_log_time, **tolerances)
     else:
-        for given, flag in ((ns.topics, "topics"), (ns.absolute or None, "absolute"), (ns.plot, "plot")):
+        for given, flag in ((ns.topics, "topics"), (ns.absolute or None, "absolute")):
             if given is not None:
                 raise DiffError(f"`{flag}` compares two recordings; {a} or {b} is a robot description")
     comparison = None
@@ -179,10 +202,15 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
 
         write_overlay(comparison, ns.rrd, force=ns.force, package_paths=ns.package_path)
     sys.stdout.write(report.to_json() + "\n" if ns.json else as_flags(report.to_text()))
-    if ns.plot is not None:
+    if ns.plot is not None and recordings:
         from tfrec.plots import plot_diff
 
         plot_diff(report, ns.plot, force=ns.force)
+    elif ns.plot is not None and comparison is not None:  # descriptions: each link's world displacement
+        from tfrec.plots import plot_motion
+
+        plot_motion(comparison, ns.plot, force=ns.force)
+    if ns.plot is not None:
         print(f"wrote {ns.plot}", file=sys.stderr if ns.json else sys.stdout)
     if ns.rrd is not None:
         print(f"wrote {ns.rrd}   (open with: rerun {ns.rrd})", file=sys.stderr if ns.json else sys.stdout)

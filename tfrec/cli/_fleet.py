@@ -9,7 +9,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any, TextIO
 
-from tfrec.cli._common import PROG, number, printable, tolerance
+from tfrec.cli._common import PROG, add_xacro_arguments, number, printable, tolerance
 from tfrec.conventions import CHECK_POS_TOL, CHECK_ROT_TOL
 
 __all__ = ["add_engine_arguments", "add_parser", "run_diff_folders"]
@@ -53,13 +53,15 @@ def add_parser(sub: Any) -> None:
                        help="check against this description instead of each recording's /robot_description")
     check.add_argument("--package-path", metavar="DIR", action="append", default=[],
                        help="a package, or a folder of packages, for $(find pkg) in --robot (repeatable)")
-    check.add_argument("--strict-xacro", action="store_true", help="refuse legacy macro calls in --robot")
+    add_xacro_arguments(check)
     check.add_argument("--pos-tol", metavar="M", type=tolerance, default=CHECK_POS_TOL,
                        help=f"translation tolerance (default {number(CHECK_POS_TOL)})")
     check.add_argument("--rot-tol", metavar="RAD", type=tolerance, default=CHECK_ROT_TOL,
                        help=f"rotation tolerance (default {number(CHECK_ROT_TOL)})")
     check.add_argument("--gap-periods", metavar="N", type=float, default=None,
                        help="a gap longer than N periods of a stream's rate is a finding (default 5)")
+    check.add_argument("--force", action="store_true",
+                       help="replace an existing --report (only a tfrec report; --resume replaces it too)")
     add_engine_arguments(check)
     check.set_defaults(handler=_cmd_check)
 
@@ -68,6 +70,11 @@ def _cmd_check(ns: argparse.Namespace) -> int:
     from tfrec.fleet import DEFAULT_GAP_PERIODS, check_tasks, find_recordings
 
     recordings = find_recordings(ns.paths)
+    if ns.robot:
+        from tfrec.cli._common import package_form
+
+        ns.robot = package_form(ns.robot, ns.package_path)
+    _check_report(ns, [*recordings, ns.robot[0] if ns.robot else None])
     tasks = check_tasks(
         recordings, robot_path=ns.robot[0] if ns.robot else None, robot_args=tuple(ns.robot[1:]) if ns.robot else (),
         package_paths=ns.package_path, strict_xacro=ns.strict_xacro, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol,
@@ -80,9 +87,27 @@ def run_diff_folders(ns: argparse.Namespace) -> int:
     """``tfrec diff DIR_A DIR_B``: pair the recordings by relative path and diff each pair."""
     from tfrec.fleet import diff_tasks, pair_recordings
 
-    tasks = diff_tasks(pair_recordings(ns.a, ns.b), pos_tol=ns.pos_tol, rot_tol=ns.rot_tol, joint_tol=ns.joint_tol,
+    pairs = pair_recordings(ns.a, ns.b)
+    _check_report(ns, [path for pair in pairs for path in (pair.a, pair.b)])
+    tasks = diff_tasks(pairs, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol, joint_tol=ns.joint_tol,
                        topics=ns.topics, absolute=ns.absolute)
     return _run(ns, tasks, what="pairs")
+
+
+def _check_report(ns: argparse.Namespace, inputs: Sequence[Any]) -> None:
+    """``--report`` before anything is read: an existing one only with ``--force`` or ``--resume`` (which reads it
+    first), and only a tfrec report; never a recording of the run (:func:`tfrec._outputs.check_target`)."""
+    if ns.report is None:
+        return
+    import os
+    from pathlib import Path
+
+    from tfrec._outputs import check_target
+    from tfrec.formats.report import check_report, report_kind
+
+    if ns.resume and os.path.lexists(ns.report):
+        check_report(ns.report)  # the report --resume reads: one line when it is not a tfrec report, not replaced
+    check_target(Path(ns.report), report_kind(ns.report), force=ns.force or ns.resume, inputs=inputs)
 
 
 def _run(ns: argparse.Namespace, tasks: Sequence[Any], *, what: str) -> int:
@@ -120,7 +145,7 @@ def _run(ns: argparse.Namespace, tasks: Sequence[Any], *, what: str) -> int:
         if ns.report is not None:
             from tfrec.formats.report import ReportWriter
 
-            with ReportWriter(ns.report) as writer:
+            with ReportWriter(ns.report, force=ns.force or ns.resume) as writer:
                 writer.write(kept)
                 progress = run(tasks, **engine)
         else:

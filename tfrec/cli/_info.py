@@ -23,7 +23,7 @@ def add_parser(sub: Any) -> None:
     info.add_argument("--graph", metavar="OUT",
                       help="draw the recorded TF tree, like view_frames (parent → child, rates, static or "
                            "dynamic, topic): OUT.svg, .png, .pdf or .dot")
-    info.add_argument("--force", action="store_true", help="overwrite an existing --graph file")
+    info.add_argument("--force", action="store_true", help="replace an existing --graph picture (never another file)")
     info.formatter_class = argparse.RawDescriptionHelpFormatter
     info.epilog = ("examples:\n  tfrec info recordings/marm.mcap\n  tfrec info bag_folder/ --json\n"
                    "  tfrec info recordings/marm.mcap --graph frames.pdf")
@@ -38,14 +38,15 @@ def _cmd_info(ns: argparse.Namespace) -> int:
         from tfrec.plots import graph_format, refuse_existing
 
         graph_format(ns.graph)
-        refuse_existing(ns.graph, force=ns.force)
+        refuse_existing(ns.graph, force=ns.force, inputs=[ns.file])
     summary = summarize(ns.file, namespace=ns.namespace, remap=ns.remap)
     if ns.graph is not None:
-        from tfrec.conventions import TF, TF_STATIC
+        from tfrec.conventions import ROBOT_DESCRIPTION, TF, TF_STATIC
         from tfrec.formats import read_recording
         from tfrec.plots import recorded_graph, render_graph
 
-        render_graph(recorded_graph(read_recording(ns.file, topics=(TF, TF_STATIC), namespace=ns.namespace,
+        topics = (TF, TF_STATIC, ROBOT_DESCRIPTION)  # a description's root link is the tree of a robot without TF
+        render_graph(recorded_graph(read_recording(ns.file, topics=topics, namespace=ns.namespace,
                                                    remap=ns.remap)), ns.graph, force=ns.force)
     if ns.json:
         json.dump(summary, sys.stdout, indent=2)

@@ -32,7 +32,7 @@ def add_parser(sub: Any) -> None:
     printed.add_argument("--json", action="store_true", help="print the model as JSON")
     printed.add_argument("--graph", metavar="OUT",
                          help="draw the link/joint tree, like urdf_to_graphiz: OUT.svg, .png, .pdf or .dot")
-    inspect.add_argument("--force", action="store_true", help="overwrite an existing --graph file")
+    inspect.add_argument("--force", action="store_true", help="replace an existing --graph picture (never another file)")
     inspect.formatter_class = argparse.RawDescriptionHelpFormatter
     inspect.epilog = ("examples:\n  tfrec inspect robots/marm.xacro\n"
                       "  tfrec inspect robots/marm.xacro --graph marm-tree.svg\n"
@@ -97,7 +97,7 @@ def _cmd_inspect(ns: argparse.Namespace) -> int:
         from tfrec.plots import graph_format, refuse_existing
 
         graph_format(ns.graph)
-        refuse_existing(ns.graph, force=ns.force)
+        refuse_existing(ns.graph, force=ns.force, inputs=[ns.robot])
     robot = load_robot(ns)
     if ns.graph is not None:
         from tfrec.plots import render_graph, robot_graph

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import os
 import signal
 import sys
@@ -23,7 +24,7 @@ from tfrec.cli._common import (
     as_flags,
 )
 from tfrec.cli._common import printable as _printable
-from tfrec.errors import TfrecError
+from tfrec.errors import LegacyXacroWarning, TfrecError
 
 __all__ = ["main", "main_exit"]
 
@@ -51,7 +52,10 @@ def _build_parser() -> argparse.ArgumentParser:
 
 def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
                   file: TextIO | None = None, line: str | None = None) -> None:
-    print(f"{PROG}: warning: {_printable(as_flags(str(message)))}", file=sys.stderr)
+    text = str(message)
+    if issubclass(category, LegacyXacroWarning):
+        text = text.replace(LegacyXacroWarning.SILENCE, "--quiet-legacy")
+    print(f"{PROG}: warning: {_printable(as_flags(text))}", file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -66,6 +70,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(exc.code or 0)
     with warnings.catch_warnings(), _terminate_as_interrupt():
         warnings.simplefilter("default")
+        if getattr(ns, "quiet_legacy", False):
+            warnings.filterwarnings("ignore", category=LegacyXacroWarning)
         warnings.showwarning = _show_warning
         try:
             return int(ns.handler(ns))
@@ -83,6 +89,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         except MemoryError:  # a limit on the process's memory (ulimit -v, a container) met by a valid input
             print(f"{PROG}: error: {_printable(_inputs(ns))}out of memory (the process's memory limit was reached)",
                   file=sys.stderr)
+            return 2
+        except OSError as err:
+            if err.errno != errno.ENAMETOOLONG:
+                raise
+            # a path the system cannot take (a name over 255 bytes, a path over PATH_MAX), met wherever it is used
+            where = f"{os.fsdecode(err.filename)}: " if err.filename is not None else _inputs(ns)
+            print(f"{PROG}: error: {_printable(where)}{err.strerror or 'File name too long'} (a name has at most 255 "
+                  "bytes, a path 4095)", file=sys.stderr)
             return 2
         except ImportError as err:  # a library that cannot load: not installed, or no address space left to map it
             print(f"{PROG}: error: cannot load {err.name or 'a library'}: {_printable(' '.join(str(err).split()))}",

@@ -6,6 +6,8 @@ import argparse
 import sys
 from typing import Any
 
+from tfrec.cli._common import load_robot_option
+
 __all__ = ["add_parser"]
 
 
@@ -33,7 +35,7 @@ def add_parser(sub: Any) -> None:
     plot.add_argument("--namespace", metavar="NS",
                       help="the robot of this namespace (/robot1; '/' for the root's) when the recording holds "
                            "several")
-    plot.add_argument("--force", action="store_true", help="overwrite an existing OUT")
+    plot.add_argument("--force", action="store_true", help="replace an existing OUT picture (never another file)")
     plot.set_defaults(handler=_cmd_plot)
 
 
@@ -43,12 +45,8 @@ def _cmd_plot(ns: argparse.Namespace) -> int:
     from tfrec.plots import plot_format, plot_recording, refuse_existing
 
     plot_format(ns.output)
-    refuse_existing(ns.output, force=ns.force)
-    robot = None
-    if ns.robot:
-        from tfrec.description import load_description, parse_xacro_args
-
-        robot = load_description(ns.robot[0], args=parse_xacro_args(ns.robot[1:]), package_paths=ns.package_path)
+    refuse_existing(ns.output, force=ns.force, inputs=[ns.file, ns.robot[0] if ns.robot else None])
+    robot = load_robot_option(ns)
     namespace = None if ns.namespace is None else namespace_name(ns.namespace)
     recording = read_recording(ns.file, namespace=namespace)
     if recording.read_error:

@@ -84,7 +84,7 @@ def add_parser(sub: Any) -> None:
                      help="stamp of the first sample, seconds since the Unix epoch "
                           f"(default {DEFAULT_START_TIME_NS // NS_PER_S} = 2023-11-14T22:13:20Z, so runs are "
                           "byte-identical)")
-    out.add_argument("--force", action="store_true", help="overwrite existing outputs")
+    out.add_argument("--force", action="store_true", help="replace existing outputs tfrec would write there (never another file or folder, nor an input)")
     rec.set_defaults(handler=_cmd_record)
 
 
@@ -102,12 +102,15 @@ def _parse_overrides(items: Sequence[str]) -> dict[str, float]:
 
 
 def _cmd_record(ns: argparse.Namespace) -> int:
+    from tfrec.recorder import needs_stem, plan_outputs
     from tfrec.trajectory.types import TrajectoryKind
 
     start_ns = DEFAULT_START_TIME_NS if ns.start_time is None else ns.start_time
+    csv = ns.traj not in TrajectoryKind._value2member_map_
+    if not needs_stem(out=ns.output, rrd=ns.rrd, bag=ns.bag, no_mcap=ns.no_mcap):
+        plan_outputs(stem=None, **_outputs(ns, csv))  # named outputs: checked before anything is read
     robot, launch = load_robot_and_launch(ns)
     params = launch.node_params if launch is not None else None
-    csv = ns.traj not in TrajectoryKind._value2member_map_
     if csv and ns.duration is not None:
         warnings.warn(f"--duration does not apply to the CSV trajectory {ns.traj}: its own times are used",
                       stacklevel=1)
@@ -130,6 +133,13 @@ def _cmd_record(ns: argparse.Namespace) -> int:
         return _record_robot(ns, robot, launch, csv, rate, overrides, frame_prefix, start_ns)
 
 
+def _outputs(ns: argparse.Namespace, csv: bool) -> dict[str, Any]:
+    """The options of :func:`tfrec.recorder.plan_outputs` from the command line: the outputs, and the inputs
+    they must not be."""
+    return {"out": ns.output, "rrd": ns.rrd, "bag": ns.bag, "no_mcap": ns.no_mcap, "no_rrd": ns.no_rrd,
+            "force": ns.force, "inputs": [ns.robot, ns.traj if csv else None]}
+
+
 @contextlib.contextmanager
 def _naming_the_robot(path: str) -> Iterator[None]:
     """Errors about one of the robot's joints (its limits, a mimic multiplier) name its description too."""
@@ -150,8 +160,7 @@ def _record_robot(ns: argparse.Namespace, robot: Robot, launch: LaunchRobot | No
         robot, ns.traj, duration_s=ns.duration, rate_hz=rate, seed=ns.seed, period_s=ns.period,
         amplitude=ns.amplitude, overrides=overrides, soft_limits=not ns.hard_limits, interp=ns.interp,
     )
-    plan = plan_outputs(stem=default_stem(robot, ns.traj), out=ns.output, rrd=ns.rrd, bag=ns.bag,
-                        no_mcap=ns.no_mcap, no_rrd=ns.no_rrd, force=ns.force)
+    plan = plan_outputs(stem=default_stem(robot, ns.traj), **_outputs(ns, csv))
     allowed = ROS1_COMPRESSIONS if plan.ros1_bag is not None else COMPRESSIONS
     if ns.compression is not None and ns.compression not in allowed and plan.main is not None:
         raise WriteError(f"--compression {ns.compression}: a {'ROS 1 bag' if plan.ros1_bag else 'MCAP'} chunk "
@@ -166,9 +175,10 @@ def _record_robot(ns: argparse.Namespace, robot: Robot, launch: LaunchRobot | No
     if robot.moving_joints:
         print(f"recorded {robot.name}: {result.samples} samples over {seconds:g} s "
               f"({len(trajectory.joint_names)} actuated joints, --traj {ns.traj})")
-    else:  # joint_state_publisher publishes nothing for it, robot_state_publisher no /tf
-        print(f"recorded {robot.name}: no moving joints, so /robot_description and /tf_static only "
-              f"({len(robot.links)} link{'s' if len(robot.links) != 1 else ''})")
+    else:  # empty joint states keep the clock; robot_state_publisher publishes no /tf for them
+        links = f"{len(robot.links)} link{'s' if len(robot.links) != 1 else ''}"
+        print(f"recorded {robot.name}: {result.samples} samples over {seconds:g} s (no moving joints, {links}: "
+              "empty /joint_states messages, nothing on /tf)")
     if plan.bag_dir is not None:
         print(f"wrote {plan.bag_dir}/  (rosbag2: metadata.yaml + {plan.mcap.name if plan.mcap else ''})")
     elif plan.ros1_bag is not None:

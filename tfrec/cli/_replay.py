@@ -9,7 +9,9 @@ from typing import Any
 
 from tfrec.cli._common import (
     add_naming_arguments,
+    add_xacro_arguments,
     as_flags,
+    load_robot_option,
     number,
     tolerance,
 )
@@ -41,14 +43,13 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
                             "/robot_description")
     model.add_argument("--package-path", metavar="DIR", action="append", default=[],
                        help="a package, or a folder of packages, for $(find pkg) and package:// meshes (repeatable)")
-    model.add_argument("--strict-xacro", action="store_true",
-                       help="refuse macro calls without the 'xacro:' prefix in --robot")
+    add_xacro_arguments(model)
     where = rep.add_argument_group("where to (default: spawn the Rerun viewer)")
     target = where.add_mutually_exclusive_group()
     target.add_argument("--save", metavar="OUT.rrd", help="write a Rerun recording instead, as fast as possible")
     target.add_argument("--connect", metavar="URL",
                         help="stream to a running viewer, e.g. rerun+http://127.0.0.1:9876/proxy")
-    where.add_argument("--force", action="store_true", help="overwrite an existing --save file")
+    where.add_argument("--force", action="store_true", help="replace an existing --save recording or --plot picture (never another file, nor the input)")
     how = rep.add_argument_group("playback")
     how.add_argument("--rate", metavar="F", type=float, default=1.0,
                      help="speed factor of a live replay: 0.5 half speed, 2 twice as fast (default 1)")
@@ -73,7 +74,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     check.add_argument("--json", action="store_true", help="print the --check report as JSON")
     check.add_argument("--plot", metavar="OUT",
                        help="with --check: draw each frame's translation and rotation error over time, with the "
-                            "tolerance and the first time it is exceeded (OUT.png, .svg or .pdf; --force overwrites)")
+                            "tolerance and the first time it is exceeded (OUT.png, .svg or .pdf; --force replaces one)")
     rep.formatter_class = argparse.RawDescriptionHelpFormatter
     rep.epilog = ("examples:\n  tfrec replay recordings/marm.mcap\n"
                   "  tfrec replay bag_folder/ --save bag.rrd --start 10 --end 20\n"
@@ -82,30 +83,41 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     return rep
 
 
+def _check_outputs(ns: argparse.Namespace, inputs: list[str | None]) -> None:
+    """``--save`` and ``--plot``, checked together before anything is read (:func:`tfrec._outputs.check_outputs`)."""
+    from pathlib import Path
+
+    from tfrec._outputs import OutputKind, check_outputs
+    from tfrec.formats.kinds import RRD
+
+    outputs: list[tuple[Path, OutputKind]] = []
+    if ns.plot is not None:
+        from tfrec.plots import picture_kind, plot_format
+
+        if not ns.check:
+            raise ReplayError("`plot` draws a check: it goes with `check`")
+        plot_format(ns.plot)
+        outputs.append((Path(ns.plot), picture_kind(ns.plot)))
+    if ns.save is not None:
+        outputs.append((Path(ns.save), RRD))
+    check_outputs(outputs, force=ns.force, inputs=inputs)
+
+
 def _cmd_replay(ns: argparse.Namespace) -> int:
     from tfrec.replay.check import check_replay, format_check
     from tfrec.replay.load import load_replay
     from tfrec.replay.play import check_play_options, replay_to_rerun
 
     live = not ns.check or ns.save is not None or ns.connect is not None
-    if ns.plot is not None:
-        from tfrec.plots import plot_format, refuse_existing
-
-        if not ns.check:
-            raise ReplayError("`plot` draws a check: it goes with `check`")
-        plot_format(ns.plot)
-        refuse_existing(ns.plot, force=ns.force)
+    inputs = [ns.file, ns.robot[0] if ns.robot else None]
+    _check_outputs(ns, inputs)
     if live:
         from tfrec.formats import identify_recording
 
         identify_recording(ns.file)  # a missing file or not a recording: said before looking for a viewer
-        check_play_options(save=ns.save, connect=ns.connect, rate=ns.rate, loop=ns.loop, force=ns.force)
-    robot = None
-    if ns.robot:
-        from tfrec.description import load_description, parse_xacro_args
-
-        robot = load_description(ns.robot[0], args=parse_xacro_args(ns.robot[1:]), package_paths=ns.package_path,
-                                 strict_xacro=ns.strict_xacro)
+        check_play_options(save=ns.save, connect=ns.connect, rate=ns.rate, loop=ns.loop, force=ns.force,
+                           inputs=inputs)
+    robot = load_robot_option(ns)
     replay = load_replay(ns.file, robot=robot, topics=ns.topics, start_s=ns.start, end_s=ns.end,
                          need_robot=ns.check, namespace=ns.namespace, remap=ns.remap, use_log_time=ns.use_log_time)
     status = 0

@@ -10,7 +10,7 @@ Imports replay (its TF derivation and ``--save``), formats and below.
 
 from __future__ import annotations
 
-from tfrec.convert.run import ConvertResult, convert, output_kind
+from tfrec.convert.run import ConvertResult, check_convert_target, convert, output_kind
 from tfrec.convert.stream import CopyReport
 
-__all__ = ["ConvertResult", "CopyReport", "convert", "output_kind"]
+__all__ = ["ConvertResult", "CopyReport", "check_convert_target", "convert", "output_kind"]

@@ -17,7 +17,8 @@ from collections.abc import Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from tfrec._atomic import AtomicOutputs, check_target
+from tfrec._atomic import AtomicOutputs
+from tfrec._outputs import OutputKind, check_target
 from tfrec.conventions import (
     COMPRESSIONS,
     NS_PER_S,
@@ -31,6 +32,7 @@ from tfrec.conventions import (
 from tfrec.convert.joints import plan_derivations
 from tfrec.convert.stream import Copier, CopyReport
 from tfrec.errors import ConvertError
+from tfrec.formats.kinds import MCAP, ROS1_BAG, ROSBAG2, RRD
 from tfrec.formats.messages import open_messages
 from tfrec.formats.output import open_output
 from tfrec.formats.reader import identify_recording, read_recording
@@ -43,6 +45,7 @@ __all__ = ["ConvertResult", "check_convert_target", "convert", "output_kind"]
 
 _KINDS = {".mcap": "mcap", ".bag": "rosbag1", ".rrd": "rrd"}
 _NAMES = {"mcap": "ROS 2 MCAP", "rosbag1": "ROS 1 bag", "rosbag2": "rosbag2 folder", "rrd": "Rerun recording"}
+_OUTPUT_KINDS: dict[str, OutputKind] = {"mcap": MCAP, "rosbag1": ROS1_BAG, "rosbag2": ROSBAG2, "rrd": RRD}
 
 
 @dataclass
@@ -88,19 +91,25 @@ def output_kind(target: str | os.PathLike[str] | None, bag: str | os.PathLike[st
     return path, kind
 
 
-def check_convert_target(target: Path, kind: str, *, compression: str | None, force: bool) -> None:
-    """Check the output before anything is read: its compression, and that it may be written.
+def check_convert_target(target: Path, kind: str, *, compression: str | None, force: bool,
+                         inputs: Sequence[str | os.PathLike[str] | None] = ()) -> None:
+    """Check the output before anything is read: its compression, and that it may be written
+    (:func:`tfrec._outputs.check_target`).
+
+    Args:
+        inputs: what the conversion reads (the recording, ``--robot``'s description): never the output.
 
     Raises:
         ConvertError: a compression the format does not have.
-        WriteError: an existing output without ``force`` (or a file where a folder goes).
+        WriteError: an existing output without ``force``, one that is not what tfrec writes there (a file where
+            a folder goes, a folder with other files…), or an input.
     """
     allowed = {"mcap": COMPRESSIONS, "rosbag2": COMPRESSIONS, "rosbag1": ROS1_COMPRESSIONS, "rrd": ()}[kind]
     if compression is not None and compression not in allowed:
         if not allowed:
             raise ConvertError(f"`compression` does not apply to a {_NAMES[kind]}")
         raise ConvertError(f"`compression` '{compression}' is not one of {', '.join(allowed)} for a {_NAMES[kind]}")
-    check_target(target, suffix=None, what=_NAMES[kind], force=force, folder=kind == "rosbag2")
+    check_target(target, _OUTPUT_KINDS[kind], force=force, inputs=inputs)
 
 
 def _check_window(start_s: float | None, end_s: float | None) -> None:
@@ -170,7 +179,7 @@ def convert(
         return _to_rerun(source, path, start_s=start_s, end_s=end_s, topics=topics, exclude=exclude,
                          namespace=namespace, remap=remap, tf_from_joints=tf_from_joints, robot=robot,
                          compression=compression, force=force, package_paths=package_paths)
-    check_convert_target(path, kind, compression=compression, force=force)
+    check_convert_target(path, kind, compression=compression, force=force, inputs=[source])
     found = identify_recording(source)
     where = os.fspath(found.path)
     if found.format == "rrd":
@@ -191,7 +200,7 @@ def convert(
     produced = {topic for d in derivations for topic in (d.tf_topic, d.static_topic, d.description_topic)}
     selected = _selection(summary, topics=topics, exclude=exclude, namespace=ns, produced=produced)
     with AtomicOutputs(replace=force) as outputs:
-        temp = outputs.path(path, directory=kind == "rosbag2")
+        temp = outputs.path(path, kind=_OUTPUT_KINDS[kind])
         writer = open_output(temp, kind=kind, compression=compression, name=path.name)
         try:
             with open_messages(found, remap=remap) as messages:
@@ -267,11 +276,11 @@ def _to_rerun(source: str | os.PathLike[str], target: Path, *, start_s: float | 
     from tfrec.replay.load import load_replay
     from tfrec.replay.play import check_play_options, replay_to_rerun
 
-    check_convert_target(target, "rrd", compression=compression, force=force)
+    check_convert_target(target, "rrd", compression=compression, force=force, inputs=[source])
     if tf_from_joints is False:
         raise ConvertError("`no_tf_from_joints` does not apply to an .rrd: it is written as replay plays, with "
                            "the TF that /tf lacks computed from /joint_states")
-    check_play_options(save=target, connect=None, rate=1.0, loop=False, force=force)
+    check_play_options(save=target, connect=None, rate=1.0, loop=False, force=force, inputs=[source])
     chosen = list(RECORDED_TOPICS) if topics is None else [global_topic(t) for t in topics]
     left = {global_topic(t) for t in exclude}
     replay = load_replay(source, robot=robot, topics=[t for t in chosen if t not in left], start_s=start_s,

@@ -6,12 +6,11 @@ Nothing here runs a command or a Python expression from a launch file.
 
 from __future__ import annotations
 
-import difflib
 import math
 import os
 import re
 import shlex
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from enum import Enum
 from pathlib import Path
@@ -28,12 +27,6 @@ MAX_INCLUDES = 256
 YamlLoader = Callable[[str, str], Any]
 """``yaml_loader(text, source)``: the parsed YAML (``source`` names the text in messages).
 Raises a :class:`tfrec.errors.TfrecError` on bad YAML."""
-
-
-def suggest(name: str, names: Iterable[str]) -> str:
-    """`` (did you mean 'x'?)`` for the closest of names, or ``""``."""
-    close = difflib.get_close_matches(name, sorted(set(names)), n=1)
-    return f" (did you mean '{close[0]}'?)" if close else ""
 
 
 # ---- deferred values -------------------------------------------------------------------------

@@ -42,7 +42,6 @@ from tfrec.description._launch_common import (
     ns_join,
     os_dirname,
     read_param_file,
-    suggest,
 )
 from tfrec.description._launch_eval import (
     EVAL_SUBSET,
@@ -56,7 +55,7 @@ from tfrec.description._launch_files import (
     read_bounded,
 )
 from tfrec.description.packages import PackageFinder
-from tfrec.errors import DescriptionError, display_path
+from tfrec.errors import DescriptionError, display_path, suggest
 
 __all__ = ["Ros1Reader"]
 

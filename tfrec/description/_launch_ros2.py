@@ -43,7 +43,6 @@ from tfrec.description._launch_common import (
     load_yaml_text,
     os_dirname,
     read_param_file,
-    suggest,
 )
 from tfrec.description._launch_eval import (
     EVAL_SUBSET,
@@ -58,7 +57,7 @@ from tfrec.description._launch_files import (
     yaml_to_element,
 )
 from tfrec.description.packages import PackageFinder
-from tfrec.errors import DescriptionError, display_path
+from tfrec.errors import DescriptionError, display_path, suggest
 
 __all__ = ["Ros2Reader"]
 

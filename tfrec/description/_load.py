@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -17,7 +18,7 @@ from tfrec.description._sandbox import SandboxLimits
 from tfrec.description._xml_bytes import decode_xml
 from tfrec.description.packages import PackageFinder
 from tfrec.description.urdf import parse_urdf
-from tfrec.description.xacro import expand_xacro
+from tfrec.description.xacro import xacro_expansion
 from tfrec.errors import DescriptionError, display_path
 from tfrec.model import Robot
 
@@ -66,6 +67,32 @@ def read_description_text(
     Raises:
         DescriptionError: a missing or unreadable file, or any xacro error.
     """
+    text = _description_text(path, args=args, package_paths=package_paths, strict_xacro=strict_xacro,
+                             force_xacro=force_xacro, allow_paths=allow_paths)
+    return text.text, text.user_lines
+
+
+@dataclass(frozen=True, slots=True)
+class _Text:
+    """A description's URDF text, and where its elements were written (for messages)."""
+
+    text: str
+    user_lines: bool
+    origins: tuple[str | None, ...] | None = None
+
+    def parse(self, source: str | os.PathLike[str]) -> Robot:
+        return parse_urdf(self.text, source=os.fspath(source), user_lines=self.user_lines, origins=self.origins)
+
+
+def _description_text(
+    path: str | os.PathLike[str],
+    *,
+    args: Mapping[str, str] | None,
+    package_paths: Sequence[str | os.PathLike[str]],
+    strict_xacro: bool,
+    force_xacro: bool,
+    allow_paths: Sequence[str | os.PathLike[str]],
+) -> _Text:
     file = Path(path)
     if not file.is_file():
         raise DescriptionError(f"{display_path(file)}: no such file" if not file.exists()
@@ -79,10 +106,11 @@ def read_description_text(
                              declare_utf8=True)
         except OSError as err:
             raise DescriptionError(f"{display_path(file)}: cannot read: {err.strerror or err}") from err
-        return raw, True
+        return _Text(raw, True)
     finder = PackageFinder(package_paths, near=file)
-    return expand_xacro(file, args=args, finder=finder, strict=strict_xacro, package_paths=package_paths,
-                        allow_paths=allow_paths), False
+    expansion = xacro_expansion(file, args=args, finder=finder, strict=strict_xacro, package_paths=package_paths,
+                                allow_paths=allow_paths)
+    return _Text(expansion.text, False, expansion.origins)
 
 
 def load_description(
@@ -100,7 +128,8 @@ def load_description(
             (ROS 1 ``.launch``, ROS 2 ``.launch.xml``/``.launch.yaml``; see :func:`load_launch`).
         args: xacro arguments (``name:=value``); for a launch file, its launch arguments.
         package_paths: folders searched first for ``$(find pkg)``.
-        strict_xacro: refuse legacy un-prefixed macro calls instead of expanding them.
+        strict_xacro: expand xacro exactly as PyPI xacro (ROS 2) does: the Kinetic-era dialect is left
+            unexpanded, with a warning (docs/xacro.md).
         allow_paths: folders (or files) xacro may read besides the input's workspace, the packages
             found and ``package_paths`` (``--allow-path``; see docs/security.md).
 
@@ -112,10 +141,9 @@ def load_description(
     if is_launch_file(path):
         return load_launch(path, args=args, package_paths=package_paths, strict_xacro=strict_xacro,
                            allow_paths=allow_paths)[0]
-    text, user_lines = read_description_text(
-        path, args=args, package_paths=package_paths, strict_xacro=strict_xacro, allow_paths=allow_paths
-    )
-    return parse_urdf(text, source=os.fspath(path), user_lines=user_lines)
+    text = _description_text(path, args=args, package_paths=package_paths, strict_xacro=strict_xacro,
+                             force_xacro=False, allow_paths=allow_paths)
+    return text.parse(path)
 
 
 def load_launch(
@@ -132,7 +160,7 @@ def load_launch(
         path: the launch file.
         args: launch arguments (``name:=value`` on the command line).
         package_paths: folders searched first for ``$(find pkg)``.
-        strict_xacro: refuse legacy un-prefixed macro calls in the xacro it runs.
+        strict_xacro: expand the xacro it runs exactly as PyPI xacro does (docs/xacro.md).
 
     Returns:
         The robot, and what the launch file says of it (:class:`~tfrec.description.launch.LaunchRobot`:
@@ -159,10 +187,11 @@ def load_launch(
     else:
         assert source.file is not None
         xacro_args = source.xacro_args if source.kind is DescriptionKind.XACRO else None
-        text, user_lines = read_description_text(source.file, args=xacro_args, package_paths=package_paths,
-                                                 strict_xacro=strict_xacro, force_xacro=xacro_args is not None,
-                                                 allow_paths=allow_paths)
-        robot = parse_urdf(text, source=os.fspath(source.file), user_lines=user_lines)
+        # xacro 1.13's --xacro-ns: the prefix is required, un-prefixed tags are left alone (PyPI xacro's way)
+        strict = strict_xacro or "--xacro-ns" in source.xacro_flags
+        text = _description_text(source.file, args=xacro_args, package_paths=package_paths,
+                                 strict_xacro=strict, force_xacro=xacro_args is not None, allow_paths=allow_paths)
+        robot = text.parse(source.file)
     return robot, launch
 
 

@@ -199,7 +199,8 @@ def _symbol_tables(symbols: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def describe_xacro_failure(
-    err: BaseException, *, filename: str | os.PathLike[str] | None, filestack: Sequence[str | None] | None = None
+    err: BaseException, *, filename: str | os.PathLike[str] | None, filestack: Sequence[str | None] | None = None,
+    where: str | None = None,
 ) -> str | None:
     """One line for an error of a sandboxed expansion, or None for one this module does not know.
 
@@ -211,8 +212,9 @@ def describe_xacro_failure(
         err: what the expansion raised.
         filename: the input file.
         filestack: ``xacro.filestack`` when the error was raised: its last file is named.
+        where: the place to name instead (``file:line`` of the element at fault).
     """
-    where = display_path(next((f for f in reversed(filestack or []) if f), filename))
+    where = where or display_path(next((f for f in reversed(filestack or []) if f), filename))
     refusal = _cause(err, SandboxRefusal)
     if refusal is not None:
         return str(refusal)
@@ -330,7 +332,7 @@ class _Expansion:
                 raise xacro.XacroException(f"{err.strerror}: {path}", exc=err) from err
             except DescriptionError as err:
                 raise SandboxRefusal(f"{self._where(skip=1)}: {err}") from err
-            doc = parse_xml(data)
+            doc = parse_xml(data, source=path)  # each element knows its file and line
             _check_depth(doc, self._limits.max_xml_depth, path)
             return doc
 

@@ -5,31 +5,89 @@ with a correct ``<?xml … encoding="…"?>`` declaration fails with ``UnicodeDe
 :func:`parse_xml` and :func:`decode_xml` read bytes: UTF-8 exactly as before, anything else as
 expat reads it (UTF-16/32 by the byte order mark or the first characters, 8-bit encodings by the
 declaration).
+
+:func:`parse_xml` also notes where each element was written (:func:`origin`): the note is DOM
+user data, which minidom copies to every clone (``cloneNode`` calls the handler), so the
+elements xacro copies out of a macro body or a block still say which file and line they came from.
 """
 
 from __future__ import annotations
 
 import re
+import xml.dom.expatbuilder
 import xml.dom.minidom
 import xml.parsers.expat
+from typing import Any
 
 from tfrec.errors import DescriptionError
 
-__all__ = ["decode_xml", "parse_xml"]
+__all__ = ["Origin", "decode_xml", "origin", "parse_xml"]
+
+Origin = tuple[str, int]
+"""Where an element was written: (file, line)."""
+
+_ORIGIN = "tfrec.origin"
 
 
-def parse_xml(data: bytes) -> xml.dom.minidom.Document:
+class _KeepOnClone:
+    """A DOM ``UserDataHandler``: a clone of an element keeps the element's origin."""
+
+    def handle(self, operation: int, key: str, data: Any, src: Any, dst: Any) -> None:
+        if dst is not None and operation == self.NODE_CLONED:
+            _note(dst, data)
+
+    NODE_CLONED = xml.dom.UserDataHandler.NODE_CLONED
+
+
+def _note(node: Any, where: Origin) -> None:
+    """``node.setUserData(_ORIGIN, where, _KEEP)``, without its cost: minidom's ``setUserData`` looks for
+    the node's user data by catching an AttributeError, which is most of an expansion's time when
+    done for every element and copy. This is the dictionary ``getUserData`` and ``cloneNode`` read."""
+    node._user_data = {_ORIGIN: (where, _KEEP)}
+
+
+_KEEP = _KeepOnClone()
+
+
+class _LocatingBuilder(xml.dom.expatbuilder.ExpatBuilderNS):
+    """minidom's own builder (``minidom.parseString``), noting each element's start line."""
+
+    def __init__(self, source: str) -> None:
+        super().__init__()
+        self._source = source
+
+    def start_element_handler(self, name: str, attributes: Any) -> None:
+        super().start_element_handler(name, attributes)
+        _note(self.curNode, (self._source, self.getParser().CurrentLineNumber))
+
+
+def parse_xml(data: bytes, *, source: str | None = None) -> xml.dom.minidom.Document:
     """An XML document as a DOM, in the encoding it declares.
 
     UTF-8 text parses exactly as xacro parses a file it opened as text; other bytes (UTF-16 or
     UTF-32 with or without a byte order mark, latin-1, windows-1252 …) are given to expat, which
     follows the XML declaration.
 
+    Args:
+        data: the file's bytes.
+        source: the file as messages name it: each element then knows its :func:`origin`.
+
     Raises:
         xml.parsers.expat.ExpatError: not well-formed XML (as xacro's own parse).
     """
     text = _utf8(data)
-    return xml.dom.minidom.parseString(text if text is not None else data)
+    content = text if text is not None else data
+    if source is None:
+        return xml.dom.minidom.parseString(content)
+    document: xml.dom.minidom.Document = _LocatingBuilder(source).parseString(content)
+    return document
+
+
+def origin(node: Any) -> Origin | None:
+    """Where an element parsed by :func:`parse_xml` (or a copy of one) was written."""
+    getter = getattr(node, "getUserData", None)
+    found = getter(_ORIGIN) if getter is not None else None
+    return found if isinstance(found, tuple) else None
 
 
 def decode_xml(data: bytes, *, where: str, declare_utf8: bool = False) -> str:

@@ -37,7 +37,6 @@ from tfrec.description._launch_common import (
     number,
     positive_number,
     subtree,
-    suggest,
     text_value,
 )
 from tfrec.description._launch_files import (
@@ -51,7 +50,7 @@ from tfrec.description._launch_files import (
 from tfrec.description._launch_ros1 import Ros1Reader
 from tfrec.description._launch_ros2 import Ros2Reader
 from tfrec.description.packages import PackageFinder
-from tfrec.errors import DescriptionError, display_path, one_line
+from tfrec.errors import DescriptionError, display_path, one_line, suggest
 
 __all__ = ["DescriptionKind", "DescriptionSource", "LaunchRobot", "NodeParams", "is_launch_file", "read_launch"]
 

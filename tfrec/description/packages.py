@@ -8,6 +8,8 @@ this order (first match wins):
    (``<prefix>/share/<pkg>``);
 3. the package enclosing the input file, and its sibling packages (the folder holding it,
    and the ``src/`` folder of a catkin or colcon workspace above it).
+
+:func:`find_in_package` is roslaunch's ``PKG FILE`` form: the file of that name anywhere in the package.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from urllib.parse import unquote, urlparse
 
 from tfrec.errors import DescriptionError
 
-__all__ = ["PackageFinder", "package_name"]
+__all__ = ["PackageFinder", "find_in_package", "package_name"]
 
 _MAX_DEPTH = 6  # how deep a folder of packages is crawled
 _SKIP_DIRS = {"node_modules", "__pycache__", "build", "install", "log", "devel"}
@@ -80,6 +82,8 @@ class PackageFinder:
         near: the input file; its enclosing package and siblings are searched last.
         environ: environment to read ``ROS_PACKAGE_PATH`` and ``AMENT_PREFIX_PATH`` from
             (default ``os.environ``).
+        also: folders of packages searched last, only when no other place has the package (the working
+            folder, for ``PKG FILE``).
     """
 
     def __init__(
@@ -88,6 +92,7 @@ class PackageFinder:
         *,
         near: str | os.PathLike[str] | None = None,
         environ: Mapping[str, str] | None = None,
+        also: Sequence[str | os.PathLike[str]] = (),
     ) -> None:
         env = os.environ if environ is None else environ
         self._explicit = [Path(p).expanduser().resolve() for p in package_paths]
@@ -107,6 +112,7 @@ class PackageFinder:
                     if folder.name == "src":
                         self._local.append(folder)
                         break
+        self._also = [Path(p).resolve() for p in also]
         self._own = _enclosing_package(Path(near).resolve()) if near is not None else None
         self._cache: dict[str, Path] = {}
         self._indexes: dict[Path, dict[str, list[Path]]] = {}
@@ -128,13 +134,14 @@ class PackageFinder:
         places = [f"`package_paths` {p}" for p in self._explicit]
         places += [f"ROS_PACKAGE_PATH {p}" for p in self._ros_package_path]
         places += [f"AMENT_PREFIX_PATH {p}/share" for p in self._ament_prefixes]
-        places += [f"{p}" for p in self._local]
+        places += [f"{p}" for p in [*self._local, *self._also]]
         return places
 
     def _misnamed(self, name: str) -> str:
         """A hint when a searched place has a folder called ``name`` whose package.xml names another
         package (a package is found by its package.xml's name, not its folder's)."""
-        roots = [*self._explicit, *self._ros_package_path, *(p / "share" for p in self._ament_prefixes), *self._local]
+        roots = [*self._explicit, *self._ros_package_path, *(p / "share" for p in self._ament_prefixes), *self._local,
+                 *self._also]
         for root in roots:
             for folder in (root, root / name):
                 if folder.name == name and folder.is_dir():
@@ -198,6 +205,8 @@ class PackageFinder:
                 copies.append(share)
         for folder in self._local:
             copies.extend(self._index(folder).get(name, ()))
+        for folder in self._also if not copies else ():
+            copies.extend(self._index(folder).get(name, ()))
         return copies
 
     def resolve_uri(self, uri: str, *, relative_to: str | os.PathLike[str] | None = None) -> Path:
@@ -221,3 +230,61 @@ class PackageFinder:
         if not path.is_absolute() and relative_to is not None:
             path = Path(relative_to).resolve().parent / path
         return path
+
+
+MAX_PACKAGE_ENTRIES = 200_000
+"""The most files and folders :func:`find_in_package` looks at in one package."""
+
+
+def find_in_package(
+    package: str,
+    file_name: str,
+    *,
+    package_paths: Sequence[str | os.PathLike[str]] = (),
+    environ: Mapping[str, str] | None = None,
+    cwd: str | os.PathLike[str] | None = None,
+) -> Path:
+    """roslaunch's ``PKG FILE``: the file named ``file_name`` anywhere in package ``package``, as
+    ``roslib.packages.find_resource`` finds it (``roslaunch marm_description view_marm.launch`` finds
+    ``launch/view_marm.launch``): the package's folder is walked, hidden folders skipped. A name with a
+    ``/`` is taken relative to the package's folder.
+
+    The package is looked up like ``$(find pkg)`` (:class:`PackageFinder`), with the working folder's
+    workspace in place of the input's: the package enclosing ``cwd`` and its siblings, then the packages
+    below ``cwd``.
+
+    Raises:
+        DescriptionError: no such package, no such file in it, or several files of that name.
+    """
+    here = Path.cwd() if cwd is None else Path(cwd)
+    finder = PackageFinder(package_paths, near=here / package, environ=environ, also=[here])
+    try:
+        folder = finder.find(package)
+    except DescriptionError as err:
+        raise DescriptionError(f"{package} {file_name} (roslaunch's form PKG FILE): {err}") from err
+    where = f"package '{package}' ({folder})"
+    if "/" in file_name or os.sep in file_name:
+        path = folder / file_name
+        if ".." in Path(file_name).parts or Path(file_name).is_absolute():
+            raise DescriptionError(f"{file_name}: leaves {where} (a '..' or absolute path); refused")
+        if not path.is_file():
+            raise DescriptionError(f"{where} has no file {file_name}")
+        return path
+    matches: list[Path] = []
+    seen = 0
+    for root, dirs, files in os.walk(folder):
+        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        seen += len(dirs) + len(files)
+        if seen > MAX_PACKAGE_ENTRIES:
+            raise DescriptionError(f"{where}: more than {MAX_PACKAGE_ENTRIES:,} files and folders; give the path of "
+                                   f"{file_name} instead")
+        if file_name in files:
+            matches.append(Path(root) / file_name)
+    if not matches:
+        raise DescriptionError(f"{where} has no file named {file_name} (roslaunch's form: PKG FILE, the file "
+                               "anywhere in the package)")
+    if len(matches) > 1:
+        listed = ", ".join(str(m.relative_to(folder)) for m in matches)
+        raise DescriptionError(f"{where} has {len(matches)} files named {file_name} ({listed}): give the file's path "
+                               "instead, as roslaunch asks")
+    return matches[0]

@@ -11,9 +11,9 @@ import math
 import warnings
 import xml.etree.ElementTree as ET
 import xml.parsers.expat
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
-from tfrec.errors import DescriptionError, display_path
+from tfrec.errors import DescriptionError, display_path, suggest
 from tfrec.model import (
     Box,
     Cylinder,
@@ -81,15 +81,15 @@ _SHOWN = 5
 """Ignored elements named in the one warning about them; the rest are counted."""
 
 
-def _parse_xml(text: str, where: str) -> tuple[ET.Element, dict[int, int]]:
-    """Parse XML keeping each element's line number (ElementTree drops them)."""
+def _parse_xml(text: str, where: str) -> tuple[ET.Element, dict[int, tuple[int, int]]]:
+    """Parse XML keeping each element's line number and place in document order (ElementTree drops them)."""
     builder = ET.TreeBuilder()
-    lines: dict[int, int] = {}
+    lines: dict[int, tuple[int, int]] = {}
     parser = xml.parsers.expat.ParserCreate()
 
     def start(tag: str, attrs: dict[str, str]) -> None:
         elem = builder.start(tag, attrs)
-        lines[id(elem)] = parser.CurrentLineNumber
+        lines[id(elem)] = (parser.CurrentLineNumber, len(lines))
 
     parser.StartElementHandler = start
     parser.EndElementHandler = builder.end
@@ -106,13 +106,22 @@ def _parse_xml(text: str, where: str) -> tuple[ET.Element, dict[int, int]]:
 
 
 class _Parser:
-    def __init__(self, where: str, lines: dict[int, int] | None) -> None:
+    def __init__(self, where: str, lines: dict[int, tuple[int, int]], *, user_lines: bool,
+                 origins: Sequence[str | None] | None) -> None:
         self.where = where
-        self.lines = lines  # None: line numbers are not the user's (expanded xacro)
+        self._lines = lines
+        self._user_lines = user_lines  # False: line numbers are not the user's (expanded xacro)
+        self._origins = origins
+
+    def place(self, elem: ET.Element | None) -> str | None:
+        """``file:line`` of an element: where the user wrote it (a xacro file's line, with ``origins``)."""
+        line, index = self._lines.get(id(elem), (0, -1)) if elem is not None else (0, -1)
+        if self._origins is not None and 0 <= index < len(self._origins):
+            return self._origins[index]
+        return f"{self.where}:{line}" if self._user_lines and line else None
 
     def fail(self, elem: ET.Element | None, message: str) -> DescriptionError:
-        line = self.lines.get(id(elem)) if (self.lines is not None and elem is not None) else None
-        return DescriptionError(f"{self.where}:{line}: {message}" if line else f"{self.where}: {message}")
+        return DescriptionError(f"{self.place(elem) or self.where}: {message}")
 
     def warn(self, elem: ET.Element | None, message: str) -> None:
         warnings.warn(str(self.fail(elem, message)), stacklevel=4)
@@ -282,20 +291,23 @@ class _Parser:
         )
 
 
-def parse_urdf(text: str, *, source: str | None = None, user_lines: bool = True) -> Robot:
+def parse_urdf(text: str, *, source: str | None = None, user_lines: bool = True,
+               origins: Sequence[str | None] | None = None) -> Robot:
     """Build a validated :class:`Robot` from URDF text.
 
     Args:
         text: the URDF document.
         source: the file it came from, for messages (and kept on the Robot).
         user_lines: whether line numbers in ``text`` are the user's (False for expanded xacro).
+        origins: ``file:line`` each element of ``text`` was written at, in document order (expanded
+            xacro: :attr:`tfrec.description.xacro.XacroExpansion.origins`), for messages.
 
     Raises:
         DescriptionError: malformed XML or an invalid robot, one line naming the element.
     """
     where = display_path(source) if source else "<urdf>"
     root, lines = _parse_xml(text, where)
-    p = _Parser(where, lines if user_lines else None)
+    p = _Parser(where, lines, user_lines=user_lines, origins=origins)
     if root.tag != "robot":
         raise p.fail(root, f"root element is <{root.tag}>, not <robot>")
     name = root.get("name")
@@ -369,8 +381,10 @@ def _warn_ignored(p: _Parser, root: ET.Element) -> None:
             elif (colon and prefix != "xacro") or tag in _OTHER_TOOLS:
                 continue
             else:
-                line = p.lines.get(id(child)) if p.lines is not None else None
-                ignored.append(f"<{tag}>" + (f" (line {line})" if line else f" in <{elem.tag}>"))
+                place = p.place(child)
+                if place is not None and place.startswith(f"{p.where}:"):
+                    place = "line " + place.removeprefix(f"{p.where}:")
+                ignored.append(f"<{tag}>" + (f" ({place})" if place else f" in <{elem.tag}>"))
     if ignored:
         more = f" and {len(ignored) - _SHOWN} more" if len(ignored) > _SHOWN else ""
         warnings.warn(f"{p.where}: ignored {len(ignored)} element{'s' if len(ignored) > 1 else ''} that URDF "
@@ -387,7 +401,8 @@ def _check_tree(p: _Parser, robot: str, links: list[Link], joints: list[Joint],
         for role in ("parent", "child"):
             link = getattr(joint, role)
             if link not in names:
-                raise p.fail(elem_of(joint.name), f"joint '{joint.name}' names unknown {role} link '{link}'")
+                raise p.fail(elem_of(joint.name), f"joint '{joint.name}' names unknown {role} link '{link}'"
+                                                  + suggest(link, names))
         if joint.parent == joint.child:
             raise p.fail(elem_of(joint.name), f"joint '{joint.name}' has link '{joint.child}' as both parent and child")
         if joint.child in parent_of:
@@ -426,8 +441,8 @@ def _check_mimic(p: _Parser, joints: list[Joint], elem_of: Callable[[str], ET.El
     for joint in joints:
         if joint.mimic is not None and joint.mimic.joint not in by_name:
             # urdfdom keeps the name; robot_state_publisher then never moves the joint
-            p.warn(elem_of(joint.name), f"joint '{joint.name}' mimics unknown joint '{joint.mimic.joint}': "
-                   "it stays at its mimic offset")
+            p.warn(elem_of(joint.name), f"joint '{joint.name}' mimics unknown joint '{joint.mimic.joint}'"
+                   f"{suggest(joint.mimic.joint, by_name)}: it stays at its mimic offset")
     for joint in joints:
         if joint.mimic is None:
             continue

@@ -1,15 +1,19 @@
 """Running the PyPI ``xacro`` 2.x library in-process, without ROS.
 
-Three things stock xacro does not do for us, done here for the duration of one expansion:
+What stock xacro does not do for us, done here for the duration of one expansion:
 
 * ``$(find pkg)`` goes to :class:`tfrec.description.packages.PackageFinder` instead of
   ``ament_index_python`` (not on PyPI);
-* calls to defined macros written without the ``xacro:`` prefix (the dialect of
-  xacro <= 1.13, used by ROS Kinetic/Melodic course packages) are expanded, with one
-  warning naming them, or rejected with ``strict=True``. Stock xacro >= 1.14 copies them
-  to the output unexpanded, silently;
-* xacro's global file and include stacks are reset, its stderr chatter becomes Python
-  warnings, and its exceptions become one-line :class:`DescriptionError` naming the file.
+* the Kinetic-era dialect (xacro <= 1.13, the course's packages: ``<property>``, ``<macro>``,
+  ``<include>``, ``<arg>``, ``<if>``, ``<unless>``, ``<insert_block>`` and macro calls without the
+  ``xacro:`` prefix) is expanded as ROS Kinetic/Melodic's xacro did, with one
+  :class:`~tfrec.errors.LegacyXacroWarning` (docs/xacro.md). A file is first expanded exactly as
+  PyPI xacro does; only when that expansion meets a legacy form is it expanded again in the legacy
+  dialect (:mod:`tfrec.description._xacro_dialect`), so a valid modern file comes out as ROS 2's
+  xacro makes it. ``strict=True`` is PyPI xacro alone;
+* xacro's global file and include stacks are reset, its stderr chatter becomes Python warnings, and
+  its exceptions become one-line :class:`DescriptionError` naming the file and line of the element
+  at fault, with the closest defined name for a typo.
 """
 
 from __future__ import annotations
@@ -17,70 +21,61 @@ from __future__ import annotations
 import contextlib
 import io
 import os
-import re
 import threading
 import warnings
 import xml.parsers.expat
 from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
-from tfrec.description._sandbox import SandboxLimits, describe_xacro_failure, xacro_sandbox
+from tfrec.description._sandbox import SandboxLimits, xacro_sandbox
+from tfrec.description._xacro_dialect import DialectHooks, LegacyForm, LegacyFound, Mode
+from tfrec.description._xacro_errors import describe_error
+from tfrec.description._xml_bytes import origin
 from tfrec.description.packages import PackageFinder
-from tfrec.errors import DescriptionError, display_path, one_line
+from tfrec.errors import DescriptionError, LegacyXacroWarning, display_path
 
-__all__ = ["expand_xacro"]
+__all__ = ["XacroExpansion", "expand_xacro", "xacro_expansion"]
 
 _LOCK = threading.Lock()  # xacro keeps module-level state: one expansion at a time
 
 
-class _LegacyCall(Exception):
-    """Raised inside xacro for an un-prefixed macro call under strict mode."""
+@dataclass(frozen=True, slots=True)
+class XacroExpansion:
+    """A xacro file expanded.
+
+    Attributes:
+        text: the URDF document.
+        origins: ``file:line`` each element of ``text`` was written at (in document order), or None.
+        legacy: the legacy forms expanded (or, with ``strict``, left unexpanded).
+    """
+
+    text: str
+    origins: tuple[str | None, ...] = ()
+    legacy: tuple[LegacyForm, ...] = ()
 
 
 @contextlib.contextmanager
-def _patched_xacro(finder: PackageFinder, *, strict: bool, legacy: list[tuple[str, str]]) -> Iterator[Any]:
+def _patched_xacro(finder: PackageFinder) -> Iterator[Any]:
+    """xacro with ``$(find)`` going to ``finder``; its global state is reset on exit."""
     import xacro.substitution_args as subst
 
     import xacro
 
     original_find = subst._eval_find
     original_eval_find = subst._eval_dict.get("find")
-    original_handle = xacro.handle_macro_call
 
     def find(pkg: str) -> str:
         return str(finder.find(pkg))
 
-    def handle_macro_call(node: Any, macros: Any, symbols: Any) -> bool:
-        tag = node.tagName
-        if ":" not in tag and not _inside_foreign_block(node):
-            try:
-                _, _, macro = xacro.resolve_macro(tag, macros, symbols)
-            except KeyError:
-                macro = None  # not a macro: an ordinary element
-            # an element named like a macro is a call, as in xacro <= 1.13 (whose errors for missing or
-            # unknown parameters it then gets), unless it is also a URDF element that does not fit the
-            # macro (a literal <inertial> beside an "inertial" macro)
-            if macro is not None and (tag not in _URDF_ELEMENTS or _fits(node, macro)):
-                where = _call_site(xacro)
-                if strict:
-                    raise _LegacyCall(
-                        f"{display_path(where)}: macro call <{tag}> without the 'xacro:' prefix "
-                        f"(legacy xacro dialect refused by `strict_xacro`; write <xacro:{tag} .../>)"
-                    )
-                legacy.append((tag, display_path(where)))
-                node.tagName = node.nodeName = "xacro:" + tag
-        return bool(original_handle(node, macros, symbols))
-
     subst._eval_find = find
     subst._eval_dict["find"] = find
-    xacro.handle_macro_call = handle_macro_call
     try:
         yield xacro
     finally:
         subst._eval_find = original_find
         if original_eval_find is not None:
             subst._eval_dict["find"] = original_eval_find
-        xacro.handle_macro_call = original_handle
         xacro.init_stacks(None)
         xacro.all_includes = []
         xacro.substitution_args_context.clear()
@@ -96,94 +91,152 @@ def expand_xacro(
     allow_paths: Sequence[str | os.PathLike[str]] = (),
     limits: SandboxLimits | None = None,
 ) -> str:
-    """Expand a xacro file to URDF text, in the sandbox (:mod:`tfrec.description._sandbox`): expressions
+    """Expand a xacro file to URDF text: :func:`xacro_expansion`'s text."""
+    return xacro_expansion(path, args=args, finder=finder, strict=strict, package_paths=package_paths,
+                           allow_paths=allow_paths, limits=limits).text
+
+
+def xacro_expansion(
+    path: str | os.PathLike[str],
+    *,
+    args: Mapping[str, str] | None = None,
+    finder: PackageFinder,
+    strict: bool = False,
+    package_paths: Sequence[str | os.PathLike[str]] = (),
+    allow_paths: Sequence[str | os.PathLike[str]] = (),
+    limits: SandboxLimits | None = None,
+) -> XacroExpansion:
+    """Expand a xacro file to URDF, in the sandbox (:mod:`tfrec.description._sandbox`): expressions
     cannot reach Python's internals or builtins, files are read only inside the input's workspace, the
     packages found, ``package_paths`` and ``allow_paths``, and the expansion is bounded by ``limits``.
+
+    A file is expanded as PyPI xacro expands it; one that holds the Kinetic-era dialect (legacy
+    forms that PyPI xacro would copy to its output) is then expanded as xacro <= 1.13 did, with one
+    :class:`~tfrec.errors.LegacyXacroWarning` (docs/xacro.md).
 
     Args:
         path: the ``.xacro`` / ``.urdf.xacro`` file.
         args: xacro arguments (``name:=value`` on a command line), as strings.
         finder: resolves ``$(find pkg)``.
-        strict: refuse legacy un-prefixed macro calls instead of expanding them.
+        strict: expand as PyPI xacro does, legacy forms left as they are (with a warning).
         package_paths: ``--package-path`` folders (may be read).
         allow_paths: further folders or files that may be read (``--allow-path``).
         limits: bounds of the expansion (output, expansion steps, XML depth, file sizes).
 
-    Returns:
-        The expanded URDF document as text.
-
     Raises:
-        DescriptionError: any xacro, XML or package error, naming the file.
+        DescriptionError: any xacro, XML or package error, naming the file and line.
     """
-    mappings = _Args({str(k): str(v) for k, v in (args or {}).items()})
-    legacy: list[tuple[str, str]] = []
-    chatter = io.StringIO()
-    with _LOCK, xacro_sandbox(path, finder=finder, package_paths=package_paths, allow_paths=allow_paths,
-                              limits=limits or SandboxLimits()), _patched_xacro(finder, strict=strict, legacy=legacy) as xacro:
-        filename = os.fspath(path)
-        message: str | None = None
-        try:
-            with contextlib.redirect_stderr(chatter):
-                xacro.init_stacks(filename)
-                doc = xacro.parse(None, filename)
-                xacro.process_doc(doc, mappings=mappings)
-        except RecursionError as err:
-            message = (f"{display_path(filename)}: xacro recursion too deep: a file includes itself or a macro "
-                       "calls itself without end")
-            cause: BaseException = err
-        except _LegacyCall as err:
-            message, cause = str(err), err
-        except DescriptionError as err:  # a refusal of the sandbox, $(find) of an unknown package
-            message = (describe_xacro_failure(err, filename=filename, filestack=xacro.filestack)
-                       or f"{_where(xacro, filename)}: {err}")
-            cause = err
-        except xml.parsers.expat.ExpatError as err:
-            message = (f"{_where(xacro, filename)}:{err.lineno}:{err.offset}: malformed XML: "
-                       f"{xml.parsers.expat.ErrorString(err.code)}")
-            cause = err
-        except xacro.XacroException as err:
-            message = (describe_xacro_failure(err, filename=filename, filestack=xacro.filestack)
-                       or f"{_where(xacro, filename)}: {_xacro_message(err)}")
-            cause = err
-        except RuntimeError as err:  # xacro's bare RuntimeError for an element missing an attribute
-            message = describe_xacro_failure(err, filename=filename, filestack=xacro.filestack)
-            if message is None:
-                raise
-            cause = err
-        except (NameError, TypeError, ValueError, ZeroDivisionError, SyntaxError, KeyError, IndexError) as err:
-            # xacro lets some evaluation errors through unwrapped
-            message, cause = f"{_where(xacro, filename)}: xacro: {err}", err
-        except OSError as err:
-            message, cause = f"{_where(xacro, filename)}: {err.strerror or err}: {err.filename}", err
-        if message is not None:
-            raise DescriptionError(_with_twins(message, finder)) from cause
-        text: str = doc.toprettyxml(indent="  ")
+    job = _Job(path, dict(args or {}), finder, package_paths, allow_paths, limits or SandboxLimits())
+    with _LOCK:
+        run = job.run(Mode.STRICT if strict else Mode.PROBE)
+        if run.found is not None:
+            run = job.run(Mode.LEGACY)
+    if run.error is not None:
+        raise run.error
     finder.warn_twins()
-    _warn_unused_args(filename, mappings)
-    for line in chatter.getvalue().splitlines():
+    _warn_unused_args(job.filename, run.mappings)
+    for line in run.chatter.splitlines():
         if line.strip():
-            warnings.warn(f"{display_path(filename)}: xacro: {line.strip()}", stacklevel=2)
+            warnings.warn(f"{display_path(job.filename)}: xacro: {line.strip()}", stacklevel=3)
+    legacy = tuple(run.hooks.forms)
     if legacy:
-        names = sorted({name for name, _ in legacy})
-        files = sorted({where for _, where in legacy})
-        warnings.warn(
-            f"{', '.join(files)}: expanded legacy macro calls without the 'xacro:' prefix: "
-            f"{', '.join('<' + n + '>' for n in names)} (xacro >= 1.14 leaves them unexpanded; "
-            "`strict_xacro` refuses them)",
-            stacklevel=2,
-        )
-    return text
+        warnings.warn(LegacyXacroWarning(_legacy_message(legacy, expanded=not strict)), stacklevel=3)
+    return XacroExpansion(run.text, run.origins, legacy)
 
 
-_URDF_ELEMENTS = frozenset({
-    "robot", "link", "joint", "visual", "collision", "inertial", "origin", "geometry", "box", "cylinder", "sphere",
-    "mesh", "material", "color", "texture", "mass", "inertia", "parent", "child", "axis", "limit", "dynamics",
-    "calibration", "mimic", "safety_controller", "gazebo", "transmission", "ros2_control", "sensor",
-})
-"""Elements a URDF holds: one of them is a legacy macro call only when it fits the macro."""
+@dataclass
+class _Run:
+    """One expansion of a :class:`_Job`, in one :class:`Mode`."""
 
-_FOREIGN_BLOCKS = frozenset({"gazebo", "ros2_control", "transmission"})
-"""Elements whose content is for other tools (SDF, controllers): never legacy macro calls."""
+    hooks: DialectHooks
+    mappings: _Args
+    chatter: str = ""
+    text: str = ""
+    origins: tuple[str | None, ...] = ()
+    error: DescriptionError | None = None
+    found: LegacyForm | None = None
+
+
+@dataclass
+class _Job:
+    path: str | os.PathLike[str]
+    args: dict[str, str]
+    finder: PackageFinder
+    package_paths: Sequence[str | os.PathLike[str]]
+    allow_paths: Sequence[str | os.PathLike[str]]
+    limits: SandboxLimits
+    filename: str = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.filename = os.fspath(self.path)
+
+    def run(self, mode: Mode) -> _Run:
+        chatter = io.StringIO()
+        with xacro_sandbox(self.path, finder=self.finder, package_paths=self.package_paths,
+                           allow_paths=self.allow_paths, limits=self.limits), \
+                _patched_xacro(self.finder) as xacro, DialectHooks(xacro, mode).installed() as hooks:
+            run = _Run(hooks, _Args(self.args))
+            try:
+                with contextlib.redirect_stderr(chatter):
+                    xacro.init_stacks(self.filename)
+                    doc = xacro.parse(None, self.filename)
+                    xacro.process_doc(doc, mappings=run.mappings)
+            except LegacyFound as found:
+                run.found = found.form
+                return run
+            except (RecursionError, DescriptionError, xml.parsers.expat.ExpatError, xacro.XacroException,
+                    RuntimeError, NameError, TypeError, ValueError, ZeroDivisionError, SyntaxError, KeyError,
+                    IndexError, OSError) as err:
+                message = describe_error(err, xacro=xacro, hooks=hooks, filename=self.filename)
+                run.error = DescriptionError(_with_twins(message, self.finder))
+                run.error.__cause__ = err
+                return run
+            run.text = doc.toprettyxml(indent="  ")
+            run.origins = _origins(doc.documentElement)
+        run.chatter = chatter.getvalue()
+        return run
+
+
+def _origins(root: Any) -> tuple[str | None, ...]:
+    """``file:line`` of each element under ``root``, in document order (each file displayed once)."""
+    shown: dict[str, str] = {}
+    out: list[str | None] = []
+    for node in _elements(root):
+        where = origin(node)
+        if where is None:
+            out.append(None)
+            continue
+        file = shown.get(where[0])
+        if file is None:
+            file = shown[where[0]] = display_path(where[0])
+        out.append(f"{file}:{where[1]}")
+    return tuple(out)
+
+
+def _elements(root: Any) -> Iterator[Any]:
+    """The elements under ``root`` (itself first), in document order."""
+    stack = [root]
+    while stack:
+        node = stack.pop()
+        yield node
+        stack.extend(reversed([c for c in node.childNodes if c.nodeType == c.ELEMENT_NODE]))
+
+
+def _legacy_message(forms: Sequence[LegacyForm], *, expanded: bool) -> str:
+    """The one warning about the legacy forms of an expansion."""
+    files = ", ".join(dict.fromkeys(display_path(f.where[0]) for f in forms if f.where is not None)) or "<string>"
+    tags = ", ".join(sorted({f"<{f.tag}>" for f in forms if not f.call}, key=str.lower))
+    calls = ", ".join(sorted({f"<{f.tag}>" for f in forms if f.call}, key=str.lower))
+    if tags and calls:
+        what = f"legacy tags and macro calls without the 'xacro:' prefix: {tags}; calls of {calls}"
+    else:
+        what = f"legacy {'tags' if tags else 'macro calls'} without the 'xacro:' prefix: {tags or calls}"
+    if not expanded:
+        return (f"{files}: left {what} unexpanded, as ROS 2's xacro does (`strict_xacro`); they are the course's "
+                "Kinetic-era dialect (xacro <= 1.13), which ROS 1's xacro expanded")
+    return (f"{files}: the course's Kinetic-era xacro dialect (xacro <= 1.13): expanded {what}, as ROS "
+            "Kinetic/Melodic's xacro did (ROS 2's xacro leaves them unexpanded); write the prefix, or silence "
+            f"this warning with {LegacyXacroWarning.SILENCE}")
 
 
 class _Args(dict[str, str]):
@@ -226,69 +279,4 @@ def _warn_unused_args(filename: str, args: _Args) -> None:
         hint = f"; did you mean '{close[0]}'?" if close else (
             f" (its arguments: {', '.join(declared)})" if declared else " (it declares none)")
         warnings.warn(f"{display_path(filename)}: xacro argument {name}:={args[name]} is not an argument of this "
-                      f"description, and is ignored{hint}", stacklevel=3)
-
-
-def _inside_foreign_block(node: Any) -> bool:
-    parent = node.parentNode
-    while parent is not None and getattr(parent, "tagName", None) is not None:
-        if parent.tagName in _FOREIGN_BLOCKS:
-            return True
-        parent = parent.parentNode
-    return False
-
-
-def _fits(node: Any, macro: Any) -> bool:
-    """Whether an un-prefixed element can be a call of ``macro``, as xacro <= 1.13 would expand it.
-
-    Its attributes must be parameters of the macro, every parameter without a default must be
-    given, and its child elements must match the block parameters (``*name``, ``**name``) one to
-    one. An element that does not fit (a Gazebo ``<camera>`` with children beside a ``camera``
-    macro) is an ordinary element, left alone as xacro >= 1.14 does.
-    """
-    params = list(macro.params)
-    plain = {p for p in params if not p.startswith("*")}
-    blocks = [p for p in params if p.startswith("*")]
-    attributes = set(node.attributes.keys())
-    if not attributes <= plain:
-        return False
-    if any(p not in attributes and p not in macro.defaultmap for p in plain):
-        return False
-    children = [c for c in node.childNodes if c.nodeType == c.ELEMENT_NODE]
-    return len(children) == len(blocks)
-
-
-def _call_site(xacro: Any) -> str | None:
-    """The file holding the element being expanded: the current macro's, else the current file."""
-    if xacro.macrostack:
-        history = xacro.macrostack[-1].history
-        if history and history[-1] and history[-1][-1]:
-            return str(history[-1][-1])
-    return xacro.filestack[-1] if xacro.filestack else None
-
-
-def _where(xacro: Any, filename: str) -> str:
-    stack = [f for f in (xacro.filestack or []) if f]
-    return display_path(stack[-1] if stack else filename)
-
-
-def _xacro_message(err: Exception) -> str:
-    cause = getattr(err, "exc", None)
-    if isinstance(cause, OSError) and cause.filename:  # xacro appends the OSError to its own text of it
-        message = f"{cause.strerror or cause}: {cause.filename}"
-    else:
-        message = one_line(str(err))
-        # xacro's text of an exception it wraps: "<class 'xacro.…Exception'>: TEXT TEXT"
-        message = re.sub(r"^<class '[\w.]+'>: ", "", message)
-        half = (len(message) - 1) // 2
-        if len(message) % 2 == 1 and message[half] == " " and message[:half] == message[half + 1:]:
-            message = message[:half]
-    undefined = re.search(r"Undefined substitution argument (\S+)", message)
-    if undefined:  # an <xacro:arg> without a default that the caller must give
-        message += f" (give it as {undefined.group(1)}:=VALUE after the description)"
-    macros = getattr(err, "macros", None)
-    if macros:
-        names = [m.body.getAttribute("name") for m in macros if getattr(m, "body", None) is not None]
-        if names:
-            message += f" (in macro {' < '.join(names)})"
-    return message
+                      f"description, and is ignored{hint}", stacklevel=4)

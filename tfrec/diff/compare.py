@@ -208,6 +208,9 @@ class _Comparison:
                 side, info, rec = ("A", ia, a) if ib is None else ("B", ib, b)
                 assert info is not None
                 namespace = name[: -len(TF_STATIC)]
+                if info.count == 0:  # offered, never published on: robot_state_publisher's /tf without moving joints
+                    self.report.notes.append(f"{name} only in {side}, without messages: the same as no {name}")
+                    continue
                 if (name.endswith(TF_STATIC) and not rec.robot_topics(namespace).tf_static
                         and decodes_type(name, info.type)):
                     self.report.notes.append(

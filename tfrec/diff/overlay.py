@@ -17,9 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from tfrec._atomic import AtomicOutputs, check_target
+from tfrec._atomic import AtomicOutputs
+from tfrec._outputs import check_target
 from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.diff.motion import MotionComparison, Posed
+from tfrec.formats.kinds import RRD
 from tfrec.formats.rrd.overlay import OverlayErrors, OverlayRobot
 from tfrec.formats.rrd.overlay import write_overlay as write_rrd
 from tfrec.kinematics.fk import Transforms
@@ -46,13 +48,13 @@ def write_overlay(
         WriteError: ``path`` is not an ``.rrd``, exists (without ``force``), or cannot be written.
     """
     target = Path(path)
-    check_target(target, suffix=".rrd", what="Rerun", force=force)
     c = comparison
+    check_target(target, RRD, force=force, inputs=[c.a.side.path, c.b.side.path])
     recordings = [side.side.recording for side in (c.a, c.b) if side.side.recording is not None]
     origin = (data_start_ns(recordings[0]) or 0) if recordings else DEFAULT_START_TIME_NS
     errors = OverlayErrors(c.links, c.position_error, c.rotation_error, c.position_tol, c.rotation_tol)
     with AtomicOutputs(replace=force) as outputs:
-        write_rrd(outputs.path(target), a=_robot(c.a), b=_robot(c.b), stamp_ns=c.time_ns + origin, errors=errors,
+        write_rrd(outputs.path(target, kind=RRD), a=_robot(c.a), b=_robot(c.b), stamp_ns=c.time_ns + origin, errors=errors,
                   recording_id=_recording_id(c), name=f"diff {c.a.side.title} ↔ {c.b.side.title}",
                   package_paths=package_paths)
         outputs.commit()

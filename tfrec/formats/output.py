@@ -23,7 +23,7 @@ from tfrec.formats.mcap.raw_writer import McapWriter
 from tfrec.formats.ros.connection import Connection
 from tfrec.formats.ros.decode import RawMessages
 from tfrec.formats.rosbag1.writer import Ros1BagWriter
-from tfrec.formats.rosbag2.metadata import write_bag_metadata
+from tfrec.formats.rosbag2.metadata import bag_storage_name, write_bag_metadata
 
 __all__ = ["OUTPUT_KINDS", "MessageWriter", "open_output"]
 
@@ -105,10 +105,10 @@ class _McapOutput(MessageWriter):
     def __init__(self, path: Path, *, compression: str, bag_dir: Path | None) -> None:
         super().__init__()
         self._bag_dir = bag_dir
+        self._file_name = path.name
         self._stream: IO[bytes] = open(path, "wb")  # noqa: SIM115 - closed by finish() or abort()
         try:
-            self._writer = McapWriter(self._stream, compression=compression,
-                                      file_name=path.name if bag_dir is not None else "")
+            self._writer = McapWriter(self._stream, compression=compression)
         except BaseException:
             self._stream.close()
             raise
@@ -126,7 +126,7 @@ class _McapOutput(MessageWriter):
         self._writer.finish()
         self._stream.close()
         if self._bag_dir is not None:
-            write_bag_metadata(self._bag_dir, self._writer.bag_info)
+            write_bag_metadata(self._bag_dir, self._writer.bag_info, file_name=self._file_name)
 
     def abort(self) -> None:
         self._writer.abort()
@@ -175,7 +175,7 @@ def open_output(path: Path, *, kind: str, compression: str | None = None, name: 
     if kind == "rosbag1":
         return _Ros1Output(path, compression=compression or "none")
     if kind == "rosbag2":
-        return _McapOutput(path / f"{name or path.name}_0.mcap", compression=compression or "zstd", bag_dir=path)
+        return _McapOutput(path / bag_storage_name(name or path.name), compression=compression or "zstd", bag_dir=path)
     if kind != "mcap":
         raise ValueError(f"output kind {kind!r} is not one of {', '.join(OUTPUT_KINDS)}")
     return _McapOutput(path, compression=compression or "zstd", bag_dir=None)

@@ -23,13 +23,14 @@ import json
 import math
 import os
 import stat
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
 from typing import IO, Any, Literal, final
 
 from tfrec._atomic import AtomicOutputs
+from tfrec._outputs import FileKind, check_target
 from tfrec.errors import ReadError, RecordingError, TfrecError, WriteError, one_line
 
 __all__ = [
@@ -41,9 +42,11 @@ __all__ = [
     "Column",
     "ReportError",
     "ReportWriter",
+    "check_report",
     "is_report",
     "read_report",
     "report_format",
+    "report_kind",
     "report_problem",
 ]
 
@@ -127,6 +130,32 @@ def report_format(path: str | os.PathLike[str]) -> str:
     return suffix
 
 
+def _kind_test(path: Path, head: bytes) -> str | None:
+    """Why an existing file is not a tfrec report (:func:`report_problem`), for ``--force``'s check."""
+    try:
+        return _problem(path, report_format(path))
+    except OSError as err:
+        return f"it cannot be read: {err.strerror or err}"
+
+
+_FIRST_ROW_BYTES = 1 << 20
+"""The longest line a report's reader takes (a row is a few hundred bytes; a traceback in ``detail`` a few kB)."""
+
+
+PARQUET_REPORT = FileKind("a tfrec report", (b"PAR1",), test=_kind_test)
+JSONL_REPORT = FileKind("a tfrec report", empty=True, test=_kind_test)
+"""An empty file is a JSON-lines report too: the report of a run stopped before its first row."""
+
+
+def report_kind(path: str | os.PathLike[str]) -> FileKind:
+    """The kind of the report ``path`` (:class:`tfrec._outputs.OutputKind`: how an existing one is recognized).
+
+    Raises:
+        ReportError: a name that ends in neither .parquet nor .jsonl.
+    """
+    return PARQUET_REPORT if report_format(path) == ".parquet" else JSONL_REPORT
+
+
 def _arrow_schema(columns: tuple[Column, ...]) -> Any:
     import pyarrow as pa
 
@@ -152,24 +181,28 @@ class ReportWriter:
     """
 
     def __init__(self, path: str | os.PathLike[str], *, columns: tuple[Column, ...] = REPORT_COLUMNS,
-                 row_group_rows: int = ROW_GROUP_ROWS) -> None:
-        """Start a report at ``path`` (``.parquet`` or ``.jsonl``); an existing one is replaced at close.
+                 row_group_rows: int = ROW_GROUP_ROWS, force: bool = False) -> None:
+        """Start a report at ``path`` (``.parquet`` or ``.jsonl``); with ``force`` an existing report is replaced
+        at close (``--resume`` passes it: it read that report first), a file that is not a report never.
 
         Raises:
-            ReportError: another extension, or the temporary file cannot be created.
+            ReportError: another extension, an existing report without ``force``, an existing file that is no
+                tfrec report, or the temporary file cannot be created.
         """
         self.path = Path(path)
         self.format = report_format(path)
+        kind = report_kind(path)
+        check_target(self.path, kind, force=force)
         self.columns = columns
         self.names = tuple(c.name for c in columns)
         self.rows_written = 0
         self._group = max(1, row_group_rows)
         self._buffer: list[dict[str, Any]] = []
-        self._outputs = AtomicOutputs()
+        self._outputs = AtomicOutputs(replace=force)
         self._text: IO[str] | None = None
         self._parquet: Any = None
         try:
-            self._temp = self._outputs.path(self.path)
+            self._temp = self._outputs.path(self.path, kind=kind)
             if self.format == ".jsonl":
                 self._text = open(self._temp, "w", encoding="utf-8")  # noqa: SIM115 - closed by close() or abort()
             else:
@@ -342,11 +375,23 @@ def _parquet_problem(file: Path) -> str | None:
     return None
 
 
+def _lines(stream: IO[bytes]) -> Iterator[tuple[int, bytes]]:
+    """The lines of a JSON-lines file that are not blank, numbered; a line longer than :data:`_FIRST_ROW_BYTES`
+    is given cut there (it is then no JSON: no report row is that long)."""
+    number = 0
+    while line := stream.readline(_FIRST_ROW_BYTES):
+        number += 1
+        if len(line) == _FIRST_ROW_BYTES and not line.endswith(b"\n"):
+            yield number, line
+            return
+        if line.strip():
+            yield number, line
+
+
 def _first_row_problem(file: Path) -> str | None:
     with open(file, "rb") as stream:
-        for number, line in enumerate(stream, 1):
-            if line.strip():
-                return _line_record(line, number)[1]
+        for number, line in _lines(stream):
+            return _line_record(line, number)[1]
     return None
 
 
@@ -363,9 +408,29 @@ def report_problem(path: str | os.PathLike[str]) -> str | None:
     fmt = report_format(path)
     file = Path(path)
     try:
-        return _file_problem(file) or (_parquet_problem(file) if fmt == ".parquet" else _first_row_problem(file))
+        return _problem(file, fmt)
     except OSError as err:
         raise ReadError(f"{file}: cannot read: {err.strerror or err}") from None
+
+
+def _problem(file: Path, fmt: str) -> str | None:
+    """:func:`report_problem` of a report of format ``fmt``.
+
+    Raises:
+        OSError: the file cannot be read.
+    """
+    return _file_problem(file) or (_parquet_problem(file) if fmt == ".parquet" else _first_row_problem(file))
+
+
+def check_report(path: str | os.PathLike[str]) -> None:
+    """Raise unless the existing file at ``path`` is a tfrec report (:func:`report_problem`).
+
+    Raises:
+        ReportError: ``FILE: not a tfrec report: why``, or a file that cannot be read.
+    """
+    problem = report_problem(path)
+    if problem is not None:
+        raise ReadError(f"{os.fspath(path)}: not a tfrec report: {problem}")
 
 
 def is_report(path: str | os.PathLike[str]) -> bool:
@@ -438,9 +503,7 @@ def _parquet_rows(file: Path) -> list[dict[str, Any]]:
 def _jsonl_rows(file: Path) -> list[dict[str, Any]]:
     records = []
     with open(file, "rb") as stream:
-        for number, line in enumerate(stream, 1):
-            if not line.strip():
-                continue
+        for number, line in _lines(stream):
             record, problem = _line_record(line, number)
             if problem is not None:
                 raise ReadError(f"{file}: not a tfrec report: {problem}")

@@ -20,10 +20,20 @@ from tfrec.plots._figure import (
     PlotError,
     assign_colours,
     graph_format,
+    picture_kind,
     plot_format,
     refuse_existing,
 )
-from tfrec.plots.errors import ErrorSeries, errors_from_check, errors_from_diff, plot_check, plot_diff, plot_errors
+from tfrec.plots.errors import (
+    ErrorSeries,
+    errors_from_check,
+    errors_from_diff,
+    errors_from_motion,
+    plot_check,
+    plot_diff,
+    plot_errors,
+    plot_motion,
+)
 from tfrec.plots.recording import FramePaths, default_frames, frame_paths, plot_recording
 from tfrec.plots.tree import GraphEdge, TreeGraph, recorded_graph, render_graph, robot_graph, to_dot
 
@@ -39,12 +49,15 @@ __all__ = [
     "default_frames",
     "errors_from_check",
     "errors_from_diff",
+    "errors_from_motion",
     "frame_paths",
     "graph_format",
+    "picture_kind",
     "plot_check",
     "plot_diff",
     "plot_errors",
     "plot_format",
+    "plot_motion",
     "plot_recording",
     "recorded_graph",
     "refuse_existing",

@@ -21,7 +21,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tfrec._atomic import AtomicOutputs
-from tfrec.errors import PlotError, WriteError, display_path
+from tfrec._outputs import FileKind, check_target
+from tfrec.errors import PlotError
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -39,6 +40,7 @@ __all__ = [
     "graph_format",
     "natural_key",
     "new_figure",
+    "picture_kind",
     "plot_format",
     "refuse_existing",
     "save_figure",
@@ -75,17 +77,42 @@ MAX_POINTS = 4000
 _FONT = "DejaVu Sans"  # ships with matplotlib: the same metrics everywhere
 
 
-def refuse_existing(path: str | os.PathLike[str], *, force: bool) -> None:
-    """Refuse to draw over an existing file unless ``force`` (checked before anything is drawn).
+def _svg(path: Path, head: bytes) -> str | None:
+    text = head.decode("utf-8", "replace").lstrip("\ufeff \t\r\n")
+    return None if text.startswith("<") and "<svg" in text else "its text is not SVG"
+
+
+_DOT = re.compile(r"\s*(?:(?://|#)[^\n]*\n\s*|/\*.*?\*/\s*)*(?:strict\s+)?(?:di)?graph\b", re.IGNORECASE | re.DOTALL)
+
+
+def _dot(path: Path, head: bytes) -> str | None:
+    return None if _DOT.match(head.decode("utf-8", "replace").lstrip("\ufeff")) else "no graph or digraph statement begins it"
+
+
+PICTURE_KINDS: dict[str, FileKind] = {
+    "png": FileKind("a PNG picture", (b"\x89PNG\r\n\x1a\n",)),
+    "pdf": FileKind("a PDF document", (b"%PDF-",)),
+    "svg": FileKind("an SVG picture", test=_svg),
+    "dot": FileKind("a Graphviz DOT graph", test=_dot),
+}
+"""The kind of each picture format (:class:`tfrec._outputs.OutputKind`: how an existing one is recognized)."""
+
+
+def picture_kind(path: str | os.PathLike[str]) -> FileKind:
+    """The kind of the picture ``path`` from its suffix (checked by :func:`plot_format` or :func:`graph_format`)."""
+    return PICTURE_KINDS[Path(path).suffix.lower().lstrip(".")]
+
+
+def refuse_existing(path: str | os.PathLike[str], *, force: bool,
+                    inputs: Iterable[str | os.PathLike[str] | None] = ()) -> None:
+    """Check a picture's name before anything is drawn (:func:`tfrec._outputs.check_target`): an existing file
+    only with ``force``, and only a picture of its format; never an input.
 
     Raises:
-        WriteError: ``path`` exists (or is a folder) and ``force`` is not set.
+        WriteError: ``path`` exists (without ``force``; a folder, a link or a file of another kind in any case), is
+            too long a name, or is an input.
     """
-    target = Path(path)
-    if target.is_dir():
-        raise WriteError(f"{display_path(target)}: exists and is a folder")
-    if target.exists() and not force:
-        raise WriteError(f"{display_path(target)}: already exists (use `force` to overwrite)")
+    check_target(Path(path), picture_kind(path), force=force, inputs=inputs)
 
 
 def _output_format(path: str | os.PathLike[str], formats: tuple[str, ...], what: str) -> str:
@@ -222,7 +249,7 @@ def save_figure(fig: Figure, path: str | os.PathLike[str], fmt: str, *, force: b
     """
     target = Path(path)
     with AtomicOutputs(replace=force) as outputs:
-        temp = outputs.path(target)
+        temp = outputs.path(target, kind=PICTURE_KINDS[fmt])
         fig.savefig(temp, format=fmt, dpi=DPI, metadata=_METADATA[fmt])
         outputs.commit()
 
@@ -235,5 +262,5 @@ def write_text(path: str | os.PathLike[str], text: str, *, force: bool = False) 
     """
     target = Path(path)
     with AtomicOutputs(replace=force) as outputs:
-        outputs.path(target).write_text(text, encoding="utf-8")
+        outputs.path(target, kind=picture_kind(target)).write_text(text, encoding="utf-8")
         outputs.commit()

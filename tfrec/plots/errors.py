@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -27,11 +28,12 @@ from tfrec.resample import align, data_start_ns
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
+    from tfrec.diff.motion import MotionComparison
     from tfrec.diff.report import DiffReport
     from tfrec.replay.check import CheckReport
 
-__all__ = ["MAX_SHOWN", "ErrorSeries", "errors_from_check", "errors_from_diff", "plot_check", "plot_diff",
-           "plot_errors"]
+__all__ = ["MAX_SHOWN", "ErrorSeries", "errors_from_check", "errors_from_diff", "errors_from_motion", "plot_check",
+           "plot_diff", "plot_errors", "plot_motion"]
 
 Array = NDArray[np.float64]
 
@@ -106,7 +108,7 @@ def _floor(values: list[Array], tol: float) -> float | None:
 
 
 def _panel(ax: Axes, shown: Sequence[ErrorSeries], which: str, tol: float, unit: str,
-           colours: dict[str, tuple[str, str]], span: tuple[float, float]) -> None:
+           colours: dict[str, tuple[str, str]], span: tuple[float, float], item: str = "frame") -> None:
     values = [getattr(s, which) for s in shown]
     floor = _floor(values, tol)
     earliest: tuple[float, str] | None = None
@@ -142,18 +144,19 @@ def _panel(ax: Axes, shown: Sequence[ErrorSeries], which: str, tol: float, unit:
         top = _nanmax(np.concatenate(values))
         ax.set_ylim(0.0, max(top, tol) * 1.15 or 1.0)
         if top == 0.0:
-            ax.text(0.5, 0.5, f"no {which.split('_')[0]} error in the frames drawn", transform=ax.transAxes,
+            ax.text(0.5, 0.5, f"no {which.split('_')[0]} error in the {item}s drawn", transform=ax.transAxes,
                     ha="center", va="center", color="#666666", fontsize=9)
         ax.set_ylabel(f"{which.split('_')[0]} error ({unit})")
-    quantity = "translation error per frame" if which == "translation_m" else \
-        "rotation error per frame (angle of the relative rotation)"
+    quantity = f"translation error per {item}" if which == "translation_m" else \
+        f"rotation error per {item} (angle of the relative rotation)"
     first = "" if earliest is None else f" — first above tolerance: {earliest[1]} at t={earliest[0]:.3f} s"
     ax.set_title(quantity + first, loc="left", fontsize=9)
     ax.grid(True, which="major", linewidth=0.4, alpha=0.5)
 
 
 def plot_errors(series: Sequence[ErrorSeries], path: str | os.PathLike[str], *, pos_tol: float, rot_tol: float,
-                title: str, subtitle: str = "", notes: Sequence[str] = (), force: bool = False) -> None:
+                title: str, subtitle: str = "", notes: Sequence[str] = (), force: bool = False, item: str = "frame",
+                time_origin: str = "the recording's start") -> None:
     """Plot per-frame translation and rotation errors over time to ``path`` (``.png``, ``.svg``, ``.pdf``).
 
     The :data:`MAX_SHOWN` worst frames (largest error relative to its tolerance) are drawn, worst
@@ -168,6 +171,8 @@ def plot_errors(series: Sequence[ErrorSeries], path: str | os.PathLike[str], *, 
         title: what is compared, with which files.
         subtitle: a second line (default: the tolerances and how many frames exceed them).
         notes: lines drawn under the plot (frames not compared, and why).
+        item: what a series is (``frame``; ``link`` for a description diff), for the labels.
+        time_origin: what times count from, for the time axis.
 
     Raises:
         PlotError: a bad suffix, or no series.
@@ -181,22 +186,23 @@ def plot_errors(series: Sequence[ErrorSeries], path: str | os.PathLike[str], *, 
     shown, rest = ordered[:MAX_SHOWN], ordered[MAX_SHOWN:]
     failing = sum(s.badness(pos_tol, rot_tol) > 1.0 for s in ordered)
     if not subtitle:
-        subtitle = (f"tolerances {pos_tol:g} m, {rot_tol:g} rad: {failing} of {len(ordered)} frame"
+        subtitle = (f"tolerances {pos_tol:g} m, {rot_tol:g} rad: {failing} of {len(ordered)} {item}"
                     f"{'s' if len(ordered) != 1 else ''} above")
     from tfrec.plots._figure import plot_style, save_figure
 
     with plot_style():
-        fig = _draw(shown, rest, pos_tol, rot_tol, title, subtitle, notes)
+        fig = _draw(shown, rest, pos_tol, rot_tol, title, subtitle, notes, item=item, time_origin=time_origin)
         save_figure(fig, path, fmt, force=force)
 
 
 def _draw(shown: Sequence[ErrorSeries], rest: Sequence[ErrorSeries], pos_tol: float, rot_tol: float, title: str,
-          subtitle: str, notes: Sequence[str]) -> Any:
+          subtitle: str, notes: Sequence[str], *, item: str, time_origin: str) -> Any:
     from matplotlib.lines import Line2D
 
     from tfrec.plots._figure import new_figure
 
-    fig = new_figure(14.0, 7.6 + 0.2 * len(notes))
+    height = 7.6 + 0.2 * len(notes)
+    fig = new_figure(14.0, height)
     fig.set_layout_engine("constrained", h_pad=0.08, w_pad=0.08)
     ax_t = fig.add_subplot(2, 1, 1)
     ax_r = fig.add_subplot(2, 1, 2, sharex=ax_t)
@@ -206,9 +212,9 @@ def _draw(shown: Sequence[ErrorSeries], rest: Sequence[ErrorSeries], pos_tol: fl
     lo = min((float(np.nanmin(t)) for t in times), default=0.0)
     hi = max((float(np.nanmax(t)) for t in times), default=1.0)
     span = (lo, hi if hi > lo else lo + 1.0)
-    _panel(ax_t, shown, "translation_m", pos_tol, "m", colours, span)
-    _panel(ax_r, shown, "rotation_rad", rot_tol, "rad", colours, span)
-    ax_r.set_xlabel("time (s) from the recording's start")
+    _panel(ax_t, shown, "translation_m", pos_tol, "m", colours, span, item)
+    _panel(ax_r, shown, "rotation_rad", rot_tol, "rad", colours, span, item)
+    ax_r.set_xlabel(f"time (s) from {time_origin}")
     ax_t.tick_params(labelbottom=False)
     handles: list[Any] = []
     labels: list[str] = []
@@ -229,17 +235,16 @@ def _draw(shown: Sequence[ErrorSeries], rest: Sequence[ErrorSeries], pos_tol: fl
         rot = max(s.largest()[1] for s in rest)
         failing = sum(s.badness(pos_tol, rot_tol) > 1.0 for s in rest)
         handles.append(Line2D([], [], linestyle="none"))
-        labels.append(f"and {len(rest)} more frame{'s' if len(rest) != 1 else ''} ({failing} above)\n"
+        labels.append(f"and {len(rest)} more {item}{'s' if len(rest) != 1 else ''} ({failing} above)\n"
                       f"    max {trans:.2g} m, {rot:.2g} rad")
     handles.append(Line2D([], [], color=_TOL_COLOUR, linestyle="--", linewidth=1.2))
     labels.append("tolerance")
     handles.append(Line2D([], [], color="#555555", linestyle=":", marker="v", markersize=6))
     labels.append("first above tolerance")
-    fig.legend(handles, labels, loc="outside right upper", frameon=False, fontsize=8, title="frames, worst first",
+    fig.legend(handles, labels, loc="outside right upper", frameon=False, fontsize=8, title=f"{item}s, worst first",
                title_fontsize=8, alignment="left")
-    if notes:
-        fig.text(0.01, 0.005, "\n".join(f"note: {note}" for note in notes), ha="left", va="bottom",
-                 fontsize=8, color="#8a1c1c")
+    if notes:  # under the time axis, in the space the layout keeps for it
+        fig.supxlabel("\n".join(f"note: {note}" for note in notes), x=0.01, ha="left", fontsize=8, color="#8a1c1c")
     return fig
 
 
@@ -321,17 +326,65 @@ def plot_diff(report: DiffReport, path: str | os.PathLike[str], *, force: bool =
         WriteError: the file cannot be written.
     """
     plot_format(path)
-    refuse_existing(path, force=force)
+    refuse_existing(path, force=force, inputs=[p for p in (report.a.path, report.b.path) if p])
     series = errors_from_diff(report)
-    if not series:
-        raise PlotError(f"{display_path(report.a.path)} and {display_path(report.b.path)}: no TF frame pair in "
-                        "both recordings, no frame errors to plot")
-    tol = report.tolerances
     notes = [f"{d.detail}" for d in report.differences if d.kind == "frame"][:4]
+    if not series:  # robots of one link: their root, which nothing moves
+        from tfrec.plots.tree import described_roots
+
+        roots = [root for root in described_roots(report.a) if root in described_roots(report.b)]
+        if not roots:
+            raise PlotError(f"{display_path(report.a.path)} and {display_path(report.b.path)}: no TF frame pair in "
+                            "both recordings, no frame errors to plot")
+        series = [ErrorSeries(root, np.zeros(1), np.zeros(1), np.zeros(1), static=True) for root in roots]
+        notes.append("no TF frame pair in either recording: their robots have one link each, at the root")
+    tol = report.tolerances
     plot_errors(series, path, pos_tol=tol["pos_tol"], rot_tol=tol["rot_tol"],
                 title=f"tfrec diff: {display_path(report.b.path)} (B) against {display_path(report.a.path)} (A) "
                       f"— {report.verdict}",
                 notes=notes, force=force)
+
+
+def errors_from_motion(comparison: MotionComparison) -> list[ErrorSeries]:
+    """The world displacement of each link of a description diff over the shared motion: the distance
+    between its origins in A and in B (root → link) and the angle between its orientations, as
+    :func:`tfrec.diff.compare_descriptions` computes them (NaN where a side does not place it). A robot
+    whose only link is the root gets the root's (none)."""
+    t_s = comparison.time_ns / 1e9
+    position = np.where(np.isinf(comparison.position_error), np.nan, comparison.position_error)
+    rotation = np.where(np.isinf(comparison.rotation_error), np.nan, comparison.rotation_error)
+    if not comparison.links:
+        zeros = np.zeros(len(t_s))
+        return [ErrorSeries(comparison.report.root, t_s, zeros, zeros)]
+    return [ErrorSeries(link, t_s, position[:, j], rotation[:, j]) for j, link in enumerate(comparison.links)]
+
+
+def plot_motion(comparison: MotionComparison, path: str | os.PathLike[str], *, force: bool = False) -> None:
+    """``tfrec diff A.xacro B.xacro --plot PATH`` (or a recording against a description): the world
+    displacement of each link over the shared motion (:func:`errors_from_motion`), the worst links drawn,
+    the others counted; the description's changes as notes.
+
+    Raises:
+        PlotError: a bad suffix.
+        WriteError: the file cannot be written.
+    """
+    plot_format(path)
+    refuse_existing(path, force=force)
+    report = comparison.report
+    changes = [d.detail for d in report.differences if d.kind in ("description", "frame")]
+    notes = changes[:4] + ([f"and {len(changes) - 4} more changes (see the text report)"] if len(changes) > 4 else [])
+    tol = report.tolerances
+    series = errors_from_motion(comparison)
+    above = [s.name for s in series if s.badness(tol["pos_tol"], tol["rot_tol"]) > 1.0]
+    named = ", ".join(above[:8]) + (", …" if len(above) > 8 else "")
+    motion = re.sub(r"`([^`]*)`", r"\1", report.motion)  # the report's option names, as plain words
+    plot_errors(series, path, pos_tol=tol["pos_tol"], rot_tol=tol["rot_tol"],
+                title=f"tfrec diff: where each link of {display_path(report.b.path)} (B) is, against "
+                      f"{display_path(report.a.path)} (A), in the frame of the root link '{report.root}' — "
+                      f"{report.verdict}",
+                subtitle=f"over {motion}; tolerances {tol['pos_tol']:g} m, {tol['rot_tol']:g} rad: {len(above)} of "
+                         f"{len(series)} link{'s' if len(series) != 1 else ''} above" + (f" ({named})" if above else ""),
+                notes=notes, force=force, item="link", time_origin="the motion's start")
 
 
 def plot_check(report: CheckReport, path: str | os.PathLike[str], *, force: bool = False) -> None:
@@ -342,7 +395,7 @@ def plot_check(report: CheckReport, path: str | os.PathLike[str], *, force: bool
         WriteError: the file cannot be written.
     """
     plot_format(path)
-    refuse_existing(path, force=force)
+    refuse_existing(path, force=force, inputs=[report.path] if report.path else [])
     series = errors_from_check(report)
     if not series:
         raise PlotError(f"{display_path(report.path)}: no frame was compared, no frame errors to plot")

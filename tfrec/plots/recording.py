@@ -36,7 +36,7 @@ from tfrec.resample import align, data_start_ns
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-__all__ = ["FramePaths", "default_frames", "frame_paths", "one_robot", "plot_recording"]
+__all__ = ["FramePaths", "default_frames", "every_frame", "frame_paths", "one_robot", "plot_recording"]
 
 Array = NDArray[np.float64]
 
@@ -85,6 +85,13 @@ def default_frames(recording: Recording, *, limit: int = MAX_DEFAULT_FRAMES) -> 
         return len({frame} | _ancestors(frame, parents))
 
     return sorted(leaves, key=lambda f: (-depth(f), natural_key(f)))[:limit]
+
+
+def every_frame(recording: Recording) -> list[str]:
+    """Every frame of the recorded TF tree, roots first, then by depth and name."""
+    parents = _parents(recording)
+    frames = set(parents) | set(parents.values())
+    return sorted(frames, key=lambda f: (len(_ancestors(f, parents)), natural_key(f)))
 
 
 def _ancestors(frame: str, parents: dict[str, str]) -> set[str]:
@@ -278,20 +285,25 @@ def plot_recording(recording: Recording, path: str | os.PathLike[str], *, robot:
         WriteError: the file cannot be written.
     """
     fmt = plot_format(path)
-    refuse_existing(path, force=force)
+    refuse_existing(path, force=force, inputs=[recording.path] if recording.path else [])
     recording = one_robot(recording, namespace)
-    js = recording.joint_states if recording.joint_states is not None and len(recording.joint_states) else None
-    if js is None and not any(len(s) for s in recording.tf.values()):
-        raise PlotError(f"{recording.path}: nothing to plot: no /joint_states and no /tf")
-    chosen = list(frames) if frames is not None else default_frames(recording)
+    js = recording.joint_states
+    if js is not None and not (len(js) and js.names):  # joint states that name no joint: nothing to draw
+        js = None
+    model = _robot(recording, robot)
+    still = js is None and not any(len(series) for series in recording.tf.values())
+    chosen = list(frames) if frames is not None else (every_frame(recording) if still else default_frames(recording))
     paths = frame_paths(recording, chosen) if chosen else None
+    if js is None and paths is None:
+        if model is None or model.joints:
+            raise PlotError(f"{recording.path}: nothing to plot: no /joint_states, /tf or /tf_static")
+        paths = FramePaths(np.zeros(1), {model.root: np.zeros((1, 3))}, {model.root: model.root})  # its one link
     if paths is not None:
         far = sorted(frame for frame, xyz in paths.positions.items() if (np.abs(xyz) > DRAWABLE).any())
         if far:
             warnings.warn(f"{recording.path}: frame paths not drawn: {', '.join(far)} reach{'es' if len(far) == 1 else ''}"
                           f" more than {DRAWABLE:g} m from the root", stacklevel=2)
             paths = None
-    model = _robot(recording, robot)
     from tfrec.plots._figure import plot_style, save_figure
 
     with plot_style():
@@ -313,8 +325,12 @@ def _draw(recording: Recording, js: Any, robot: Robot | None, paths: FramePaths 
     grid = fig.add_gridspec(rows, 2, height_ratios=heights)
     origin = data_start_ns(recording) or 0
     span = f"{recording.duration_ns / 1e9:.2f} s" if recording.start_ns is not None else "empty"
+    still = js is None and not any(len(series) for series in recording.tf.values())
     shows = " and ".join(what for what, there in (("joint states", js is not None), ("frame paths", paths is not None))
                          if there)
+    if still:
+        shows = "frame positions; nothing moves" + (" (no moving joints)" if robot is not None and
+                                                     not robot.moving_joints else "")
     fig.suptitle(f"Recording {display_path(recording.path)} ({recording.format}, {span}): {shows}", fontsize=12,
                  fontweight="bold",
                  x=0.01, ha="left")
@@ -355,11 +371,11 @@ def _draw(recording: Recording, js: Any, robot: Robot | None, paths: FramePaths 
                 if row == len(units) - 1:
                     ax.set_xlabel("time (s) from the recording's start")
     if paths is not None:
-        _draw_paths(fig, grid[rows - 1, 0], grid[rows - 1, 1], paths)
+        _draw_paths(fig, grid[rows - 1, 0], grid[rows - 1, 1], paths, what="frame positions" if still else "frame paths")
     return fig
 
 
-def _draw_paths(fig: Any, top_slot: Any, side_slot: Any, paths: FramePaths) -> None:
+def _draw_paths(fig: Any, top_slot: Any, side_slot: Any, paths: FramePaths, *, what: str = "frame paths") -> None:
     colours = assign_colours(paths.positions)
     roots = sorted(set(paths.roots.values()), key=natural_key)
     where = f"in {roots[0]}" if len(roots) == 1 else "each in the root of its tree"
@@ -371,7 +387,11 @@ def _draw_paths(fig: Any, top_slot: Any, side_slot: Any, paths: FramePaths) -> N
             width = 1.2 if len(xyz) <= 1500 else 0.6  # a long path: thinner, so its shape shows
             ax.plot(xyz[:, a], xyz[:, b], color=colour, linestyle=style, linewidth=width, label=frame)
             ok = np.flatnonzero(np.isfinite(xyz[:, a]) & np.isfinite(xyz[:, b]))
-            if ok.size:
+            if ok.size and what != "frame paths":  # frames that stay put: a dot and their name
+                ax.plot(xyz[ok[0], a], xyz[ok[0], b], marker="o", color=colour, markersize=6)
+                ax.annotate(frame, (xyz[ok[0], a], xyz[ok[0], b]), textcoords="offset points", xytext=(5, 4),
+                            fontsize=8, color=colour, annotation_clip=False, parse_math=False)
+            elif ok.size:
                 ax.plot(xyz[ok[0], a], xyz[ok[0], b], marker="o", color=colour, markersize=5)
                 ax.plot(xyz[ok[-1], a], xyz[ok[-1], b], marker="s", color=colour, markersize=5,
                         markerfacecolor="white")
@@ -379,6 +399,7 @@ def _draw_paths(fig: Any, top_slot: Any, side_slot: Any, paths: FramePaths) -> N
         ax.set_xlabel(f"{'xyz'[a]} (m)")
         ax.set_ylabel(f"{'xyz'[b]} (m)")
         ax.grid(True, linewidth=0.4, alpha=0.5)
-        ax.set_title(f"frame paths, {view}, {where} — ● start, □ end", loc="left", fontsize=9)
+        ax.set_title(f"{what}, {view}, {where}" + (" — ● start, □ end" if what == "frame paths" else ""),
+                     loc="left", fontsize=9)
         if b == 2:
             ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=8)

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from tfrec.errors import display_path, one_line
+from tfrec.errors import TfrecError, display_path, one_line
 from tfrec.model import Joint, JointType, Robot
 from tfrec.plots._figure import PlotError, graph_format, natural_key, refuse_existing, write_text
 from tfrec.plots._layout import tidy_layout
@@ -25,7 +25,7 @@ from tfrec.recording import Recording
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-__all__ = ["GraphEdge", "TreeGraph", "recorded_graph", "render_graph", "robot_graph", "to_dot"]
+__all__ = ["GraphEdge", "TreeGraph", "described_roots", "recorded_graph", "render_graph", "robot_graph", "to_dot"]
 
 STATIC, DYNAMIC, BOTH = "static", "dynamic", "static+dynamic"
 
@@ -186,18 +186,37 @@ def recorded_graph(recording: Recording) -> TreeGraph:
         if len(of) > 1:
             notes.append(f"frame '{child}' has {len(of)} parents ({', '.join(of)}): tf keeps one")
     roots = tuple(frame for frame in frames if frame not in parents)
+    if not frames:  # a robot without joints has no TF: its tree is its root link alone
+        frames = described_roots(recording)
+        roots = tuple(frames)
+        notes.extend(f"no TF recorded: '{frame}' is the root link of the recorded /robot_description" for frame in frames)
     n_static = sum(edge.kind != DYNAMIC for edge in edges)
     span = f", {recording.duration_ns / 1e9:.2f} s" if recording.start_ns is not None else ""
     return TreeGraph(
         name=os.path.basename(os.path.normpath(recording.path)) or "tf",
         title=f"TF tree recorded in {display_path(recording.path)}",
-        subtitle=f"{len(frames)} frames, {n_static} on /tf_static, {len(edges) - n_static + len(both)} on /tf"
+        subtitle=f"{len(frames)} frame{'s' if len(frames) != 1 else ''}, {n_static} on /tf_static, {len(edges) - n_static + len(both)} on /tf"
                  f" ({recording.format}{span})",
         nodes=tuple(frames),
         edges=tuple(edges),
         roots=roots,
         notes=tuple(notes),
     )
+
+
+def described_roots(recording: Recording) -> list[str]:
+    """The root link of every robot description a recording holds (descriptions that do not parse are
+    left out): the frames of a TF tree that recorded no transform."""
+    from tfrec.description.urdf import parse_urdf
+
+    roots: dict[str, None] = {}
+    for namespace in [""] + sorted(recording.namespaces):
+        for text in recording.robot_topics(namespace).descriptions:
+            try:
+                roots.setdefault(parse_urdf(text, source=None, user_lines=False).root)
+            except TfrecError:
+                continue
+    return list(roots)
 
 
 # -- DOT ------------------------------------------------------------------------------------------

@@ -345,7 +345,7 @@ def format_check(report: CheckReport) -> str:
         rows.append((f.robot or "/", *row) if several else row)
     widths = [max(len(row[i]) for row in [header, *rows]) for i in range(len(header) - 1)]
     lines = [f"re-simulated TF of {report.path} (tolerances {report.pos_tol:g} m, {report.rot_tol:g} rad)"]
-    for cells in [header, *rows]:
+    for cells in [header, *rows] if rows else []:  # no frame (a robot of one link): no table
         lines.append(("  ".join(cell.ljust(width) for cell, width in zip(cells, widths)) + "  " + cells[-1]).rstrip())
     lines.extend(f"note: {note}" for note in report.notes)
     if not several:

@@ -19,8 +19,10 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec._atomic import AtomicOutputs, check_target
+from tfrec._atomic import AtomicOutputs
+from tfrec._outputs import check_target
 from tfrec.errors import ReplayError
+from tfrec.formats.kinds import RRD
 from tfrec.recording import FrameSeries, JointStates
 from tfrec.replay.pacing import BATCH_WALL_S, Clock, MonotonicClock, Pacer, batches
 from tfrec.replay.prepared import Replay, RobotReplay
@@ -222,15 +224,19 @@ def _recording_id(replay: Replay) -> str:
 
 
 def check_play_options(
-    *, save: str | os.PathLike[str] | None, connect: str | None, rate: float, loop: bool, force: bool
+    *, save: str | os.PathLike[str] | None, connect: str | None, rate: float, loop: bool, force: bool,
+    inputs: Sequence[str | os.PathLike[str] | None] = (),
 ) -> None:
     """Check the options of :func:`replay_to_rerun` before anything is read or written.
 
+    Args:
+        inputs: what the replay reads (the recording, a description): never the ``save`` file.
+
     Raises:
-        ReplayError: a rate that is not > 0, --save with --connect or --loop, a --save name
-            that is not ``.rrd``, a --save file that exists (without ``force``; a folder in any
-            case), no viewer at the --connect URL, or no viewer to spawn (no display or no
-            ``rerun`` executable).
+        ReplayError: a rate that is not > 0, --save with --connect or --loop, no viewer at the --connect URL,
+            or no viewer to spawn (no display or no ``rerun`` executable).
+        WriteError: a --save name that is not ``.rrd``, a --save file that exists (without ``force``; a
+            folder, a link or a file that is no Rerun recording in any case), or an input.
     """
     if not (math.isfinite(rate) and rate > 0):
         raise ReplayError(f"`rate` {rate:g} is not a speed > 0")
@@ -245,7 +251,7 @@ def check_play_options(
         else:
             check_can_connect(connect)
         return
-    check_target(Path(save), suffix=".rrd", what="Rerun", force=force)
+    check_target(Path(save), RRD, force=force, inputs=inputs)
 
 
 def replay_to_rerun(
@@ -284,7 +290,7 @@ def replay_to_rerun(
     from tfrec.formats.rrd.viewer import open_rerun_sink
 
     if not checked:
-        check_play_options(save=save, connect=connect, rate=rate, loop=loop, force=force)
+        check_play_options(save=save, connect=connect, rate=rate, loop=loop, force=force, inputs=[replay.path])
     shown = [robot.displayed() for robot in replay.robots]
     robots = [(robot.robot, robot.frame_prefix, robot.entity_root) for robot in shown]
     names = [robot.key for robot in shown] if len(shown) > 1 else []
@@ -294,7 +300,7 @@ def replay_to_rerun(
                                display_prefixes=prefixes)
         return play(replay, sink, pacer=Pacer(clock or MonotonicClock(), rate=rate), loop=loop, max_loops=max_loops)
     with AtomicOutputs(replace=force) as outputs:
-        sink = open_rerun_sink(save=outputs.path(Path(save)), recording_id=_recording_id(replay), robots=robots,
+        sink = open_rerun_sink(save=outputs.path(Path(save), kind=RRD), recording_id=_recording_id(replay), robots=robots,
                                names=names, package_paths=package_paths, display_prefixes=prefixes)
         result = play(replay, sink)  # aborts the sink (closing its file) on any error
         outputs.commit()

@@ -64,21 +64,18 @@ class McapWriter:
         stream: a binary stream to write to.
         compression: chunk compression, ``zstd`` (default), ``lz4`` or ``none``.
         chunk_bytes: uncompressed bytes after which a chunk is written.
-        file_name: the file's final name, listed in the embedded rosbag2 metadata (``<bag>_0.mcap``).
 
     Raises:
         WriteError: an unknown compression.
     """
 
-    def __init__(self, stream: IO[bytes], *, compression: str = "zstd", chunk_bytes: int = DEFAULT_CHUNK_BYTES,
-                 file_name: str = "") -> None:
+    def __init__(self, stream: IO[bytes], *, compression: str = "zstd", chunk_bytes: int = DEFAULT_CHUNK_BYTES) -> None:
         from mcap.records import Header
 
         self._stream = stream
         self._compression, _ = chunk_compressor(compression)  # checks the name
         self._local = threading.local()
         self._chunk_bytes = max(1, chunk_bytes)
-        self._file_name = file_name
         self._offset = 0
         self._schemas: list[Any] = []
         self._schema_ids: dict[tuple[str, str, str], int] = {}
@@ -329,7 +326,7 @@ class McapWriter:
         self._bag_info = bag_info(
             [(topic, msgtype, channel.message_encoding, profiles, type_hash, count)
              for (topic, msgtype, profiles, type_hash), channel, count in zip(self._topics, self._channels, self._counts)],
-            message_count=self.message_count, start_ns=start, end_ns=self._end_ns, file_name=self._file_name,
+            message_count=self.message_count, start_ns=start, end_ns=self._end_ns,
         )
         metadata = serialize_records(Metadata(name="rosbag2", metadata={"serialized_metadata": yaml_dump(self._bag_info)}))
         metadata_index = MetadataIndex(offset=self._offset, length=len(metadata), name="rosbag2")

@@ -5,13 +5,15 @@ Channels, in id order:
 
 1. ``/robot_description``, ``std_msgs/msg/String``, transient_local: the URDF, once at the start.
 2. ``/tf_static``, ``tf2_msgs/msg/TFMessage``, transient_local: all static transforms, once.
-3. ``/joint_states``, ``sensor_msgs/msg/JointState``, volatile: one per sample.
-4. ``/tf``, ``tf2_msgs/msg/TFMessage``, volatile: one per sample.
+3. ``/joint_states``, ``sensor_msgs/msg/JointState``, volatile: one per sample (empty for a robot
+   without moving joints).
+4. ``/tf``, ``tf2_msgs/msg/TFMessage``, volatile: one per sample; none for a robot without moving joints
+   (robot_state_publisher publishes no /tf for an empty joint state).
 
 The writer is tfrec's own (the small records come from :mod:`mcap.records`): a chunk's Message
 records have a fixed size for fixed joint and frame names, so a chunk is one numpy array filled by
 strided writes (:mod:`tfrec.formats.ros.encode`), and its message index is arithmetic. Nothing depends on the
-wall clock, so the same inputs give the same bytes. See docs/recording-format.md.
+wall clock or on the file's name, so the same inputs give the same bytes. See docs/recording-format.md.
 """
 
 from __future__ import annotations
@@ -177,8 +179,6 @@ class McapSink:
         compression: chunk compression, one of :data:`~tfrec.conventions.COMPRESSIONS`:
             ``"zstd"`` (default), ``"lz4"`` or ``"none"``.
         chunk_bytes: uncompressed bytes per MCAP chunk (whole samples; at least one).
-        file_name: the file's final name, listed in the embedded rosbag2 metadata
-            (``<bag>_0.mcap`` in a bag folder); empty lists no file.
 
     Raises:
         WriteError: an unknown compression.
@@ -190,14 +190,12 @@ class McapSink:
         *,
         compression: str = "zstd",
         chunk_bytes: int = DEFAULT_CHUNK_BYTES,
-        file_name: str = "",
     ) -> None:
         if chunk_bytes < 1:
             raise ValueError(f"chunk size must be positive, got {chunk_bytes}")
         self._stream = stream
         self._compression, self._compress = chunk_compressor(compression)
         self._chunk_bytes = chunk_bytes
-        self._file_name = file_name
         self._offset = 0
         self._state = "new"
         self._chunk_indexes: list[Any] = []
@@ -273,7 +271,8 @@ class McapSink:
         velocities: NDArray[np.float64],
         transforms: Transforms,
     ) -> None:
-        """Add N samples: one /joint_states and one /tf message each, stamped ``stamp_ns``.
+        """Add N samples: one /joint_states and one /tf message each, stamped ``stamp_ns``; no /tf
+        message when there are no dynamic transforms (K = 0), as robot_state_publisher.
 
         Args:
             stamp_ns: int64 (N,) absolute stamps (ns since the epoch), increasing across calls.
@@ -336,15 +335,17 @@ class McapSink:
     # -- chunks -------------------------------------------------------------------------------
 
     def _setup(self, names: tuple[str, ...], parents: tuple[str, ...], children: tuple[str, ...]) -> None:
-        """Fix the row layout: a JointState Message record then a TF Message record per sample."""
+        """Fix the row layout: a JointState Message record then a TF Message record per sample (no TF
+        record without dynamic transforms)."""
         self._joint_states = JointStateEncoder(names)
         self._tf = TFMessageEncoder(parents, children)
         js_len = RECORD.size + MESSAGE_HEAD_SIZE + self._joint_states.size
         row = bytearray()
         row += struct.pack("<BQH", OP_MESSAGE, MESSAGE_HEAD_SIZE + self._joint_states.size, _CH_JOINT_STATES)
         row += bytes(20) + self._joint_states.template.tobytes()
-        row += struct.pack("<BQH", OP_MESSAGE, MESSAGE_HEAD_SIZE + self._tf.size, _CH_TF)
-        row += bytes(20) + self._tf.template.tobytes()
+        if self._tf.children:
+            row += struct.pack("<BQH", OP_MESSAGE, MESSAGE_HEAD_SIZE + self._tf.size, _CH_TF)
+            row += bytes(20) + self._tf.template.tobytes()
         self._row_len = len(row)
         self._js_len = js_len
         samples = max(1, self._chunk_bytes // self._row_len)
@@ -368,7 +369,8 @@ class McapSink:
         first_seq = self._counts[_CH_JOINT_STATES] + 1
         sequence = np.arange(first_seq, first_seq + m, dtype="<u4").view(np.uint8).reshape(m, 4)
         times = stamps.astype("<u8").view(np.uint8).reshape(m, 8)
-        for base in (0, self._js_len):  # sequence, log time, publish time of both records
+        tf = bool(self._tf.children)
+        for base in (0, self._js_len)[: 1 + tf]:  # sequence, log time, publish time of each record
             rows[:, base + 11 : base + 15] = sequence
             rows[:, base + 15 : base + 23] = times
             rows[:, base + 23 : base + 31] = times
@@ -377,12 +379,13 @@ class McapSink:
             rows[:, data : data + self._joint_states.size], stamps, positions[part], velocities[part]
         )
         data += self._js_len
-        self._tf.encode_into(
-            rows[:, data : data + self._tf.size], stamps, transforms.translation[part], transforms.rotation[part]
-        )
+        if tf:
+            self._tf.encode_into(
+                rows[:, data : data + self._tf.size], stamps, transforms.translation[part], transforms.rotation[part]
+            )
         self._filled += m
         self._counts[_CH_JOINT_STATES] += m
-        self._counts[_CH_TF] += m
+        self._counts[_CH_TF] += m if tf else 0
         self._end_ns = max(self._end_ns, int(stamps[-1]))
 
     def _flush_chunk(self) -> None:
@@ -406,7 +409,8 @@ class McapSink:
             stamps = self._row_times[:filled]
             offsets = len(prefix) + np.arange(filled, dtype=np.int64) * self._row_len
             entries.append((_CH_JOINT_STATES, stamps, offsets))
-            entries.append((_CH_TF, stamps, offsets + self._js_len))
+            if self._tf is not None and self._tf.children:
+                entries.append((_CH_TF, stamps, offsets + self._js_len))
             times += [int(stamps[0]), int(stamps[-1])]
             body = prefix + rows.tobytes()
         start, end = min(times), max(times)
@@ -450,7 +454,7 @@ class McapSink:
         self._bag_info = bag_info(
             [(topic, msgtype, "cdr", [qos], message_definition(msgtype)[1], self._counts[channel])
              for channel, (topic, msgtype, qos) in enumerate(TOPICS, start=1)],
-            message_count=self.message_count, start_ns=start, end_ns=self._end_ns, file_name=self._file_name,
+            message_count=self.message_count, start_ns=start, end_ns=self._end_ns,
         )
         metadata = serialize_records(Metadata(name="rosbag2", metadata={"serialized_metadata": yaml_dump(self._bag_info)}))
         metadata_index = MetadataIndex(offset=self._offset, length=len(metadata), name="rosbag2")

@@ -5,8 +5,9 @@ Connections, in id order, all published by :data:`~tfrec.formats.rosbag1.writer.
 
 0. ``/robot_description``, ``std_msgs/String``, latching: the URDF, once at the start.
 1. ``/tf_static``, ``tf2_msgs/TFMessage``, latching: all static transforms, once.
-2. ``/joint_states``, ``sensor_msgs/JointState``: one per sample, ``header.seq`` 0, 1, 2, …
-3. ``/tf``, ``tf2_msgs/TFMessage``: one per sample.
+2. ``/joint_states``, ``sensor_msgs/JointState``: one per sample, ``header.seq`` 0, 1, 2, … (empty for
+   a robot without moving joints).
+3. ``/tf``, ``tf2_msgs/TFMessage``: one per sample; none for a robot without moving joints.
 
 Every message's bag time is its header stamp. The sink has :class:`tfrec.mcap_io.McapSink`'s
 interface, so the record pipeline drives both the same way.
@@ -101,7 +102,8 @@ class Ros1BagSink:
         velocities: NDArray[np.float64],
         transforms: Transforms,
     ) -> None:
-        """Add N samples: one /joint_states and one /tf message each, stamped ``stamp_ns``.
+        """Add N samples: one /joint_states and one /tf message each, stamped ``stamp_ns``; no /tf
+        message when there are no dynamic transforms (K = 0), as robot_state_publisher.
 
         Args:
             stamp_ns: int64 (N,) absolute stamps (ns since the epoch), increasing across calls.
@@ -133,6 +135,9 @@ class Ros1BagSink:
         self._last_sample_ns = int(stamp_ns[-1])
         first_seq = self._writer.message_counts[_CONN_JOINT_STATES]
         joint_states = self._joint_states.encode(stamp_ns, positions, velocities, first_seq=first_seq)
+        if not self._tf.children:
+            self._writer.write_samples((_CONN_JOINT_STATES,), stamp_ns, (joint_states,))
+            return
         tf = self._tf.encode(stamp_ns, transforms.translation, transforms.rotation)
         self._writer.write_samples((_CONN_JOINT_STATES, _CONN_TF), stamp_ns, (joint_states, tf))
 

@@ -2,9 +2,11 @@
 
 A rosbag2 bag is a folder ``<name>/`` holding ``metadata.yaml`` and ``<name>_0.mcap``. The
 metadata is rosbag2's BagMetadata as yaml-cpp encodes it (Jazzy and later: metadata version 9,
-offered QoS profiles as a YAML list with string enums); the same text is embedded in the MCAP
-as its ``rosbag2`` metadata record (:class:`tfrec.formats.mcap.writer.McapSink`, which builds it with
-:func:`bag_info` and keeps it for :func:`write_bag_metadata`). The offered QoS profiles are defined
+offered QoS profiles as a YAML list with string enums); the same text, less the file list, is embedded
+in the MCAP as its ``rosbag2`` metadata record (:class:`tfrec.formats.mcap.writer.McapSink`, which
+builds it with :func:`bag_info` and keeps it for :func:`write_bag_metadata`). Only ``metadata.yaml``
+names the bag's files: an MCAP's bytes do not depend on the name it is written under (the same
+recording as ``out.mcap`` and as ``bag/bag_0.mcap`` is the same bytes). The offered QoS profiles are defined
 once here, as data: :data:`QOS_LATCHED`, :data:`QOS_VOLATILE`.
 """
 
@@ -26,6 +28,7 @@ __all__ = [
     "ROS_DISTRO",
     "BagMetadata",
     "bag_info",
+    "bag_storage_name",
     "bag_without_metadata",
     "offered_qos_profiles",
     "one_line",
@@ -76,19 +79,35 @@ def qos_yaml(profiles: Sequence[Mapping[str, Any]]) -> str:
     return yaml_dump(list(profiles)).rstrip("\n")
 
 
-def write_bag_metadata(bag_dir: str | Path, info: Mapping[str, Any]) -> Path:
-    """Write a bag folder's ``metadata.yaml``.
+def bag_storage_name(folder_name: str) -> str:
+    """The MCAP file tfrec writes in a rosbag2 folder: ``<name>_0.mcap``, named after it as ``ros2 bag record``
+    names it (so a folder's name has at most 248 bytes: :data:`tfrec.formats.kinds.ROSBAG2` checks it)."""
+    return f"{folder_name}_0.mcap"
+
+
+def write_bag_metadata(bag_dir: str | Path, info: Mapping[str, Any], *, file_name: str) -> Path:
+    """Write a bag folder's ``metadata.yaml``, naming its one storage file.
 
     Args:
         bag_dir: the bag folder (it exists).
         info: the bag's BagMetadata, from :func:`bag_info` (:attr:`tfrec.formats.mcap.writer.McapSink.bag_info`
             of its MCAP).
+        file_name: the storage file in the folder (rosbag2's ``<folder>_0.mcap``), listed in
+            ``relative_file_paths`` and ``files``.
 
     Returns:
         The path of the metadata file.
     """
+    listed = dict(info)
+    listed["relative_file_paths"] = [file_name]
+    listed["files"] = [{
+        "path": file_name,
+        "starting_time": copy.deepcopy(info["starting_time"]),
+        "duration": copy.deepcopy(info["duration"]),
+        "message_count": info["message_count"],
+    }]
     path = Path(bag_dir) / "metadata.yaml"
-    path.write_text(yaml_dump({"rosbag2_bagfile_information": dict(info)}), encoding="utf-8")
+    path.write_text(yaml_dump({"rosbag2_bagfile_information": listed}), encoding="utf-8")
     return path
 
 
@@ -98,9 +117,10 @@ def bag_info(
     message_count: int,
     start_ns: int,
     end_ns: int,
-    file_name: str,
 ) -> dict[str, Any]:
-    """rosbag2's BagMetadata (version 9) as yaml-cpp would encode it, keys in rosbag2's order.
+    """rosbag2's BagMetadata (version 9) as yaml-cpp would encode it, keys in rosbag2's order; it lists no
+    file (:func:`write_bag_metadata` names the bag folder's file), so what embeds it does not depend on the
+    name it is written under.
 
     Args:
         topics: (name, type, serialization format, offered QoS profiles, type hash, message count).
@@ -128,13 +148,8 @@ def bag_info(
         ],
         "compression_format": "",
         "compression_mode": "",
-        "relative_file_paths": [file_name] if file_name else [],
-        "files": [{
-            "path": file_name,
-            "starting_time": {"nanoseconds_since_epoch": start},
-            "duration": {"nanoseconds": duration},
-            "message_count": message_count,
-        }] if file_name else [],
+        "relative_file_paths": [],
+        "files": [],
         "custom_data": None,
         "ros_distro": ROS_DISTRO,
     }

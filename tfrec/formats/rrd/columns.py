@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pyarrow as pa
 import rerun as rr
 from numpy.typing import NDArray
 
 from tfrec.errors import WriteError
-from tfrec.formats.rrd.paths import TIMELINE
+from tfrec.formats.rrd.paths import JOINT_COUNT, TIMELINE
 
-__all__ = ["check_stamps", "repeated_strings", "time_column"]
+__all__ = ["check_stamps", "no_joint_columns", "repeated_strings", "time_column"]
 
 
 def check_stamps(time_ns: NDArray[np.int64]) -> NDArray[np.int64]:
@@ -29,6 +31,13 @@ def time_column(stamps: NDArray[np.int64]) -> rr.TimeColumn:
     """The index column of :data:`~tfrec.formats.rrd.paths.TIMELINE` for ``send_columns``: integer
     nanoseconds as timestamps (float seconds would be truncated by Rerun)."""
     return rr.TimeColumn(TIMELINE, timestamp=stamps.astype("datetime64[ns]"))
+
+
+def no_joint_columns(n: int) -> Any:
+    """The columns of ``n`` /joint_states messages that name no joint (a robot without moving joints), logged
+    at :data:`~tfrec.formats.rrd.paths.NO_JOINTS_ENTITY`: ``AnyValues`` ``joint_count`` 0."""
+    counts: dict[str, Any] = {JOINT_COUNT: np.zeros(n, np.uint32)}
+    return rr.AnyValues.columns(drop_untyped_nones=True, **counts)
 
 
 def repeated_strings(text: str, n: int) -> pa.Array:

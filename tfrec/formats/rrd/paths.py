@@ -15,6 +15,8 @@ Entity paths (``<link>`` and ``<joint>`` are URDF names, escaped with
 - ``/tf_static/<joint>``: ``Transform3D`` parent_from_child of a fixed joint;
 - ``/tf/<joint>``: ``Transform3D`` of a moving joint, *ros_time*;
 - ``/joints/<joint>``: ``Scalars``, the joint position (rad or m), *ros_time*;
+- ``/joints``: ``AnyValues`` ``joint_count`` 0, *ros_time*: the stamps of /joint_states messages that name
+  no joint (a robot without moving joints), so that the timeline spans them;
 - ``/joint_velocities/<joint>``: ``Scalars``, the joint velocity (rad/s or m/s), *ros_time*;
 - ``/robot_description``: ``TextDocument``, the expanded URDF;
 - ``/tf_tree``: ``GraphNodes`` (the frames) and ``GraphEdges`` (parent → child): the TF tree.
@@ -44,6 +46,8 @@ __all__ = [
     "DESCRIPTION_ROOT",
     "DISPLAY_PREFIX_ROOT",
     "JOINTS_ROOT",
+    "JOINT_COUNT",
+    "NO_JOINTS_ENTITY",
     "ROBOT_ROOT",
     "TF_ROOT",
     "TF_STATIC_ROOT",
@@ -75,6 +79,11 @@ VELOCITIES_ROOT = "joint_velocities"
 DESCRIPTION_ROOT = "robot_description"
 TF_TREE_ROOT = "tf_tree"
 """The top-level entity names (``/robot_description`` is an entity of its own)."""
+
+JOINT_COUNT = "joint_count"
+"""The ``AnyValues`` component at ``/joints`` whose rows are /joint_states messages naming no joint."""
+NO_JOINTS_ENTITY = f"/{JOINTS_ROOT}"
+"""Where the stamps of /joint_states messages that name no joint are logged."""
 
 DISPLAY_PREFIX_ROOT = "frame_display_prefix"
 """A robot of a replay of several whose frame ids the viewer shows behind its name (``robot1/link0``:

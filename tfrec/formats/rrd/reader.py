@@ -80,6 +80,10 @@ def read_rrd(path: Path, options: ReadOptions) -> Recording:
         time = None
         if timeline in columns:
             time = np.asarray(columns[timeline].cast(pa.int64()).to_numpy(zero_copy_only=False), dtype=np.int64)
+        if top == rerun_paths.JOINTS_ROOT and not names:  # /joint_states messages that name no joint
+            if rerun_paths.JOINT_COUNT in columns and time is not None:
+                entities.no_joints.append(time)
+            continue
         if top == rerun_paths.JOINTS_ROOT:
             scalars = columns.get("Scalars:scalars")
             if scalars is None or time is None:
@@ -129,9 +133,9 @@ def _rooted(path: str) -> tuple[str, str, tuple[str, ...]] | None:
     parts = (top, *names)
     roots = (rerun_paths.TF_ROOT, rerun_paths.TF_STATIC_ROOT, rerun_paths.JOINTS_ROOT, rerun_paths.DESCRIPTION_ROOT,
              rerun_paths.DISPLAY_PREFIX_ROOT)
+    leaves = (rerun_paths.DESCRIPTION_ROOT, rerun_paths.DISPLAY_PREFIX_ROOT, rerun_paths.JOINTS_ROOT)
     for i, part in enumerate(parts):
-        if part in roots and (part in (rerun_paths.DESCRIPTION_ROOT, rerun_paths.DISPLAY_PREFIX_ROOT)
-                              or i + 1 < len(parts)):
+        if part in roots and (part in leaves or i + 1 < len(parts)):
             return ("/" + "/".join(parts[:i]) if i else ""), part, tuple(parts[i + 1 :])
         if part == rerun_paths.ROBOT_ROOT:
             return None
@@ -144,6 +148,7 @@ class _Entities:
     def __init__(self) -> None:
         self.tf: dict[tuple[str, ...], list[tuple[NDArray[np.int64], Array, Array, tuple[str, str]]]] = {}
         self.joints: dict[str, list[tuple[NDArray[np.int64], Array]]] = {}
+        self.no_joints: list[NDArray[np.int64]] = []  # stamps of joint states that name no joint
         self.static: dict[tuple[str, str], tuple[Array, Array]] = {}
         self.description: str | None = None
         self.display_prefix = ""  # what the replay put in front of the recorded frame ids (undone here)
@@ -158,10 +163,10 @@ class _Entities:
         if self.static:
             topics[namespace + TF_STATIC] = TopicInfo("Transform3D", 1, None, None)
         joint_states = None
-        if self.joints:
+        if self.joints or self.no_joints:
             names = tuple(self.joints)
             series = {name: _concat_series(parts) for name, parts in self.joints.items()}
-            all_times = np.unique(np.concatenate([time for time, _ in series.values()]))
+            all_times = np.unique(np.concatenate([time for time, _ in series.values()] + self.no_joints))
             positions = np.full((len(all_times), len(names)), np.nan)
             for j, name in enumerate(names):
                 time, value = series[name]

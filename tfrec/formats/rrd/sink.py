@@ -26,12 +26,13 @@ from numpy.typing import NDArray
 from tfrec.errors import KinematicsError, WriteError
 from tfrec.formats.rrd._flush import disconnect, flush
 from tfrec.formats.rrd.blueprint import Reach, blueprint_of, joint_colour, joint_units, robot_layout, tf_tree_columns
-from tfrec.formats.rrd.columns import check_stamps, repeated_strings, time_column
+from tfrec.formats.rrd.columns import check_stamps, no_joint_columns, repeated_strings, time_column
 from tfrec.formats.rrd.geometry import MeshLoader, default_axis_length, missing_meshes, visual_columns, visual_radius
 from tfrec.formats.rrd.paths import (
     APPLICATION_ID,
     DESCRIPTION_ROOT,
     DISPLAY_PREFIX_ROOT,
+    NO_JOINTS_ENTITY,
     ROBOT_ROOT,
     TF_TREE_ROOT,
     joint_entity,
@@ -295,16 +296,9 @@ class RerunSink:
 
     # -- samples ---------------------------------------------------------------------------
 
-    def write_chunk(
-        self,
-        *,
-        stamp_ns: NDArray[np.int64],
-        joint_names: Sequence[str],
-        positions: Array,
-        velocities: Array,
-        transforms: Transforms,
-    ) -> None:
-        """Log a piece of a trajectory: joint states and the moving joints' transforms.
+    def write_chunk(self, *, stamp_ns: NDArray[np.int64], joint_names: Sequence[str], positions: Array,
+                    velocities: Array, transforms: Transforms) -> None:
+        """Log a piece of a trajectory: joint states and the moving joints' transforms (without joints: the stamps).
 
         Every chunk widens the robot's reach the 3D view's camera frames (:meth:`fit_camera`).
 
@@ -330,6 +324,8 @@ class RerunSink:
             raise WriteError("chunk stamps go back in time")
         self._last_time_ns = int(stamps[-1])
         index = [time_column(stamps)]
+        if not joint_names:  # empty joint states: their stamps alone
+            self._send(NO_JOINTS_ENTITY, index, no_joint_columns(n), nbytes=2 * stamps.nbytes)
         for j, name in enumerate(joint_names):
             self._style_joint(name, velocity=True)
             self._write_scalars(joint_entity(name), index, stamps, positions[:, j])
@@ -381,6 +377,8 @@ class RerunSink:
             raise WriteError(f"{len(stamps)} stamps of {len(names)} joints have positions {np.shape(positions)}")
         if len(stamps):
             index = [time_column(stamps)]
+            if not names:
+                self._send(NO_JOINTS_ENTITY, index, no_joint_columns(len(stamps)), nbytes=2 * stamps.nbytes)
             for j, name in enumerate(names):
                 self._style_joint(name, velocity=False)
                 self._write_scalars(joint_entity(name), index, stamps, positions[:, j])
