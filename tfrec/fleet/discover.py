@@ -30,7 +30,7 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-from tfrec.errors import FleetError, TfrecError
+from tfrec.errors import FleetError, TfrecError, TfrecWarning
 from tfrec.formats.reader import recording_format
 
 __all__ = ["NOT_RECORDING_SUFFIXES", "RECORDING_SUFFIXES", "Pair", "find_recordings", "pair_recordings"]
@@ -146,7 +146,7 @@ def _search(folder: Path) -> Iterator[Path]:
                     todo.append(path)
                 else:
                     warnings.warn(f"{path}: a symbolic link to a folder, not searched (give it as a PATH to search "
-                                  "it)", stacklevel=2)
+                                  "it)", TfrecWarning, stacklevel=2)
             elif kind == "unknown" or _taken(path):
                 yield path
 
