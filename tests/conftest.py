@@ -34,8 +34,10 @@ BAGS_ABSENT = ("../shared/bags is not here: it holds real bags written by other 
 
 
 SLOW_TIER = (
-    # Ray clusters
+    # Ray clusters; Ray imported in child processes that find no cluster; drivers killed with what they started
     "tests/fleet/test_ray.py",
+    "tests/fleet/test_ray_address.py",
+    "tests/fleet/test_lifetime.py",
     "tests/fleet/test_engine.py::test_a_dead_worker_costs_its_task_only",
     # the README tour, command by command
     "tests/test_docs.py::test_readme_tour_works_as_typed",

@@ -137,6 +137,9 @@ def test_options_are_checked(monkeypatch: pytest.MonkeyPatch) -> None:
         run([], engine="spark")
     with pytest.raises(FleetError, match=r"^address is for engine='ray' only$"):
         run([], address="127.0.0.1:6379")
+    for bad in (0, -1.0, float("nan"), float("inf")):
+        with pytest.raises(FleetError, match=r"^`ray_timeout_s` .* is not a number of seconds > 0$"):
+            run([], engine="ray", ray_timeout_s=bad)
     assert run([], jobs=3) == Progress()
     monkeypatch.setitem(sys.modules, "ray", None)  # as if Ray were not installed
     with pytest.raises(FleetError) as caught:

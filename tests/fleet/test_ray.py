@@ -198,3 +198,26 @@ def test_check_on_a_two_node_cluster(two_nodes: tuple[str, tuple[int, int]], fle
     # which node ran each recording: the worker column names the Ray node's address
     ran_in = [row["worker"].rsplit(":", 1)[0] for row in rows if row["check"] == "summary"]
     assert len(ran_in) == 9 and set(ran_in) == {"127.0.0.3"}  # every recording ran on the second node
+
+
+# -- a local cluster started by tfrec, its driver killed --------------------------------------------
+
+
+def test_a_killed_driver_takes_its_local_cluster_with_it(tmp_path: Path) -> None:
+    """SIGKILL of `tfrec check --engine ray` (a local cluster of its own): GCS, raylet, agents and workers are
+    gone within seconds, not the minute Ray's agents would wait for the dead GCS."""
+    from tests.fleet.helpers import kill_driver_and_expect_nothing_left, start_check, wait_for
+    from tests.recording_helpers import load_robot, write_mcap
+    from tfrec.trajectory.generators import make_trajectory
+
+    marm = load_robot("marm")
+    first = write_mcap(tmp_path / "r00.mcap", marm, make_trajectory(marm, "sine", duration_s=30, rate_hz=200))
+    for k in range(1, 16):
+        os.link(first, tmp_path / f"r{k:02d}.mcap")
+    process = start_check([str(tmp_path), "--engine", "ray", "--jobs", "2"])
+
+    def working(processes: dict[int, str]) -> bool:  # Ray's workers started: the whole cluster runs
+        return sum("default_worker.py" in command or command.startswith("ray::") for command in processes.values()) >= 4
+
+    wait_for(process, working, timeout_s=180)
+    kill_driver_and_expect_nothing_left(process)

@@ -278,6 +278,7 @@ _FLAGS = {
     "bag": "--bag DIR",
     "frame_prefix": "--frame-prefix",
     "overrides": "--set",
+    "ray_timeout_s": "--ray-timeout",
 }
 """Library parameters whose flag is not ``--`` + the name with dashes."""
 

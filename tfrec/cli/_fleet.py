@@ -26,6 +26,8 @@ def add_engine_arguments(parser: argparse.ArgumentParser) -> None:
                             "'tfrec-robotics[ray]')")
     group.add_argument("--address", metavar="ADDR", default=None,
                        help="the Ray cluster to use (default: RAY_ADDRESS, else a local one)")
+    group.add_argument("--ray-timeout", metavar="S", type=float, default=None,
+                       help="give up connecting to the Ray cluster at --address after S seconds (default 20)")
     group.add_argument("--report", metavar="OUT", default=None,
                        help="one row per recording and finding: OUT.parquet or OUT.jsonl (DuckDB, Polars, pandas)")
     group.add_argument("--resume", action="store_true",
@@ -98,18 +100,21 @@ def _check_report(ns: argparse.Namespace, inputs: Sequence[Any]) -> None:
     first), and only a tfrec report; never a recording of the run (:func:`tfrec._outputs.check_target`)."""
     if ns.report is None:
         return
+    import os
     from pathlib import Path
 
     from tfrec._outputs import check_target
-    from tfrec.formats.report import report_kind
+    from tfrec.formats.report import check_report, report_kind
 
+    if ns.resume and os.path.lexists(ns.report):
+        check_report(ns.report)  # the report --resume reads: one line when it is not a tfrec report, not replaced
     check_target(Path(ns.report), report_kind(ns.report), force=ns.force or ns.resume, inputs=inputs)
 
 
 def _run(ns: argparse.Namespace, tasks: Sequence[Any], *, what: str) -> int:
     """Run the tasks, write the report, draw the bar; the exit code: 0 all pass, 1 any finding, 2 nothing read."""
     from tfrec.errors import FleetError
-    from tfrec.fleet import PASS, SUMMARY, Progress, Row, resume, run, tally
+    from tfrec.fleet import DEFAULT_RAY_TIMEOUT_S, PASS, SUMMARY, Progress, Row, resume, run, tally
 
     kept: list[dict[str, Any]] = []
     if ns.resume:
@@ -135,15 +140,17 @@ def _run(ns: argparse.Namespace, tasks: Sequence[Any], *, what: str) -> int:
 
     writer = None
     started = time.monotonic()
+    engine = {"jobs": ns.jobs, "engine": ns.engine, "address": ns.address, "on_result": on_result,
+              "ray_timeout_s": DEFAULT_RAY_TIMEOUT_S if ns.ray_timeout is None else ns.ray_timeout}
     try:
         if ns.report is not None:
             from tfrec.formats.report import ReportWriter
 
             with ReportWriter(ns.report, force=ns.force or ns.resume) as writer:
                 writer.write(kept)
-                progress = run(tasks, jobs=ns.jobs, engine=ns.engine, address=ns.address, on_result=on_result)
+                progress = run(tasks, **engine)
         else:
-            progress = run(tasks, jobs=ns.jobs, engine=ns.engine, address=ns.address, on_result=on_result)
+            progress = run(tasks, **engine)
     finally:
         bar.close()
     for line in failing:

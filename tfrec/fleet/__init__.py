@@ -16,11 +16,13 @@ from tfrec.fleet.engine import ENGINES, RAY_MISSING, Progress, ResultCallback, T
 from tfrec.fleet.fingerprint import Fingerprint, fingerprint
 from tfrec.fleet.health import DEFAULT_GAP_PERIODS
 from tfrec.fleet.plan import check_config, check_tasks, diff_config, diff_tasks, inputs_fingerprint, resume
+from tfrec.fleet.raycluster import DEFAULT_RAY_TIMEOUT_S
 from tfrec.fleet.row import ERROR, FAIL, PASS, SUMMARY, Row, Verdict
 from tfrec.fleet.tasks import check_recording, diff_pair
 
 __all__ = [
     "DEFAULT_GAP_PERIODS",
+    "DEFAULT_RAY_TIMEOUT_S",
     "ENGINES",
     "ERROR",
     "FAIL",

@@ -12,12 +12,16 @@ rows of each task to ``on_result`` as soon as it finishes, with the running coun
   that was running in the dead process is charged with the death (each worker says which task
   it starts, and the dead worker's exit code tells it from the workers the pool then
   terminates); after ``retries`` more deaths it becomes an ``error`` row ``worker died (signal
-  SIGKILL)``. The other lost tasks run again uncharged.
+  SIGKILL)``. The other lost tasks run again uncharged. A driver that dies (SIGKILL) takes its
+  workers with it (:func:`tfrec.fleet.lifetime.watch_parent`), and the forkserver and the resource
+  tracker follow; the tracker writes to ``/dev/null``, and is started again quietly if it was killed.
 - ``engine="ray"``: the same function as a Ray task (``max_retries=retries``: Ray reruns a task
-  whose worker died) on the cluster at ``address`` (or ``RAY_ADDRESS``), or on a local cluster
-  of ``jobs`` CPUs started for the run (and shut down after it). Tasks are spread over the nodes
-  (``SPREAD``: Ray's default packs short tasks on the driver's node) and submitted in a window of
-  twice the cluster's CPUs, so that the driver holds a bounded number of results.
+  whose worker died) on the cluster at ``address`` (or ``RAY_ADDRESS``), reached within
+  ``ray_timeout_s``, or on a local cluster of ``jobs`` CPUs started for the run (and shut down
+  after it, or killed by a reaper when the driver dies): :mod:`tfrec.fleet.raycluster`. Tasks
+  are spread over the nodes (``SPREAD``: Ray's default packs short tasks on the driver's node)
+  and submitted in a window of twice the cluster's CPUs, so that the driver holds a bounded
+  number of results.
 
 Ctrl-C (KeyboardInterrupt) cancels what has not finished — the pool's workers are terminated,
 Ray tasks cancelled — and is raised again once the workers are gone; the rows already handed to
@@ -30,7 +34,8 @@ traceback, and the run goes on with the other recordings.
 
 from __future__ import annotations
 
-import logging
+import contextlib
+import math
 import multiprocessing
 import os
 import signal
@@ -48,6 +53,8 @@ from multiprocessing.queues import SimpleQueue
 from typing import Any, Literal
 
 from tfrec.errors import FleetError, TfrecError, one_line
+from tfrec.fleet.lifetime import quiet_resource_tracker, watch_parent
+from tfrec.fleet.raycluster import DEFAULT_RAY_TIMEOUT_S, RAY_MISSING, cluster, import_ray
 from tfrec.fleet.row import ERROR, FAIL, PASS, SUMMARY, Row
 
 __all__ = [
@@ -64,9 +71,6 @@ __all__ = [
 
 Engine = Literal["pool", "ray"]
 ENGINES: tuple[Engine, ...] = ("pool", "ray")
-
-RAY_MISSING = "engine='ray' needs Ray: pip install 'tfrec-robotics[ray]'"
-"""The message of the :class:`FleetError` raised when Ray is not installed."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -185,7 +189,9 @@ def execute(task: Task) -> list[Row]:
     return [head, *rows[1:]]
 
 
-def _check_options(jobs: int | None, engine: str, retries: int) -> int:
+def _check_options(jobs: int | None, engine: str, retries: int, ray_timeout_s: float) -> int:
+    if not (isinstance(ray_timeout_s, (int, float)) and 0 < ray_timeout_s < math.inf):
+        raise FleetError(f"`ray_timeout_s` {ray_timeout_s!r} is not a number of seconds > 0")
     if engine not in ENGINES:
         raise FleetError(f"engine '{engine}' is not one of {', '.join(ENGINES)}")
     if jobs is not None and jobs < 1:
@@ -203,6 +209,7 @@ def run(
     address: str | None = None,
     on_result: ResultCallback | None = None,
     retries: int = 1,
+    ray_timeout_s: float = DEFAULT_RAY_TIMEOUT_S,
 ) -> Progress:
     """Run tasks in parallel; each finished task's rows go to ``on_result`` as they come.
 
@@ -215,22 +222,23 @@ def run(
             default ``RAY_ADDRESS``, else a local cluster for the run. Ray only.
         on_result: called in this process with each task's rows and the counts so far.
         retries: how many times a task whose worker died runs again before it is an ``error`` row.
+        ray_timeout_s: how long connecting to the Ray cluster at ``address`` may take.
 
     Returns:
         The final counts.
 
     Raises:
-        FleetError: bad options, Ray not installed, or a Ray cluster that cannot be reached.
+        FleetError: bad options, Ray not installed, or no Ray cluster at ``address`` within ``ray_timeout_s``.
         KeyboardInterrupt: Ctrl-C, once the workers are stopped.
     """
-    jobs = _check_options(jobs, engine, retries)
+    jobs = _check_options(jobs, engine, retries, ray_timeout_s)
     if address is not None and engine != "ray":
         raise FleetError("address is for engine='ray' only")
     state = _Tally(Progress(total=len(tasks)), on_result)
     if not tasks:
         return state.progress
     if engine == "ray":
-        _run_ray(tasks, jobs=jobs, address=address, retries=retries, emit=state.emit)
+        _run_ray(tasks, jobs=jobs, address=address, retries=retries, timeout_s=ray_timeout_s, emit=state.emit)
     else:
         _run_pool(tasks, jobs=jobs, retries=retries, emit=state.emit)
     return state.progress
@@ -259,6 +267,7 @@ def _init_worker(started: SimpleQueue[tuple[int, int]]) -> None:
     global _started
     _started = started
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the driver's: it stops the workers
+    watch_parent()  # a driver killed (SIGKILL: the OOM killer) takes its workers with it
 
 
 def _pool_execute(number: int, task: Task) -> list[Row]:
@@ -298,6 +307,7 @@ class _Pool:
     """A process pool whose workers report the task they start, so that a death is attributed."""
 
     def __init__(self, context: BaseContext, jobs: int) -> None:
+        quiet_resource_tracker()  # before the pool's semaphores: a tracker killed is started again quietly
         self.started: SimpleQueue[tuple[int, int]] = context.SimpleQueue()
         self.executor = ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_init_worker,
                                             initargs=(self.started,))
@@ -316,6 +326,7 @@ class _Pool:
         died on its own rather than being terminated by the pool, or None when that cannot be
         told; how the workers died, in general)."""
         processes = self._processes()
+        quiet_resource_tracker()  # shutting down unlinks the pool's semaphores: through a quiet tracker
         self.executor.shutdown(wait=True)  # the workers are joined: exit codes are known
         last: dict[int, int] = {}
         while not self.started.empty():
@@ -331,6 +342,7 @@ class _Pool:
     def terminate(self) -> None:
         """Stop now: cancel what waits, end the workers (Ctrl-C)."""
         processes = self._processes()
+        quiet_resource_tracker()
         self.executor.shutdown(wait=False, cancel_futures=True)
         for process in processes.values():
             if process.is_alive():
@@ -341,10 +353,13 @@ class _Pool:
                 process.kill()
                 process.join()
         self.started.close()
+        quiet_resource_tracker()  # the semaphores are unlinked when this pool is dropped: by a quiet tracker
 
     def close(self) -> None:
+        quiet_resource_tracker()
         self.executor.shutdown(wait=True)
         self.started.close()
+        quiet_resource_tracker()
 
 
 def _run_pool(tasks: Sequence[Task], *, jobs: int, retries: int, emit: Callable[[list[Row]], None]) -> None:
@@ -430,17 +445,11 @@ def _ray_error(err: BaseException) -> str:
     return f"Ray: {name}: {text}"
 
 
-def _run_ray(tasks: Sequence[Task], *, jobs: int, address: str | None, retries: int,
+def _run_ray(tasks: Sequence[Task], *, jobs: int, address: str | None, retries: int, timeout_s: float,
              emit: Callable[[list[Row]], None]) -> None:
-    try:
-        import ray as ray_module
-    except ImportError:
-        raise FleetError(RAY_MISSING) from None
-    ray: Any = ray_module  # Ray's API is partly untyped
-    started_here = not ray.is_initialized()
-    if started_here:
-        _init_ray(ray, jobs=jobs, address=address)
-    try:
+    ray = import_ray(address, timeout_s=timeout_s)
+    with contextlib.nullcontext() if ray.is_initialized() else cluster(ray, jobs=jobs, address=address,
+                                                                        timeout_s=timeout_s):
         remote = ray.remote(num_cpus=1, max_retries=retries, retry_exceptions=False,
                             scheduling_strategy="SPREAD")(execute)
         cpus = int(ray.cluster_resources().get("CPU", jobs)) or jobs
@@ -464,24 +473,3 @@ def _run_ray(tasks: Sequence[Task], *, jobs: int, address: str | None, retries: 
             for ref in pending:
                 ray.cancel(ref)
             raise
-    finally:
-        if started_here:
-            ray.shutdown()
-
-
-def _init_ray(ray: Any, *, jobs: int, address: str | None) -> None:
-    """Connect to the cluster at ``address`` (or ``RAY_ADDRESS``), or start a local one of ``jobs`` CPUs.
-
-    Raises:
-        FleetError: the cluster cannot be reached.
-    """
-    os.environ.setdefault("RAY_AUTH_MODE", "disabled")  # else Ray 2.60 warns about token authentication
-    target = address or os.environ.get("RAY_ADDRESS") or "local"  # never join another user's cluster by chance
-    options: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "logging_level": logging.ERROR}
-    if target == "local":
-        os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
-        options["num_cpus"] = jobs
-    try:
-        ray.init(address=target, **options)
-    except (ConnectionError, TimeoutError, RuntimeError, ValueError) as err:
-        raise FleetError(f"address {target}: cannot connect to a Ray cluster: {one_line(str(err))}") from None
