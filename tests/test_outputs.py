@@ -13,7 +13,6 @@ read back with rosbags), a 255-byte output name works, and names the system cann
 
 from __future__ import annotations
 
-import hashlib
 import os
 import shutil
 import subprocess
@@ -25,6 +24,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import ROBOTS
+from tests.fuzz.harness import snapshot
 from tfrec.cli import main
 
 SHORT = ["--duration", "0.3", "--rate", "20"]
@@ -116,20 +116,8 @@ def _argv(case: Case, out: str, **inputs: str) -> list[str]:
     return [arg.format(**names) for arg in case.argv]
 
 
-def tree(root: Path) -> dict[str, tuple[str, str]]:
-    """Every entry under ``root``: a file's SHA-256, a link's target, a folder; nothing is followed."""
-    found: dict[str, tuple[str, str]] = {}
-    for folder, dirs, files in os.walk(root):
-        for name in dirs + files:
-            path = Path(folder, name)
-            key = str(path.relative_to(root))
-            if path.is_symlink():
-                found[key] = ("link", os.readlink(path))
-            elif path.is_dir():
-                found[key] = ("folder", "")
-            else:
-                found[key] = ("file", hashlib.sha256(path.read_bytes()).hexdigest())
-    return found
+tree = snapshot
+"""Every entry under a folder: a file's SHA-256, a link's target, a folder; nothing is followed."""
 
 
 def _refused(argv: list[str], work: Path, out: str, capsys: pytest.CaptureFixture[str]) -> str:
