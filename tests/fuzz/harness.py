@@ -158,24 +158,25 @@ def _run_in_process(argv: Sequence[str], cwd: Path) -> Outcome:
     return Outcome(tuple(argv), code, out.getvalue(), err.getvalue(), seconds, crash)
 
 
-def _run_subprocess(argv: Sequence[str], cwd: Path) -> Outcome:
+def _run_subprocess(argv: Sequence[str], cwd: Path, *, cpu_s: int | None = None) -> Outcome:
     # RLIMIT_AS counts address space, not memory used: OpenBLAS reserves buffers per thread and glibc an arena per
     # thread far beyond what they use (tfrec record --rrd: 3.5 GB of address space for 230 MB resident), and a
     # failed reservation makes OpenBLAS spin. One BLAS thread and two arenas make the limit measure tfrec.
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep),
            "TFREC_FUZZ_RLIMIT_AS": str(MEMORY_LIMIT), "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
-           "MALLOC_ARENA_MAX": "2"}
+           "MALLOC_ARENA_MAX": "2", **({"TFREC_FUZZ_RLIMIT_CPU": str(cpu_s)} if cpu_s else {})}
+    timeout = RUN_TIMEOUT_S if cpu_s is None else max(RUN_TIMEOUT_S, 4.0 * cpu_s)  # a loaded machine: CPU decides
     command = [sys.executable, "-m", "tests.fuzz._child", *argv]  # tfrec's main_exit under RLIMIT_AS
     start = time.monotonic()
     process = subprocess.Popen(command, cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                start_new_session=True)
     try:
-        stdout, stderr = process.communicate(timeout=RUN_TIMEOUT_S)
+        stdout, stderr = process.communicate(timeout=timeout)
     except subprocess.TimeoutExpired:
         os.killpg(process.pid, signal.SIGKILL)
         stdout, stderr = process.communicate()
         return Outcome(tuple(argv), None, stdout.decode(errors="replace"), stderr.decode(errors="replace"),
-                       time.monotonic() - start, f"hang: no result after {RUN_TIMEOUT_S:.0f} s")
+                       time.monotonic() - start, f"hang: no result after {timeout:.0f} s")
     seconds = time.monotonic() - start
     out, err = stdout.decode(errors="replace"), stderr.decode(errors="replace")
     crash = None
@@ -186,14 +187,19 @@ def _run_subprocess(argv: Sequence[str], cwd: Path) -> Outcome:
     return Outcome(tuple(argv), process.returncode, out, err, seconds, crash)
 
 
-def run_tfrec(argv: Sequence[str], *, cwd: Path, isolated: bool | None = None) -> Outcome:
+def run_tfrec(argv: Sequence[str], *, cwd: Path, isolated: bool | None = None, cpu_s: int | None = None) -> Outcome:
     """Run ``tfrec argv`` in ``cwd``: in a process of its own under ``RLIMIT_AS`` (:data:`MEMORY_LIMIT`) and a
-    timeout when ``isolated`` (default: in the long run), else in-process."""
-    return _run_subprocess(argv, cwd) if (LONG if isolated is None else isolated) else _run_in_process(argv, cwd)
+    timeout when ``isolated`` (default: in the long run), else in-process. ``cpu_s``: the isolated run's CPU time
+    is limited to that many seconds too (``RLIMIT_CPU``; the timeout then only catches a run that waits)."""
+    if LONG if isolated is None else isolated:
+        return _run_subprocess(argv, cwd, cpu_s=cpu_s)
+    return _run_in_process(argv, cwd)
 
 
-def contract_violations(outcome: Outcome, *, codes: Sequence[int] = (0,), outputs: Sequence[Path] = ()) -> list[str]:
-    """What ``outcome`` breaks of the contract (empty: it holds)."""
+def contract_violations(outcome: Outcome, *, codes: Sequence[int] = (0,), outputs: Sequence[Path] = (),
+                        timed: bool = True) -> list[str]:
+    """What ``outcome`` breaks of the contract (empty: it holds); ``timed=False`` for a run whose CPU time was
+    limited (``run_tfrec(cpu_s=…)``): its wall-clock time is then not judged."""
     if outcome.crash is not None:
         return [outcome.crash]
     problems = []
@@ -208,7 +214,7 @@ def contract_violations(outcome: Outcome, *, codes: Sequence[int] = (0,), output
     strays = [line for line in lines if not line.startswith(("tfrec: error: ", "tfrec: warning: "))]
     if strays:
         problems.append(f"stderr has lines that are neither an error nor a warning: {strays[:3]!r}")
-    if outcome.seconds > RUN_TIMEOUT_S:
+    if timed and outcome.seconds > RUN_TIMEOUT_S:
         problems.append(f"took {outcome.seconds:.1f} s")
     if PASSWD_LINE.decode() in outcome.stdout or PASSWD_LINE.decode() in outcome.stderr:
         problems.append("a line of /etc/passwd was printed")

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tfrec.errors import KinematicsError
+from tfrec.frames import frame_tree
 from tfrec.kinematics.joints import all_joint_states
 from tfrec.kinematics.rotations import (
     matrix_from_quaternion,
@@ -202,10 +203,10 @@ def root_from_link(static: Transforms, dynamic: Transforms, *, root: str) -> Tra
 
     Returns:
         Transforms whose parents are all ``root`` and whose children are the reachable frames,
-        root first, then breadth-first in the order the transforms are given.
-
-    Raises:
-        KinematicsError: a frame has two parents.
+        root first, then breadth-first in the order the transforms are given. A frame with several
+        parents is composed through the first that reaches it (static transforms are given first);
+        a transform that closes a cycle, or names a frame as its own parent, is not followed
+        (:func:`tfrec.frames.frame_tree`; callers warn with :func:`tfrec.frames.graph_problems`).
     """
     n = max(len(static), len(dynamic))
     translation = rotation = np.empty(0)
@@ -358,24 +359,20 @@ def _blocks(n: int) -> Iterator[slice]:
 
 
 def _compose(edges: Sequence[tuple[str, str, _Pose]], root: str) -> tuple[list[str], list[_Pose]]:
-    """Breadth-first composition from ``root``: one (7, N) pose per reachable frame."""
-    children: dict[str, list[tuple[str, _Pose]]] = {}
-    has_parent: set[str] = set()
+    """Breadth-first composition from ``root``: one (7, N) pose per reachable frame, each frame once
+    (:func:`tfrec.frames.frame_tree`: below the first parent that reaches it; a pair given twice counts
+    once, as first given; a cycle or a second parent is not followed)."""
+    local: dict[tuple[str, str], _Pose] = {}
     for parent, child, components in edges:
-        if child in has_parent:
-            raise KinematicsError(f"frame '{child}' has two parents")
-        has_parent.add(child)
-        children.setdefault(parent, []).append((child, components))
+        local.setdefault((parent, child), components)
+    tree = frame_tree(local, roots=(root,))
     n = max((components.shape[-1] for _, _, components in edges), default=1)
-    frames = [root]
-    poses: list[_Pose] = [np.array([[0.0], [0.0], [0.0], [0.0], [0.0], [0.0], [1.0]])]
-    i = 0
-    while i < len(frames):
-        for child, local in children.get(frames[i], []):
-            frames.append(child)
-            poses.append(_compose_pair(poses[i], local))
-        i += 1
-    return frames, [np.broadcast_to(pose, (7, n)) for pose in poses]
+    frames = tree.reachable(root)
+    poses: dict[str, _Pose] = {root: np.array([[0.0], [0.0], [0.0], [0.0], [0.0], [0.0], [1.0]])}
+    for frame in frames[1:]:
+        parent = tree.parent[frame]
+        poses[frame] = _compose_pair(poses[parent], local[(parent, frame)])
+    return frames, [np.broadcast_to(poses[frame], (7, n)) for frame in frames]
 
 
 def _compose_pair(a: _Pose, b: _Pose) -> _Pose:

@@ -34,6 +34,7 @@ from tfrec.formats.rrd.paths import (
     joint_entity,
     velocity_entity,
 )
+from tfrec.frames import frame_tree
 from tfrec.kinematics.fk import Transforms
 from tfrec.kinematics.rotations import quaternion_rotate
 from tfrec.model import JointType, Robot
@@ -162,36 +163,34 @@ class Reach:
 
 def tf_tree_layout(pairs: Sequence[tuple[str, str]]) -> dict[str, tuple[float, float]]:
     """Positions of the frames of a TF tree for a graph view: each parent above its children,
-    leaves side by side in the order given, a parent centred over its children (2D, y down)."""
+    leaves side by side in the order given, a parent centred over its children (2D, y down).
+    Every frame is placed once (:func:`tfrec.frames.frame_tree`: a second parent or a cycle is not
+    followed), depth-first without recursion: a chain of 100,000 frames is laid out like a short one."""
+    tree = frame_tree(pairs)
     children: dict[str, list[str]] = {}
-    has_parent = set()
-    for parent, child in pairs:
+    for parent, child in tree.edges():
         children.setdefault(parent, []).append(child)
-        has_parent.add(child)
-    roots = [frame for frame in dict.fromkeys(p for p, _ in pairs) if frame not in has_parent]
     widest = max((len(frame) for pair in pairs for frame in pair), default=8)
     dx, dy = 7.0 * widest + 10.0, 30.0
-    out: dict[str, tuple[float, float]] = {}
+    x: dict[str, float] = {}
+    preorder: list[str] = []
     next_x = 0.0
-
-    def place(frame: str, depth: int) -> float:
-        nonlocal next_x
-        if frame in out:  # a frame reached twice (not a tree): keep the first place
-            return out[frame][0]
-        kids = children.get(frame, [])
-        if not kids:
-            x = next_x
-            next_x += dx
-        else:
-            out[frame] = (0.0, depth * dy)  # mark before recursing
-            xs = [place(kid, depth + 1) for kid in kids]
-            x = (min(xs) + max(xs)) / 2.0
-        out[frame] = (x, depth * dy)
-        return x
-
-    for root in roots:
-        place(root, 0)
-    return out
+    for root in tree.roots:
+        stack = [(root, False)]
+        while stack:
+            frame, done = stack.pop()
+            kids = children.get(frame, [])
+            if not done:
+                preorder.append(frame)
+            if not done and kids:
+                stack.append((frame, True))
+                stack.extend((kid, False) for kid in reversed(kids))
+            elif kids:
+                x[frame] = (min(x[kid] for kid in kids) + max(x[kid] for kid in kids)) / 2.0
+            else:
+                x[frame] = next_x
+                next_x += dx
+    return {frame: (x[frame], tree.depth[frame] * dy) for frame in preorder}
 
 
 def tf_tree_columns(pairs: Sequence[tuple[str, str]]) -> list[Any]:

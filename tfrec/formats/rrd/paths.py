@@ -23,7 +23,7 @@ Joint plots carry a ``SeriesLines`` style (the joint's colour and name) beside t
 
 A replay may hold frames the robot model does not name (or have no model); they keep entities
 of their own: ``/tf/<parent>/<child>`` (*ros_time*) and ``/tf_static/<parent>/<child>`` for a
-pair whose child is no link, ``/robot/<frame>`` (``CoordinateFrame`` and ``TransformAxes3D``)
+pair that is no joint of the robot (its child no link, or a link below another parent than its joint's), ``/robot/<frame>`` (``CoordinateFrame`` and ``TransformAxes3D``)
 for such a frame.
 
 The timeline ``ros_time`` holds the stamps of the recording as timestamps (integer
