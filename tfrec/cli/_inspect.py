@@ -51,6 +51,11 @@ def _joint_label(joint: Joint) -> str:
     return ", ".join(parts)
 
 
+MAX_INDENT = 40
+"""Levels of the printed tree drawn as indentation; deeper links are printed at this indentation with their
+depth in front (a chain of 100,000 links would otherwise print 20 GB of spaces)."""
+
+
 def _print_tree(robot: Robot, out: TextIO) -> None:
     actuated = len(robot.actuated_joints)
     out.write(f"robot name is: {robot.name}\n")
@@ -59,14 +64,15 @@ def _print_tree(robot: Robot, out: TextIO) -> None:
     out.write(f"{robot.root}\n")
 
     # depth-first with an explicit stack: a chain may be longer than Python's recursion limit
-    stack = [(joint, "", i == len(robot.child_joints[robot.root]) - 1)
+    stack = [(joint, "", 1, i == len(robot.child_joints[robot.root]) - 1)
              for i, joint in enumerate(robot.child_joints[robot.root])][::-1]
     while stack:
-        joint, indent, last = stack.pop()
-        out.write(f"{indent}{'└── ' if last else '├── '}{joint.child}  ({joint.name}: {_joint_label(joint)})\n")
+        joint, indent, depth, last = stack.pop()
+        mark = f"[{depth}] " if depth > MAX_INDENT else ""
+        out.write(f"{indent}{mark}{'└── ' if last else '├── '}{joint.child}  ({joint.name}: {_joint_label(joint)})\n")
         below = robot.child_joints[joint.child]
-        deeper = indent + ("    " if last else "│   ")
-        stack.extend([(child, deeper, i == len(below) - 1) for i, child in enumerate(below)][::-1])
+        deeper = indent + ("    " if last else "│   ") if depth < MAX_INDENT else indent
+        stack.extend([(child, deeper, depth + 1, i == len(below) - 1) for i, child in enumerate(below)][::-1])
 
 
 def robot_to_json(robot: Robot) -> dict[str, Any]:

@@ -49,6 +49,10 @@ Array = NDArray[np.float64]
 DEFAULT_CHUNK_SAMPLES = 8192
 """Samples per chunk in :func:`iter_dynamic_chunks`: ~0.5 MB per transform per chunk."""
 
+CHUNK_VALUES = 2_000_000
+"""Joint samples (samples × moving joints) of one chunk of :func:`iter_dynamic_chunks` at most: its
+transforms take 112 MB (7 float64 each), whatever the robot."""
+
 STATIC_TYPES = (JointType.FIXED, JointType.PLANAR)
 
 BLOCK = 4096
@@ -182,8 +186,10 @@ def iter_dynamic_chunks(
     """Joint states and dynamic transforms of a trajectory, ``chunk_samples`` samples at a time.
 
     Memory stays bounded by the chunk size whatever the trajectory's length, so writers
-    can stream long recordings.
+    can stream long recordings; a robot of many moving joints gets chunks of fewer samples
+    (at most :data:`CHUNK_VALUES` joint samples a chunk: 100,000 joints, 20 samples).
     """
+    chunk_samples = max(1, min(chunk_samples, CHUNK_VALUES // max(1, len(robot.moving_joints))))
     for piece in trajectory.chunks(chunk_samples):
         names, positions, velocities = all_joint_states(robot, piece)
         transforms = dynamic_transforms(robot, names, positions, frame_prefix=frame_prefix)

@@ -31,7 +31,7 @@ from tfrec.plots._figure import (
     plot_format,
     refuse_existing,
 )
-from tfrec.recording import Recording
+from tfrec.recording import JointStates, Recording
 from tfrec.resample import align, data_start_ns
 
 if TYPE_CHECKING:
@@ -44,6 +44,14 @@ Array = NDArray[np.float64]
 DRAWABLE = 1e100
 """The largest magnitude a plot's axes reach (m, rad): a description may put a frame at 1e308 m, where
 matplotlib's margins overflow; what lies beyond is drawn at the edge (joints) or not at all (paths)."""
+
+MAX_POSES = 1_000_000
+"""Poses (instants × frames on the way to the drawn ones) composed for the frame paths at most (56 MB): a
+deep tree is drawn at fewer instants."""
+
+MAX_PLOTTED = 64
+"""Joints, and frame paths, drawn at most (each is a line and a legend entry: matplotlib lays out 5,000 legend
+entries for minutes)."""
 
 MAX_DEFAULT_FRAMES = 6
 """Leaves drawn when no frames are chosen: the deepest ones first."""
@@ -86,7 +94,8 @@ class FramePaths:
 def frame_paths(recording: Recording, frames: Sequence[str], *, max_samples: int = MAX_POINTS) -> FramePaths:
     """Root → frame positions of ``frames``, from /tf_static and /tf (:func:`~tfrec.kinematics.root_from_link`).
 
-    Times are the stamps of the longest /tf series (at most ``max_samples`` of them, evenly spread);
+    Times are the stamps of the longest /tf series (at most ``max_samples`` of them, evenly spread, and
+    fewer for frames deep in a tree: :data:`MAX_POSES`);
     the other series are interpolated at them (linearly, slerp for rotations), NaN outside their span.
 
     Raises:
@@ -101,6 +110,12 @@ def frame_paths(recording: Recording, frames: Sequence[str], *, max_samples: int
                         f"(its frames: {listed or 'none'})")
     for problem in graph_problems(tree):
         warnings.warn(f"{recording.path}: {problem}; frame paths are drawn along the other transforms", stacklevel=3)
+    needed: set[str] = set()  # the frames on the way from the roots to ``frames``, each walked up once
+    for frame in frames:
+        while frame not in needed and frame in tree.parent:
+            needed.add(frame)
+            frame = tree.parent[frame]
+    max_samples = max(2, min(max_samples, MAX_POSES // max(1, len(needed))))  # a chain of 100,000: 10 instants
     origin = data_start_ns(recording) or 0
     series = [s for s in recording.tf.values() if len(s)]
     if series:
@@ -111,7 +126,7 @@ def frame_paths(recording: Recording, frames: Sequence[str], *, max_samples: int
         times = np.array([origin], dtype=np.int64)
     roots = {frame: tree.root[frame] for frame in frames}
     positions: dict[str, Array] = {}
-    for root, (fixed, dynamic) in _root_transforms(recording, tree, frames, times).items():
+    for root, (fixed, dynamic) in _root_transforms(recording, tree, frames, needed, times).items():
         composed = root_from_link(fixed, dynamic, root=root)
         column = {child: k for k, child in enumerate(composed.children)}
         for frame in frames:
@@ -122,15 +137,10 @@ def frame_paths(recording: Recording, frames: Sequence[str], *, max_samples: int
     return FramePaths((times - origin) / 1e9, positions, roots)
 
 
-def _root_transforms(recording: Recording, tree: FrameTree, frames: Sequence[str],
+def _root_transforms(recording: Recording, tree: FrameTree, frames: Sequence[str], needed: set[str],
                      times: NDArray[np.int64]) -> dict[str, tuple[Transforms, Transforms]]:
     """Root of each of ``frames`` → the transforms on the way from it to them (static, and /tf at ``times``):
-    only the edges of the tree above the frames, walked up once each."""
-    needed: set[str] = set()
-    for frame in frames:
-        while frame not in needed and frame in tree.parent:
-            needed.add(frame)
-            frame = tree.parent[frame]
+    only the edges of the tree into the ``needed`` frames."""
     static: dict[str, dict[tuple[str, str], tuple[Array, Array]]] = {}
     dynamic: dict[str, list[tuple[tuple[str, str], Array, Array]]] = {}
     for frame in sorted({tree.root[frame] for frame in frames}, key=natural_key):
@@ -271,7 +281,15 @@ def plot_recording(recording: Recording, path: str | os.PathLike[str], *, robot:
     js = recording.joint_states if recording.joint_states is not None and len(recording.joint_states) else None
     if js is None and not any(len(s) for s in recording.tf.values()):
         raise PlotError(f"{recording.path}: nothing to plot: no /joint_states and no /tf")
+    if js is not None and len(js.names) > MAX_PLOTTED:
+        warnings.warn(f"{recording.path}: {len(js.names):,} joints in /joint_states: the first {MAX_PLOTTED} are "
+                      "drawn (a plot of more is unreadable, and takes matplotlib minutes)", stacklevel=2)
+        js = JointStates(js.time_ns, js.names[:MAX_PLOTTED], js.positions[:, :MAX_PLOTTED])
     chosen = list(frames) if frames is not None else default_frames(recording)
+    if len(chosen) > MAX_PLOTTED:
+        warnings.warn(f"{recording.path}: {len(chosen):,} frames chosen: the paths of the first {MAX_PLOTTED} are "
+                      "drawn", stacklevel=2)
+        chosen = chosen[:MAX_PLOTTED]
     if js is None and not chosen:  # /tf holds nothing but frames that are their own parent
         raise PlotError(f"{recording.path}: nothing to plot: no /joint_states, and no frame of /tf lies below "
                         f"another ({'; '.join(graph_problems(_tree(recording), parents=False)) or 'no frames'})")

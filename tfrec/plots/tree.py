@@ -230,6 +230,9 @@ _GAP_X, _GAP_Y = 0.22, 0.16  # inches between columns, between a box and a label
 _MARGIN, _TITLE_H = 0.3, 0.62
 MAX_INCHES = 60.0
 """The longest side of a graph picture; larger trees are drawn smaller."""
+MAX_DRAWN_FRAMES = 1_000
+"""Frames a picture (SVG, PNG, PDF) is drawn of at most: 1,000 frames in a chain take ~9 s to draw and are
+unreadable at :data:`MAX_INCHES` already; larger trees are written as DOT (linear, any size)."""
 
 
 class _Measure:
@@ -291,13 +294,17 @@ def render_graph(graph: TreeGraph, path: str | os.PathLike[str], *, force: bool 
     the same graph.
 
     Raises:
-        PlotError: a suffix other than ``.dot``, ``.svg``, ``.png`` or ``.pdf``, or a graph without frames.
+        PlotError: a suffix other than ``.dot``, ``.svg``, ``.png`` or ``.pdf``, a graph without frames, or
+            a picture of more than :data:`MAX_DRAWN_FRAMES` frames.
         WriteError: the file cannot be written.
     """
     fmt = graph_format(path)
     refuse_existing(path, force=force)
     if not graph.nodes:
         raise PlotError(f"{graph.title}: no frames to draw")
+    if fmt != "dot" and len(graph.nodes) > MAX_DRAWN_FRAMES:
+        raise PlotError(f"{graph.title}: {len(graph.nodes):,} frames are more than a picture is drawn of (at most "
+                        f"{MAX_DRAWN_FRAMES:,}): write a .dot file instead (Graphviz lays it out: dot -Tsvg)")
     if fmt == "dot":
         write_text(path, to_dot(graph), force=force)
         return

@@ -116,44 +116,59 @@ class Reach:
     radii: Mapping[tuple[str, int], float] = field(default_factory=dict)
     low: Array | None = None
     high: Array | None = None
-    points: list[tuple[Array, float]] = field(default_factory=list)
+    points: list[tuple[Array, Array]] = field(default_factory=list)
+    """(points (m, 3), their radii (m,)): the link origins and visual centres gathered."""
+    _count: int = 0
 
     def merge(self, other: Reach) -> None:
         """Widen by another robot's reach (the two robots of an overlay)."""
-        for points, pad in other.points:
-            self._widen(points, pad)
+        for points, pads in other.points:
+            self._widen(points, pads)
 
     def add(self, world: Transforms) -> None:
         """Widen the box by the robot at the poses ``world`` (root_from_frame, N instants); NaN
-        poses (frames not placed at an instant) are left out."""
+        poses (frames not placed at an instant) are left out. All links at once: linear in links."""
         by_frame = {child: k for k, child in enumerate(world.children)}
+        columns: list[int] = []
+        offsets: list[tuple[float, float, float]] = []
+        pads: list[float] = []
+        origins: list[int] = []
         for link in self.robot.links:
             k = by_frame.get(self.frame_prefix + link.name)
             if k is None:
                 continue
-            origin = world.translation[:, k]
-            self._widen(origin, 0.0)
+            origins.append(k)
             for index, visual in enumerate(link.visuals):
-                centre = origin + quaternion_rotate(world.rotation[:, k], np.asarray(visual.origin.xyz))
-                self._widen(centre, self.radii.get((link.name, index), 0.0))
+                columns.append(k)
+                offsets.append(visual.origin.xyz)
+                pads.append(self.radii.get((link.name, index), 0.0))
+        n = len(world)
+        if origins:
+            self._widen(world.translation[:, origins].reshape(-1, 3), np.zeros(n * len(origins)))
+        if columns:
+            centres = world.translation[:, columns] + quaternion_rotate(world.rotation[:, columns], np.asarray(offsets))
+            self._widen(centres.reshape(-1, 3), np.tile(np.asarray(pads, dtype=np.float64), n))
 
-    def _widen(self, points: Array, pad: float) -> None:
-        points = points[np.all(np.isfinite(points), axis=1)]
+    def _widen(self, points: Array, pads: Array) -> None:
+        kept = np.all(np.isfinite(points), axis=1)
+        points, pads = points[kept], pads[kept]
         if not len(points):
             return
-        low, high = points.min(axis=0) - pad, points.max(axis=0) + pad
+        low, high = (points - pads[:, np.newaxis]).min(axis=0), (points + pads[:, np.newaxis]).max(axis=0)
         self.low = low if self.low is None else np.minimum(self.low, low)
         self.high = high if self.high is None else np.maximum(self.high, high)
-        self.points.append((points, pad))
-        if sum(len(p) for p, _ in self.points) > MAX_POINTS:
-            self.points = [(p[::2], r) for p, r in self.points if len(p[::2])]
+        self.points.append((points, pads))
+        self._count += len(points)
+        while self._count > MAX_POINTS:
+            self.points = [(p[::2], r[::2]) for p, r in self.points if len(p[::2])]
+            self._count = sum(len(p) for p, _ in self.points)
 
     def eye(self, fill: float = FILL) -> rrb.EyeControls3D | None:
         """A ¾ view of the ball around the reach (centred on its box), Z up; None before anything was added."""
         if self.low is None or self.high is None:
             return None
         centre = (self.low + self.high) / 2.0
-        radius = max(float(np.max(np.linalg.norm(p - centre, axis=1))) + pad for p, pad in self.points)
+        radius = max(float(np.max(np.linalg.norm(p - centre, axis=1) + pads)) for p, pads in self.points)
         distance = view_distance(radius, fill)
         yaw, pitch = math.radians(EYE_YAW_DEG), math.radians(EYE_PITCH_DEG)
         direction = np.array([math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch)])

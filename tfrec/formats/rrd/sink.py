@@ -46,18 +46,36 @@ from tfrec.formats.rrd.paths import (
 from tfrec.kinematics.fk import Transforms, root_from_link
 from tfrec.model import Mesh, Robot
 
-__all__ = ["RerunSink"]
+__all__ = ["MAX_LINKS", "RerunSink", "check_rerun_robot"]
 
 Array = NDArray[np.float64]
 
 _EYE_SAMPLES = 64
 """Instants of each chunk (evenly spread) the robot's reach, and so the camera, is fitted to."""
+_EYE_POSES = 1_000_000
+"""Poses (instants × frames) composed at most per chunk for the camera (56 MB): fewer instants for a robot
+of many links."""
 _FRAME_AXIS_LENGTH_M = 0.1  # of the TF axes of frames that are not links of the robot
 
 _FLUSH_BYTES = 16 << 20
 """Payload bytes sent between two blocking flushes. ``send_columns`` only queues a chunk for Rerun's
 writer thread (which encodes, compresses and writes it), and the queue has no limit: a writer
 slower than the sender would hold any amount of the recording in memory."""
+
+
+MAX_LINKS = 10_000
+"""Links of a robot tfrec logs to Rerun at most. Rerun takes an entity per link and per visual, about a
+millisecond and 60 kB each (a chain of 10,000 links: 10 s and 600 MB to record with an .rrd, 100,000 would take
+minutes and gigabytes); the ROS outputs have no such bound."""
+
+
+def check_rerun_robot(robot: Robot | None, target: str, *, hint: str = "") -> None:
+    """Raise WriteError for a robot of more than :data:`MAX_LINKS` links (before any output is written);
+    ``hint``: what to do instead, ending the message."""
+    if robot is not None and len(robot.links) > MAX_LINKS:
+        raise WriteError(f"{target}: robot '{robot.name}' has {len(robot.links):,} links, more than tfrec logs to "
+                         f"Rerun (at most {MAX_LINKS:,}: each link is an entity of its own, ~1 ms and 60 kB)"
+                         + (f"; {hint}" if hint else ""))
 
 
 class RerunSink:
@@ -83,7 +101,7 @@ class RerunSink:
             for none (to colour them over time: static colours would hide those).
 
     Raises:
-        WriteError: the file cannot be created.
+        WriteError: the file cannot be created, or a robot of more than :data:`MAX_LINKS` links.
     """
 
     def __init__(
@@ -99,6 +117,7 @@ class RerunSink:
         colour: int | None = None,
     ) -> None:
         file = Path(path)
+        check_rerun_robot(robot, os.fspath(file))
         stream = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id, send_properties=False)
         try:
             with open(file, "wb"):
@@ -128,6 +147,7 @@ class RerunSink:
             target: what the stream goes to, for error messages (a URL, "the Rerun viewer on port 9876").
             robot, **options: as for the constructor (``package_paths``, ``frame_prefix``, ...).
         """
+        check_rerun_robot(robot, target)
         sink = cls.__new__(cls)
         sink._setup(stream, target=target, file=None, robot=robot, **options)
         return sink
@@ -398,7 +418,9 @@ class RerunSink:
         """
         if self._static is None or self._robot is None or self._reach is None or not len(moving):
             return
-        picked = np.unique(np.linspace(0, len(moving) - 1, min(len(moving), _EYE_SAMPLES)).astype(int))
+        frames = len(self._static.children) + len(moving.children) + 1
+        count = max(1, min(len(moving), _EYE_SAMPLES, _EYE_POSES // frames))  # 100,000 frames: 10 instants
+        picked = np.unique(np.linspace(0, len(moving) - 1, count).astype(int))
         sampled = Transforms(moving.parents, moving.children, moving.translation[picked], moving.rotation[picked])
         self._reach.add(root_from_link(self._static, sampled, root=self._prefix + self._robot.root))
 
