@@ -11,6 +11,8 @@ once here, as data: :data:`QOS_LATCHED`, :data:`QOS_VOLATILE`.
 from __future__ import annotations
 
 import copy
+import stat
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,6 +40,9 @@ __all__ = [
 
 METADATA_MAX_BYTES = 16 << 20
 """The largest metadata.yaml read (rosbag2 writes a few kB; one with thousands of topics, a few MB)."""
+
+MAX_STORAGE_FILES = 100_000
+"""Storage files a rosbag2 bag may list (distinct ones): a bag split every minute for two months has 90,000."""
 
 BAG_VERSION = 9
 ROS_DISTRO = "jazzy"
@@ -207,13 +212,40 @@ def read_bag_metadata(folder: Path) -> BagMetadata:
     if not isinstance(names, list) or not names:
         raise ReadError(f"{meta}: rosbag2_bagfile_information lists no relative_file_paths")
     _check_topics(info.get("topics_with_message_count"), meta)
-    files = tuple(folder / Path(str(name)).name for name in names)
-    for file in files:
-        if not file.is_file():
-            raise ReadError(f"{folder}: metadata.yaml lists {file.name}, which is missing")
+    files = _storage_files(folder, meta, names)
     compression = str(info.get("compression_format") or "")
     mode = str(info.get("compression_mode") or "").lower() if compression else ""
     return BagMetadata(str(info.get("storage_identifier") or ""), files, compression, mode, _topic_counts(info))
+
+
+def _storage_files(folder: Path, meta: Path, names: list[Any]) -> tuple[Path, ...]:
+    """The files ``relative_file_paths`` lists, each once: a name is taken as a file of the bag's own folder
+    (its last part: ``../x.mcap``, ``sub/../x.mcap`` and ``./x.mcap`` are ``x.mcap``; nothing outside the
+    folder is read), and names of one file (repeated, or links to it) are read once, with a warning.
+
+    Raises:
+        ReadError: more than :data:`MAX_STORAGE_FILES` files, or a listed file that is missing.
+    """
+    unique = list(dict.fromkeys(Path(str(name)).name for name in names))
+    if len(unique) > MAX_STORAGE_FILES:
+        raise ReadError(f"{meta}: relative_file_paths lists {len(unique):,} files, more than a bag has "
+                        f"(at most {MAX_STORAGE_FILES:,})")
+    files: dict[tuple[int, int], Path] = {}
+    for name in unique:
+        file = folder / name
+        try:
+            status = file.stat()
+        except OSError:
+            status = None
+        if status is None or not stat.S_ISREG(status.st_mode):
+            raise ReadError(f"{folder}: metadata.yaml lists {name}, which is missing")
+        files.setdefault((status.st_dev, status.st_ino), file)
+    if len(files) < len(names):
+        repeated = len(names) - len(files)
+        warnings.warn(f"{meta}: relative_file_paths names {len(files):,} file{'s' if len(files) != 1 else ''} "
+                      f"{len(names):,} times ({repeated:,} repeated, or names of one file): each is read once",
+                      stacklevel=4)
+    return tuple(files.values())
 
 
 def _topic_counts(info: dict[str, Any]) -> dict[str, int] | None:
