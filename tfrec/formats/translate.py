@@ -331,15 +331,28 @@ def _decodes(connection: Connection, sample: bytes | memoryview) -> bool:
     from rosbags.serde import SerdeError
     from rosbags.typesys.base import TypesysError
 
+    decode = _decoder(connection.msgtype, connection.definition, connection.definition_encoding, connection.ros1)
+    if decode is None:
+        return False
     try:
-        store = _store(_types(connection.msgtype, connection.definition, connection.definition_encoding,
-                              connection.ros1), ros1_header=connection.ros1)
-        decode = store.deserialize_ros1 if connection.ros1 else store.deserialize_cdr
         decode(sample, connection.msgtype)
-    except (Untranslatable, TypesysError, SerdeError, struct.error, IndexError, KeyError, ValueError,
-            UnicodeDecodeError):
+    except (TypesysError, SerdeError, struct.error, IndexError, KeyError, ValueError, UnicodeDecodeError):
         return False
     return True
+
+
+@lru_cache(maxsize=256)
+def _decoder(msgtype: str, definition: str, definition_encoding: str, ros1: bool) -> Callable[[Any, str], Any] | None:
+    """The deserializer of a type by its definition (the distro's without one), or None when the definition does
+    not give one — once per type, not per connection: a file of 60,000 channels of one type builds one store."""
+    from rosbags.typesys.base import TypesysError
+
+    try:
+        store = _store(_types(msgtype, definition, definition_encoding, ros1), ros1_header=ros1)
+    except (Untranslatable, TypesysError, IndexError, KeyError, ValueError):
+        return None
+    decode: Callable[[Any, str], Any] = store.deserialize_ros1 if ros1 else store.deserialize_cdr
+    return decode
 
 
 def _fitting(connection: Connection, sample: bytes | memoryview) -> tuple[Connection, str]:
