@@ -315,7 +315,8 @@ def translation(connection: Connection, *, encoding: str, sample: bytes | memory
         raise Untranslatable("it has no message type")
     if "/srv/" in connection.msgtype:
         raise Untranslatable("a service event: ROS 1 bags record no services")
-    plan = _plan(connection.msgtype, connection.definition, connection.definition_encoding, connection.ros1)
+    plan = _plan(connection.msgtype, _uncommented(connection.definition, connection.definition_encoding),
+                 connection.definition_encoding, connection.ros1)
     if encoding == "ros1":
         target = Connection(connection.topic, plan.msgtype, "ros1", plan.definition, "ros1msg", connection.latched,
                             "", plan.type_hash)
@@ -331,7 +332,8 @@ def _decodes(connection: Connection, sample: bytes | memoryview) -> bool:
     from rosbags.serde import SerdeError
     from rosbags.typesys.base import TypesysError
 
-    decode = _decoder(connection.msgtype, connection.definition, connection.definition_encoding, connection.ros1)
+    decode = _decoder(connection.msgtype, _uncommented(connection.definition, connection.definition_encoding),
+                      connection.definition_encoding, connection.ros1)
     if decode is None:
         return False
     try:
@@ -339,6 +341,15 @@ def _decodes(connection: Connection, sample: bytes | memoryview) -> bool:
     except (TypesysError, SerdeError, struct.error, IndexError, KeyError, ValueError, UnicodeDecodeError):
         return False
     return True
+
+
+def _uncommented(definition: str, encoding: str) -> str:
+    """A message definition without its comment lines and trailing blanks: the key of the per-type caches, so
+    that schemas differing only in comments (thousands of them) parse once. What is carried over is generated
+    from the parsed types, which have no comments."""
+    if "#" not in definition or "idl" in encoding:  # IDL's '#' lines are directives
+        return definition
+    return "\n".join(line.rstrip() for line in definition.splitlines() if not line.lstrip().startswith("#"))
 
 
 @lru_cache(maxsize=256)
