@@ -63,6 +63,7 @@ def test_a_100k_chain_is_inspected_recorded_and_read(chain_100k: Path) -> None:
     assert len(robot["tf_frames"]) == 100_000 and len(robot["joints"]) == 50_000
     check = guarded(["replay", "--check", "chain.mcap"], cwd, codes=(0, 1))
     assert check.code == 0 and "PASS: all 100000 frames match the description" in check.stdout
+    assert guarded(["diff", "chain.mcap", "chain.mcap"], cwd, codes=(0, 1)).code == 0  # joints matched by dict
 
 
 def test_an_rrd_past_its_bound_is_one_line(tmp_path: Path) -> None:
