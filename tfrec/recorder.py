@@ -190,7 +190,7 @@ def record(
     last = int(trajectory.time_ns[-1]) + start_time_ns if total else start_time_ns
     check_time_range(first, last)
     if plan.rrd is not None:
-        from tfrec.formats.rrd.sink import check_rerun_robot
+        from tfrec.formats.rrd.paths import check_rerun_robot
 
         check_rerun_robot(robot, os.fspath(plan.rrd), hint="record without it (`no_rrd`)")
     static = static_transforms(robot, frame_prefix=frame_prefix)

@@ -15,7 +15,7 @@ from tests.faults.guarded import guarded, warnings_of
 from tfrec.description import parse_urdf
 from tfrec.formats import read_recording
 from tfrec.formats.rrd.blueprint import tf_tree_layout
-from tfrec.formats.rrd.sink import MAX_LINKS
+from tfrec.formats.rrd.paths import MAX_LINKS
 from tfrec.plots.tree import MAX_DRAWN_FRAMES
 
 

@@ -67,6 +67,10 @@ FILL = 0.7
 """The part of the view's height the ball around the robot's reach fills."""
 MAX_POINTS = 50_000
 """Points :class:`Reach` keeps (every other one is dropped when there are more): memory stays bounded."""
+EYE_SAMPLES = 64
+"""Instants of each chunk (evenly spread) the robot's reach, and so the camera, is fitted to..."""
+EYE_POSES = 1_000_000
+"""...and poses (instants × frames) composed for it at most (56 MB): fewer instants for a robot of many links."""
 MIN_RADIUS_M = 0.05
 """A reach smaller than this (a robot of points) is framed as a ball of this radius."""
 
@@ -119,6 +123,13 @@ class Reach:
     points: list[tuple[Array, Array]] = field(default_factory=list)
     """(points (m, 3), their radii (m,)): the link origins and visual centres gathered."""
     _count: int = 0
+
+    @staticmethod
+    def instants(samples: int, *, frames: int) -> NDArray[np.intp]:
+        """Which of a chunk's ``samples`` the camera is fitted to: :data:`EYE_SAMPLES` evenly spread, fewer when
+        ``frames`` frames would compose more than :data:`EYE_POSES` poses (100,000 frames: 10 instants)."""
+        count = max(1, min(samples, EYE_SAMPLES, EYE_POSES // max(1, frames)))
+        return np.unique(np.linspace(0, samples - 1, count).astype(np.intp))
 
     def merge(self, other: Reach) -> None:
         """Widen by another robot's reach (the two robots of an overlay)."""

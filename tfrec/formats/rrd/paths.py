@@ -39,17 +39,22 @@ import sys
 
 import rerun as rr
 
+from tfrec.errors import WriteError
+from tfrec.model import Robot
+
 __all__ = [
     "APPLICATION_ID",
     "DESCRIPTION_ROOT",
     "DISPLAY_PREFIX_ROOT",
     "JOINTS_ROOT",
+    "MAX_LINKS",
     "ROBOT_ROOT",
     "TF_ROOT",
     "TF_STATIC_ROOT",
     "TF_TREE_ROOT",
     "TIMELINE",
     "VELOCITIES_ROOT",
+    "check_rerun_robot",
     "joint_entity",
     "link_entity",
     "pair_entity",
@@ -154,3 +159,18 @@ def joint_entity(joint: str) -> str:
 def velocity_entity(joint: str) -> str:
     """``/joint_velocities/<joint>``: the joint's velocity as a time series."""
     return f"/{VELOCITIES_ROOT}/{rr.escape_entity_path_part(joint)}"
+
+
+MAX_LINKS = 10_000
+"""Links of a robot tfrec logs to Rerun at most. Rerun takes an entity per link and per visual, about a
+millisecond and 60 kB each (a chain of 10,000 links: 10 s and 600 MB to record with an .rrd, 100,000 would take
+minutes and gigabytes); the ROS outputs have no such bound."""
+
+
+def check_rerun_robot(robot: Robot | None, target: str, *, hint: str = "") -> None:
+    """Raise WriteError for a robot of more than :data:`MAX_LINKS` links (before any output is written);
+    ``hint``: what to do instead, ending the message."""
+    if robot is not None and len(robot.links) > MAX_LINKS:
+        raise WriteError(f"{target}: robot '{robot.name}' has {len(robot.links):,} links, more than tfrec logs to "
+                         f"Rerun (at most {MAX_LINKS:,}: each link is an entity of its own, ~1 ms and 60 kB)"
+                         + (f"; {hint}" if hint else ""))

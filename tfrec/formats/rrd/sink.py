@@ -34,6 +34,7 @@ from tfrec.formats.rrd.paths import (
     DISPLAY_PREFIX_ROOT,
     ROBOT_ROOT,
     TF_TREE_ROOT,
+    check_rerun_robot,
     joint_entity,
     link_entity,
     pair_entity,
@@ -46,36 +47,16 @@ from tfrec.formats.rrd.paths import (
 from tfrec.kinematics.fk import Transforms, root_from_link
 from tfrec.model import Mesh, Robot
 
-__all__ = ["MAX_LINKS", "RerunSink", "check_rerun_robot"]
+__all__ = ["RerunSink"]
 
 Array = NDArray[np.float64]
 
-_EYE_SAMPLES = 64
-"""Instants of each chunk (evenly spread) the robot's reach, and so the camera, is fitted to."""
-_EYE_POSES = 1_000_000
-"""Poses (instants × frames) composed at most per chunk for the camera (56 MB): fewer instants for a robot
-of many links."""
 _FRAME_AXIS_LENGTH_M = 0.1  # of the TF axes of frames that are not links of the robot
 
 _FLUSH_BYTES = 16 << 20
 """Payload bytes sent between two blocking flushes. ``send_columns`` only queues a chunk for Rerun's
 writer thread (which encodes, compresses and writes it), and the queue has no limit: a writer
 slower than the sender would hold any amount of the recording in memory."""
-
-
-MAX_LINKS = 10_000
-"""Links of a robot tfrec logs to Rerun at most. Rerun takes an entity per link and per visual, about a
-millisecond and 60 kB each (a chain of 10,000 links: 10 s and 600 MB to record with an .rrd, 100,000 would take
-minutes and gigabytes); the ROS outputs have no such bound."""
-
-
-def check_rerun_robot(robot: Robot | None, target: str, *, hint: str = "") -> None:
-    """Raise WriteError for a robot of more than :data:`MAX_LINKS` links (before any output is written);
-    ``hint``: what to do instead, ending the message."""
-    if robot is not None and len(robot.links) > MAX_LINKS:
-        raise WriteError(f"{target}: robot '{robot.name}' has {len(robot.links):,} links, more than tfrec logs to "
-                         f"Rerun (at most {MAX_LINKS:,}: each link is an entity of its own, ~1 ms and 60 kB)"
-                         + (f"; {hint}" if hint else ""))
 
 
 class RerunSink:
@@ -179,8 +160,7 @@ class RerunSink:
         links = robot.links if robot is not None else ()
         self._link_frames = frozenset(frame_prefix + link.name for link in links)
         joints = robot.joints if robot is not None else ()
-        # a pair goes to its joint's entity only when it is that joint's (parent, child): a recorded pair that
-        # names a link's frame below another parent (a reparented frame, a cycle) keeps an entity of its own
+        # a pair that names a link below another parent (reparented, a cycle) keeps an entity of its own
         self._joint_of_pair = {(frame_prefix + joint.parent, frame_prefix + joint.child): joint.name for joint in joints}
         self._other_frames: set[str] = set()
         self._static: Transforms | None = None
@@ -418,9 +398,7 @@ class RerunSink:
         """
         if self._static is None or self._robot is None or self._reach is None or not len(moving):
             return
-        frames = len(self._static.children) + len(moving.children) + 1
-        count = max(1, min(len(moving), _EYE_SAMPLES, _EYE_POSES // frames))  # 100,000 frames: 10 instants
-        picked = np.unique(np.linspace(0, len(moving) - 1, count).astype(int))
+        picked = Reach.instants(len(moving), frames=len(self._static.children) + len(moving.children) + 1)
         sampled = Transforms(moving.parents, moving.children, moving.translation[picked], moving.rotation[picked])
         self._reach.add(root_from_link(self._static, sampled, root=self._prefix + self._robot.root))
 
