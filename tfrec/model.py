@@ -261,13 +261,18 @@ class Robot:
 
     @cached_property
     def tree_order(self) -> tuple[Joint, ...]:
-        """All joints, parents before children (breadth-first from the root)."""
+        """All joints, parents before children (breadth-first from the root; each link once, so that a
+        hand-built model with a cycle ends too: parsed descriptions have none)."""
         ordered: list[Joint] = []
         frontier = [self.root]
+        seen = {self.root}
         while frontier:
             nxt: list[str] = []
             for link in frontier:
                 for joint in self.child_joints[link]:
+                    if joint.child in seen:
+                        continue
+                    seen.add(joint.child)
                     ordered.append(joint)
                     nxt.append(joint.child)
             frontier = nxt

@@ -161,3 +161,14 @@ def test_every_command_ends_on_a_cycle(tmp_path: Path, case: str, kind: str) -> 
     outcome = guarded(["convert", target, "out.rrd"], tmp_path)
     assert _named(warnings_of(outcome), cycle), outcome.stderr
     assert "cycle" in (tmp_path / "tree.svg").read_text() or "own parent" in (tmp_path / "tree.svg").read_text()
+
+
+def test_a_hand_built_model_with_a_cycle_orders_its_joints_once() -> None:
+    import dataclasses
+
+    from tfrec.description import parse_urdf
+
+    robot = parse_urdf(URDF)
+    back = dataclasses.replace(robot.joint_by_name["j2"], name="back", parent="b", child="a")  # b -> a: a cycle
+    cyclic = dataclasses.replace(robot, joints=(*robot.joints, back))
+    assert [joint.name for joint in cyclic.tree_order] == ["j0", "j1", "j2"]
