@@ -67,6 +67,8 @@ SLOW_TIER = (
     "tests/description/test_sandbox.py::test_deep_xml_is_nested_too_deeply_not_recursion",
     "tests/description/test_sandbox.py::test_exponential_macros_side_by_side_are_refused",
     "tests/trajectory/test_keyframes.py::test_many_rows_in_seconds",
+    "tests/faults/test_deep_chains.py",
+    "tests/faults/test_many_channels.py",
 )
 """The slow tier (``make test-slow``, run by CI; ``make test`` leaves it out): test files, or test names
 (a prefix: every parametrization, and every test whose name starts so), kept in this one list."""

@@ -6,6 +6,7 @@ later stages (trajectory, kinematics, sinks) only read it.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import Enum
 from functools import cached_property
@@ -21,11 +22,13 @@ __all__ = [
     "Material",
     "Mesh",
     "Mimic",
+    "MimicCycle",
     "Pose",
     "Robot",
     "SafetyController",
     "Sphere",
     "Visual",
+    "mimic_levels",
 ]
 
 Vec3 = tuple[float, float, float]
@@ -156,6 +159,47 @@ class Link:
     mass: float | None = None
 
 
+class MimicCycle(ValueError):
+    """Mimic joints that mimic each other in a cycle.
+
+    Attributes:
+        start: the first joint (document order) whose chain of mimics leads into the cycle.
+        cycle: the joints of the cycle, its first one again at the end.
+    """
+
+    def __init__(self, start: str, cycle: list[str]) -> None:
+        super().__init__("mimic joints form a cycle: " + " -> ".join(cycle))
+        self.start = start
+        self.cycle = cycle
+
+
+def mimic_levels(joints: Sequence[Joint]) -> dict[str, int]:
+    """Each mimic joint's depth in its chain of mimics: 0 when it mimics a joint that mimics none (or an
+    unknown joint), else one more than the joint it mimics. Each chain is walked once (linear in joints,
+    without recursion: a chain of 100,000 mimics is fine).
+
+    Raises:
+        MimicCycle: joints that mimic each other in a cycle.
+    """
+    by_name = {joint.name: joint for joint in joints}
+    levels: dict[str, int] = {}
+    for start in joints:
+        path: list[str] = []
+        on_path: set[str] = set()
+        current: Joint | None = start
+        while current is not None and current.mimic is not None and current.name not in levels:
+            if current.name in on_path:
+                raise MimicCycle(start.name, [*path[path.index(current.name):], current.name])
+            path.append(current.name)
+            on_path.add(current.name)
+            current = by_name.get(current.mimic.joint)
+        level = -1 if current is None or current.mimic is None else levels[current.name]
+        for name in reversed(path):
+            level += 1
+            levels[name] = level
+    return levels
+
+
 @dataclass(frozen=True)
 class Robot:
     """A validated robot: a tree of links joined by joints, in URDF document order.
@@ -208,32 +252,27 @@ class Robot:
 
     @cached_property
     def mimic_order(self) -> tuple[Joint, ...]:
-        """Moving mimic joints ordered so that every joint comes after the joint it mimics."""
-        known = {joint.name for joint in self.joints}
-        done: set[str] = {joint.name for joint in self.joints if joint.mimic is None}
-        pending = [joint for joint in self.joints if joint.mimic is not None]
-        ordered: list[Joint] = []
-        while pending:
-            # a mimic of an unknown joint (urdfdom accepts it) is ready at once: it stays at its offset
-            ready = [joint for joint in pending if joint.mimic and (joint.mimic.joint in done
-                                                                    or joint.mimic.joint not in known)]
-            if not ready:  # description.py rejects cycles; guard against a hand-built model
-                raise ValueError("mimic joints form a cycle: " + ", ".join(j.name for j in pending))
-            for joint in ready:
-                ordered.append(joint)
-                done.add(joint.name)
-            pending = [joint for joint in pending if joint.name not in done]
+        """Moving mimic joints ordered so that every joint comes after the joint it mimics (by their depth in
+        their chain of mimics, then document order)."""
+        levels = mimic_levels(self.joints)  # description.py rejects cycles; a hand-built model raises here
+        ordered = sorted((joint for joint in self.joints if joint.mimic is not None),
+                         key=lambda joint: levels[joint.name])
         return tuple(joint for joint in ordered if joint.type.moves)
 
     @cached_property
     def tree_order(self) -> tuple[Joint, ...]:
-        """All joints, parents before children (breadth-first from the root)."""
+        """All joints, parents before children (breadth-first from the root; each link once, so that a
+        hand-built model with a cycle ends too: parsed descriptions have none)."""
         ordered: list[Joint] = []
         frontier = [self.root]
+        seen = {self.root}
         while frontier:
             nxt: list[str] = []
             for link in frontier:
                 for joint in self.child_joints[link]:
+                    if joint.child in seen:
+                        continue
+                    seen.add(joint.child)
                     ordered.append(joint)
                     nxt.append(joint.child)
             frontier = nxt

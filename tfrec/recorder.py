@@ -209,6 +209,10 @@ def record(
     first = int(trajectory.time_ns[0]) + start_time_ns if total else start_time_ns
     last = int(trajectory.time_ns[-1]) + start_time_ns if total else start_time_ns
     check_time_range(first, last)
+    if plan.rrd is not None:
+        from tfrec.formats.rrd.paths import check_rerun_robot
+
+        check_rerun_robot(robot, os.fspath(plan.rrd), hint="record without it (`no_rrd`)")
     static = static_transforms(robot, frame_prefix=frame_prefix)
     streams = []
     sinks: list[Any] = []

@@ -147,13 +147,16 @@ def parse_description(text: str, where: str) -> tuple[Robot | None, str | None]:
 def _prefix_counts(robot: Robot, frames: Iterable[str]) -> dict[str, int]:
     """Prefix → how many of the robot's links the frames name with it (``""``: the link names themselves)."""
     links = {link.name for link in robot.links}
+    lengths = sorted({len(link) for link in links if link})  # a frame's suffixes of these lengths only: linear in frames
     counts: dict[str, int] = {}
     for frame in set(frames):
         if frame in links:
             counts[""] = counts.get("", 0) + 1
-        for link in links:
-            if len(frame) > len(link) and frame.endswith(link):
-                prefix = frame[: -len(link)]
+        for length in lengths:
+            if length >= len(frame):
+                break
+            if frame[-length:] in links:
+                prefix = frame[:-length]
                 counts[prefix] = counts.get(prefix, 0) + 1
     return counts
 

@@ -187,7 +187,7 @@ def _run_in_process(argv: Sequence[str], cwd: Path) -> Outcome:
     return Outcome(tuple(argv), code, out.getvalue(), err.getvalue(), seconds, crash)
 
 
-def _run_subprocess(argv: Sequence[str], cwd: Path) -> Outcome:
+def _run_subprocess(argv: Sequence[str], cwd: Path, *, cpu_s: int | None = None) -> Outcome:
     # RLIMIT_AS counts address space, not memory used: OpenBLAS reserves buffers per thread and glibc an arena per
     # thread far beyond what they use (tfrec record --rrd: 3.5 GB of address space for 230 MB resident), and a
     # failed reservation makes OpenBLAS spin. One BLAS thread and two arenas make the limit measure tfrec.
@@ -218,14 +218,19 @@ def _run_subprocess(argv: Sequence[str], cwd: Path) -> Outcome:
     return Outcome(tuple(argv), process.returncode, out, err, seconds, crash)
 
 
-def run_tfrec(argv: Sequence[str], *, cwd: Path, isolated: bool | None = None) -> Outcome:
+def run_tfrec(argv: Sequence[str], *, cwd: Path, isolated: bool | None = None, cpu_s: int | None = None) -> Outcome:
     """Run ``tfrec argv`` in ``cwd``: in a process of its own under ``RLIMIT_AS`` (:data:`MEMORY_LIMIT`) and a
-    timeout when ``isolated`` (default: in the long run), else in-process."""
-    return _run_subprocess(argv, cwd) if (LONG if isolated is None else isolated) else _run_in_process(argv, cwd)
+    timeout when ``isolated`` (default: in the long run), else in-process. ``cpu_s``: the isolated run's CPU time
+    is limited to that many seconds too (``RLIMIT_CPU``; the timeout then only catches a run that waits)."""
+    if LONG if isolated is None else isolated:
+        return _run_subprocess(argv, cwd, cpu_s=cpu_s)
+    return _run_in_process(argv, cwd)
 
 
-def contract_violations(outcome: Outcome, *, codes: Sequence[int] = (0,), outputs: Sequence[Path] = ()) -> list[str]:
-    """What ``outcome`` breaks of the contract (empty: it holds)."""
+def contract_violations(outcome: Outcome, *, codes: Sequence[int] = (0,), outputs: Sequence[Path] = (),
+                        timed: bool = True) -> list[str]:
+    """What ``outcome`` breaks of the contract (empty: it holds); ``timed=False`` for a run whose CPU time was
+    limited (``run_tfrec(cpu_s=…)``): its wall-clock time is then not judged."""
     if outcome.crash is not None:
         return [outcome.crash]
     problems = []

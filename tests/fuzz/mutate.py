@@ -29,15 +29,19 @@ __all__ = [
     "HOSTILE_TEXT",
     "HOSTILE_URIS",
     "OddRecording",
+    "chain_urdf",
     "csv_text",
     "foreign_bytes",
     "foreign_tree",
     "long_name",
+    "many_channels_mcap",
     "mutated_bytes",
     "mutated_mcap",
     "mutated_ros1_bag",
     "mutated_sqlite_bag",
     "odd_recording",
+    "relisted_files",
+    "tf_graph",
     "write_odd_recording",
     "write_tree",
     "xml_text",
@@ -284,7 +288,7 @@ def yaml_text(draw: st.DrawFn, text: str, *, max_ops: int = 3) -> bytes:
     lines = text.splitlines()
     for _ in range(draw(st.integers(1, max_ops))):
         kind = draw(st.sampled_from(["value", "value", "value", "delete", "duplicate", "indent", "bomb", "deep",
-                                     "anchor"]))
+                                     "anchor", "files"]))
         i = draw(st.integers(0, max(len(lines) - 1, 0)))
         if not lines:
             lines.append("x: 1")
@@ -305,6 +309,8 @@ def yaml_text(draw: st.DrawFn, text: str, *, max_ops: int = 3) -> bytes:
             depth = draw(st.sampled_from([50, 150, 20_000]))
             key = line.split(":", 1)[0] if ":" in line else "x"
             lines[i] = f"{key}: " + "[" * depth + "1" + "]" * depth
+        elif kind == "files":  # a storage file listed many times, spelled otherwise, or outside the folder
+            _relist_files(draw, lines)
         else:  # an anchor on one value, the alias of it elsewhere (shared nodes, as PyYAML builds them)
             if ":" in line and len(lines) > 1:
                 key, _, value = line.partition(":")
@@ -316,6 +322,94 @@ def yaml_text(draw: st.DrawFn, text: str, *, max_ops: int = 3) -> bytes:
     if draw(st.integers(0, 4)) == 0:
         out = draw(mutated_bytes(out, max_ops=2))
     return out
+
+
+def _relist_files(draw: st.DrawFn, lines: list[str]) -> None:
+    """``relative_file_paths`` of a metadata.yaml (its lines, in place) with its first file listed again and again
+    (up to 100,000 times, 1.4 MB), spelled ``./x``, ``sub/../x``, ``../x``, or names outside the folder added."""
+    start = next((i for i, line in enumerate(lines) if line.strip() == "relative_file_paths:"), None)
+    if start is None or start + 1 >= len(lines) or not lines[start + 1].lstrip().startswith("- "):
+        return
+    indent, name = lines[start + 1].split("- ", 1)
+    times = draw(st.sampled_from([2, 100, 100_000]))
+    spellings = draw(st.sampled_from([[name], [name, f"./{name}", f"sub/../{name}"], [f"../{name}", name],
+                                      [name, "../../etc/passwd", "/etc/passwd"], [f"{name}_{{}}"]]))
+    listed = [spellings[k % len(spellings)].replace("{}", str(k)) for k in range(times)]
+    lines[start + 1:start + 2] = [f"{indent}- {entry}" for entry in listed]
+
+
+@st.composite
+def relisted_files(draw: st.DrawFn, text: str) -> bytes:
+    """A metadata.yaml whose ``relative_file_paths`` lists its file again and again (:func:`_relist_files`)."""
+    lines = text.splitlines()
+    _relist_files(draw, lines)
+    return ("\n".join(lines) + "\n").encode("utf-8")
+
+
+# ---- unbounded work from small inputs (issue 20) -------------------------------------------------------------
+
+FRAMES = ["world", "base", "a", "b", "c", "x", "y"]
+
+
+@st.composite
+def tf_graph(draw: st.DrawFn) -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
+    """(/tf_static pairs, /tf pairs) of a TF that is often no tree: a chain world → base → a → b → c, then pairs
+    added that make a frame its own parent, a 2-cycle, a cycle through the root, a cycle apart from the tree, a
+    second parent; some pairs moved to /tf_static."""
+    pairs = [("world", "base"), ("base", "a"), ("a", "b"), ("b", "c")]
+    for _ in range(draw(st.integers(1, 3))):
+        kind = draw(st.sampled_from(["self", "two", "root", "apart", "parent", "random"]))
+        frame = draw(st.sampled_from(FRAMES))
+        if kind == "self":
+            pairs.append((frame, frame))
+        elif kind == "two":
+            pairs.append(("b", "a"))
+        elif kind == "root":
+            pairs.append((draw(st.sampled_from(["base", "a", "c"])), "world"))
+        elif kind == "apart":
+            pairs += [("x", "y"), ("y", "x")]
+        elif kind == "parent":
+            pairs.append((draw(st.sampled_from(["world", "x"])), frame))
+        else:
+            pairs.append((frame, draw(st.sampled_from(FRAMES))))
+    pairs = list(dict.fromkeys(pairs))
+    static = [pair for pair in pairs if draw(st.integers(0, 3)) == 0]
+    return static, [pair for pair in pairs if pair not in static]
+
+
+def chain_urdf(links: int, *, branches: int = 0) -> str:
+    """A chain of ``links`` joints (every other one revolute), and ``branches`` leaves hanging off its links."""
+    parts = ['<robot name="chain">', '<link name="l0"/>']
+    limit = '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/>'
+    for i in range(1, links + 1):
+        kind = "revolute" if i % 2 else "fixed"
+        parts.append(f'<link name="l{i}"/><joint name="j{i}" type="{kind}"><parent link="l{i - 1}"/>'
+                     f'<child link="l{i}"/><origin xyz="0 0 0.001"/>{limit if kind == "revolute" else ""}</joint>')
+    for k in range(branches):
+        parts.append(f'<link name="leaf{k}"/><joint name="leaf{k}_joint" type="fixed"><parent link="l{k % (links + 1)}"/>'
+                     f'<child link="leaf{k}"/></joint>')
+    parts.append("</robot>")
+    return "\n".join(parts)
+
+
+def many_channels_mcap(channels: int, *, schemas: int = 1) -> bytes:
+    """An MCAP of ``channels`` channels (at most 65,535: channel ids are 16 bits) of ``schemas`` schemas, one
+    std_msgs/String message each, written by mcap's own writer."""
+    import io
+
+    from mcap.writer import Writer
+
+    stream = io.BytesIO()
+    writer = Writer(stream)
+    writer.start(profile="ros2", library="fuzz")
+    ids = [writer.register_schema("std_msgs/msg/String", "ros2msg", b"string data\n" + b"#" * k)
+           for k in range(schemas)]
+    for i in range(channels):
+        channel = writer.register_channel(f"/topic_{i}", "cdr", ids[i % schemas])
+        writer.add_message(channel, log_time=1_700_000_000_000_000_000 + i, publish_time=0,
+                           data=b"\x00\x01\x00\x00\x02\x00\x00\x00x\x00")
+    writer.finish()
+    return stream.getvalue()
 
 
 # ---- MCAP -------------------------------------------------------------------------------------------------------

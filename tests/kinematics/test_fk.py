@@ -305,11 +305,39 @@ def test_non_finite_position_is_an_error() -> None:
         dynamic_transforms(robot, ["joint1", "joint2"], [[0.0, 0.0], [0.0, math.nan]])
 
 
-def test_frame_with_two_parents_is_an_error() -> None:
-    one = Transforms(("a", "b"), ("c", "c"), np.zeros((1, 2, 3)), np.tile([0.0, 0, 0, 1], (1, 2, 1)))
+def test_a_frame_with_two_parents_is_placed_below_the_first_that_reaches_it() -> None:
+    # b -> c given first, but root a reaches c directly before it reaches b's child c
+    one = Transforms(("a", "b", "a"), ("b", "c", "c"), np.array([[[1.0, 0, 0], [0, 5.0, 0], [0, 0, 2.0]]]),
+                     np.tile([0.0, 0, 0, 1], (1, 3, 1)))
     empty = Transforms((), (), np.zeros((1, 0, 3)), np.zeros((1, 0, 4)))
-    with pytest.raises(KinematicsError, match="frame 'c' has two parents"):
-        root_from_link(one, empty, root="a")
+    world = root_from_link(one, empty, root="a")
+    assert world.children == ("a", "b", "c")
+    np.testing.assert_allclose(world.translation[0, 2], [0.0, 0.0, 2.0])
+
+
+@pytest.mark.parametrize("pairs", [
+    [("a", "a"), ("a", "b")],  # a frame that is its own parent
+    [("a", "b"), ("b", "a")],  # a cycle through the root
+    [("a", "b"), ("b", "c"), ("c", "b")],  # a cycle below it
+    [("a", "b"), ("x", "y"), ("y", "x")],  # a cycle apart from the tree
+])
+def test_a_cycle_is_not_followed(pairs: list[tuple[str, str]]) -> None:
+    k = len(pairs)
+    tfs = Transforms(tuple(p for p, _ in pairs), tuple(c for _, c in pairs), np.ones((3, k, 3)),
+                     np.tile([0.0, 0, 0, 1], (3, k, 1)))
+    static = Transforms((), (), np.zeros((1, 0, 3)), np.zeros((1, 0, 4)))
+    world = root_from_link(static, tfs, root="a")
+    assert world.children[0] == "a" and len(set(world.children)) == len(world.children)
+    assert "b" in world.children and "x" not in world.children
+
+
+def test_a_chain_of_100_000_frames_composes_without_recursion() -> None:
+    n = 100_000
+    tfs = Transforms(tuple(f"l{i}" for i in range(n)), tuple(f"l{i + 1}" for i in range(n)),
+                     np.tile([0.0, 0.0, 0.001], (1, n, 1)), np.tile([0.0, 0, 0, 1], (1, n, 1)))
+    world = root_from_link(tfs, Transforms((), (), np.zeros((1, 0, 3)), np.zeros((1, 0, 4))), root="l0")
+    assert world.children[-1] == f"l{n}"
+    assert world.translation[0, -1, 2] == pytest.approx(100.0)
 
 
 # Property tests on random trees of joints ------------------------------------------------------

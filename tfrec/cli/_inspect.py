@@ -52,6 +52,11 @@ def _joint_label(joint: Joint) -> str:
     return ", ".join(parts)
 
 
+MAX_INDENT = 40
+"""Levels of the printed tree drawn as indentation; deeper links are printed at this indentation with their
+depth in front (a chain of 100,000 links would otherwise print 20 GB of spaces)."""
+
+
 def _tree(robot: Robot) -> Iterator[str]:
     """The lines of check_urdf's tree."""
     actuated = len(robot.actuated_joints)
@@ -61,14 +66,15 @@ def _tree(robot: Robot) -> Iterator[str]:
     yield robot.root
 
     # depth-first with an explicit stack: a chain may be longer than Python's recursion limit
-    stack = [(joint, "", i == len(robot.child_joints[robot.root]) - 1)
+    stack = [(joint, "", 1, i == len(robot.child_joints[robot.root]) - 1)
              for i, joint in enumerate(robot.child_joints[robot.root])][::-1]
     while stack:
-        joint, indent, last = stack.pop()
-        yield f"{indent}{'└── ' if last else '├── '}{joint.child}  ({joint.name}: {_joint_label(joint)})"
+        joint, indent, depth, last = stack.pop()
+        mark = f"[{depth}] " if depth > MAX_INDENT else ""
+        yield f"{indent}{mark}{'└── ' if last else '├── '}{joint.child}  ({joint.name}: {_joint_label(joint)})"
         below = robot.child_joints[joint.child]
-        deeper = indent + ("    " if last else "│   ")
-        stack.extend([(child, deeper, i == len(below) - 1) for i, child in enumerate(below)][::-1])
+        deeper = indent + ("    " if last else "│   ") if depth < MAX_INDENT else indent
+        stack.extend([(child, deeper, depth + 1, i == len(below) - 1) for i, child in enumerate(below)][::-1])
 
 
 def _xml_for_terminal(xml: str) -> str:

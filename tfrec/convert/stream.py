@@ -184,8 +184,10 @@ class Copier:
         if not inside.any():
             return
         self._begin()
-        for conn in np.unique(conns[inside]).tolist():
-            index = np.flatnonzero(inside & (conns == conn))
+        kept = np.flatnonzero(inside)
+        order = kept[np.argsort(conns[kept], kind="stable")]  # grouped by connection once: linear in connections
+        groups, starts = np.unique(conns[order], return_index=True)
+        for conn, index in zip(groups.tolist(), np.split(order, starts[1:])):
             self._write(self._plans[conn], batch.take(index), self.source.connections[conn].ros1)
 
     def _write(self, plan: _Plan, part: MessageBatch, ros1: bool) -> None:

@@ -25,11 +25,13 @@ from tfrec.model import (
     Material,
     Mesh,
     Mimic,
+    MimicCycle,
     Pose,
     Robot,
     SafetyController,
     Sphere,
     Visual,
+    mimic_levels,
 )
 
 __all__ = ["COMMON_COLOURS", "parse_urdf"]
@@ -443,14 +445,7 @@ def _check_mimic(p: _Parser, joints: list[Joint], elem_of: Callable[[str], ET.El
             # urdfdom keeps the name; robot_state_publisher then never moves the joint
             p.warn(elem_of(joint.name), f"joint '{joint.name}' mimics unknown joint '{joint.mimic.joint}'"
                    f"{suggest(joint.mimic.joint, by_name)}: it stays at its mimic offset")
-    for joint in joints:
-        if joint.mimic is None:
-            continue
-        seen = [joint.name]
-        current = by_name.get(joint.mimic.joint)
-        while current is not None and current.mimic is not None:
-            if current.name in seen:
-                raise p.fail(elem_of(joint.name), "mimic joints form a cycle: "
-                             + " -> ".join([*seen[seen.index(current.name):], current.name]))
-            seen.append(current.name)
-            current = by_name.get(current.mimic.joint)
+    try:
+        mimic_levels(joints)  # each chain walked once: a chain of 100,000 mimics is linear
+    except MimicCycle as cycle:
+        raise p.fail(elem_of(cycle.start), str(cycle)) from None

@@ -286,13 +286,15 @@ class _Comparison:
     def joint_states(self, ja: JointStates | None, jb: JointStates | None) -> None:
         if not self.wants(JOINT_STATES) or ja is None or jb is None:
             return
+        column_a = {name: k for k, name in enumerate(ja.names)}  # dicts: 50,000 joints are linear
+        column_b = {name: k for k, name in enumerate(jb.names)}
         for name in ja.names:
-            if name not in jb.names:
+            if name not in column_b:
                 self.diff("joint_states", f"joint '{name}'", f"joint '{name}' only in A's /joint_states")
         for name in jb.names:
-            if name not in ja.names:
+            if name not in column_a:
                 self.diff("joint_states", f"joint '{name}'", f"joint '{name}' only in B's /joint_states")
-        common = [name for name in ja.names if name in jb.names]
+        common = [name for name in ja.names if name in column_b]
         ta = ja.time_ns - self.origin(self.a)
         tb = jb.time_ns - self.origin(self.b)
         alignment = align(ta, tb)
@@ -301,8 +303,8 @@ class _Comparison:
         self.coverage("joint_states", "/joint_states", ta, alignment)
         if not common or not alignment.inside.any():
             return
-        cols_a = [ja.names.index(name) for name in common]
-        cols_b = [jb.names.index(name) for name in common]
+        cols_a = [column_a[name] for name in common]
+        cols_b = [column_b[name] for name in common]
         pa = ja.positions[:, cols_a][alignment.inside]
         pb = alignment.linear(jb.positions[:, cols_b])
         nan_a, nan_b = np.isnan(pa), np.isnan(pb)

@@ -21,6 +21,7 @@ compares at the precision float32 holds (:func:`tfrec.diff.compare.float32_toler
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -35,8 +36,9 @@ from tfrec.diff.motion_report import DescriptionDiffReport, LinkDelta, Side
 from tfrec.diff.precision import float32_tolerance
 from tfrec.diff.report import Difference, Largest, at_time
 from tfrec.diff.urdf import diff_robots
-from tfrec.errors import DiffError, KinematicsError
+from tfrec.errors import DiffError
 from tfrec.formats.reader import read_recording
+from tfrec.frames import frame_tree, graph_problems
 from tfrec.kinematics.fk import Transforms, dynamic_transforms, root_from_link, static_transforms
 from tfrec.kinematics.joints import all_joint_states
 from tfrec.kinematics.rotations import rotation_error
@@ -294,10 +296,9 @@ def _pose(side: DiffInput, trajectory: JointTrajectory | None, time_ns: NDArray[
             translation[alignment.inside, i] = alignment.linear(series.translation)
             rotation[alignment.inside, i] = alignment.rotations(series.rotation)
         dynamic = Transforms(tuple(p for p, _ in rec.tf), tuple(c for _, c in rec.tf), translation, rotation)
-    try:
-        world = root_from_link(static, dynamic, root=root)
-    except KinematicsError as err:
-        raise DiffError(f"{side.path}: {err}") from err
+        for problem in graph_problems(frame_tree([*rec.tf_static, *rec.tf], roots=(root,))):
+            warnings.warn(f"{side.path}: {problem}; links are placed along the other transforms", stacklevel=3)
+    world = root_from_link(static, dynamic, root=root)
     return Posed(side, static, dynamic, tuple(names), positions, world)
 
 

@@ -299,7 +299,8 @@ def translation(connection: Connection, *, encoding: str, sample: bytes | memory
         raise Untranslatable("it has no message type")
     if "/srv/" in connection.msgtype:
         raise Untranslatable("a service event: ROS 1 bags record no services")
-    plan = _plan(connection.msgtype, connection.definition, connection.definition_encoding, connection.ros1)
+    plan = _plan(connection.msgtype, _uncommented(connection.definition, connection.definition_encoding),
+                 connection.definition_encoding, connection.ros1)
     if encoding == "ros1":
         target = Connection(connection.topic, plan.msgtype, "ros1", plan.definition, "ros1msg", connection.latched,
                             "", plan.type_hash)
@@ -316,16 +317,43 @@ def _undecodable(connection: Connection, sample: bytes | memoryview) -> str | No
     from rosbags.serde import SerdeError
     from rosbags.typesys.base import TypesysError
 
+    decode = _decoder(connection.msgtype, _uncommented(connection.definition, connection.definition_encoding),
+                      connection.definition_encoding, connection.ros1)
+    if isinstance(decode, str):
+        return decode
     try:
-        store = _store(_types(connection.msgtype, connection.definition, connection.definition_encoding,
-                              connection.ros1), ros1_header=connection.ros1)
-        decode = store.deserialize_ros1 if connection.ros1 else store.deserialize_cdr
         decode(sample, connection.msgtype)
+    except (TypesysError, SerdeError, struct.error, IndexError, KeyError, ValueError, UnicodeDecodeError):
+        return _DOES_NOT_DECODE
+    return None
+
+
+_DOES_NOT_DECODE = "the message definition in the file does not decode its messages"
+
+
+def _uncommented(definition: str, encoding: str) -> str:
+    """A message definition without its comment lines and trailing blanks: the key of the per-type caches, so
+    that schemas differing only in comments (thousands of them) parse once. What is carried over is generated
+    from the parsed types, which have no comments."""
+    if "#" not in definition or "idl" in encoding:  # IDL's '#' lines are directives
+        return definition
+    return "\n".join(line.rstrip() for line in definition.splitlines() if not line.lstrip().startswith("#"))
+
+
+@lru_cache(maxsize=256)
+def _decoder(msgtype: str, definition: str, definition_encoding: str, ros1: bool) -> Callable[[Any, str], Any] | str:
+    """The deserializer of a type by its definition (the distro's without one), or why the definition gives none
+    — once per type, not per connection: a file of 60,000 channels of one type builds one store."""
+    from rosbags.typesys.base import TypesysError
+
+    try:
+        store = _store(_types(msgtype, definition, definition_encoding, ros1), ros1_header=ros1)
     except Untranslatable as err:
         return err.reason
-    except (TypesysError, SerdeError, struct.error, IndexError, KeyError, ValueError, UnicodeDecodeError):
-        return "the message definition in the file does not decode its messages"
-    return None
+    except (TypesysError, IndexError, KeyError, ValueError):
+        return _DOES_NOT_DECODE
+    decode: Callable[[Any, str], Any] = store.deserialize_ros1 if ros1 else store.deserialize_cdr
+    return decode
 
 
 def _fitting(connection: Connection, sample: bytes | memoryview) -> tuple[Connection, str]:

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tfrec.errors import KinematicsError
+from tfrec.frames import frame_tree
 from tfrec.kinematics.joints import all_joint_states
 from tfrec.kinematics.rotations import (
     matrix_from_quaternion,
@@ -47,6 +48,10 @@ Array = NDArray[np.float64]
 
 DEFAULT_CHUNK_SAMPLES = 8192
 """Samples per chunk in :func:`iter_dynamic_chunks`: ~0.5 MB per transform per chunk."""
+
+CHUNK_VALUES = 2_000_000
+"""Joint samples (samples × moving joints) of one chunk of :func:`iter_dynamic_chunks` at most: its
+transforms take 112 MB (7 float64 each), whatever the robot."""
 
 STATIC_TYPES = (JointType.FIXED, JointType.PLANAR)
 
@@ -181,8 +186,10 @@ def iter_dynamic_chunks(
     """Joint states and dynamic transforms of a trajectory, ``chunk_samples`` samples at a time.
 
     Memory stays bounded by the chunk size whatever the trajectory's length, so writers
-    can stream long recordings.
+    can stream long recordings; a robot of many moving joints gets chunks of fewer samples
+    (at most :data:`CHUNK_VALUES` joint samples a chunk: 100,000 joints, 20 samples).
     """
+    chunk_samples = max(1, min(chunk_samples, CHUNK_VALUES // max(1, len(robot.moving_joints))))
     for piece in trajectory.chunks(chunk_samples):
         names, positions, velocities = all_joint_states(robot, piece)
         transforms = dynamic_transforms(robot, names, positions, frame_prefix=frame_prefix)
@@ -202,10 +209,10 @@ def root_from_link(static: Transforms, dynamic: Transforms, *, root: str) -> Tra
 
     Returns:
         Transforms whose parents are all ``root`` and whose children are the reachable frames,
-        root first, then breadth-first in the order the transforms are given.
-
-    Raises:
-        KinematicsError: a frame has two parents.
+        root first, then breadth-first in the order the transforms are given. A frame with several
+        parents is composed through the first that reaches it (static transforms are given first);
+        a transform that closes a cycle, or names a frame as its own parent, is not followed
+        (:func:`tfrec.frames.frame_tree`; callers warn with :func:`tfrec.frames.graph_problems`).
     """
     n = max(len(static), len(dynamic))
     translation = rotation = np.empty(0)
@@ -358,24 +365,20 @@ def _blocks(n: int) -> Iterator[slice]:
 
 
 def _compose(edges: Sequence[tuple[str, str, _Pose]], root: str) -> tuple[list[str], list[_Pose]]:
-    """Breadth-first composition from ``root``: one (7, N) pose per reachable frame."""
-    children: dict[str, list[tuple[str, _Pose]]] = {}
-    has_parent: set[str] = set()
+    """Breadth-first composition from ``root``: one (7, N) pose per reachable frame, each frame once
+    (:func:`tfrec.frames.frame_tree`: below the first parent that reaches it; a pair given twice counts
+    once, as first given; a cycle or a second parent is not followed)."""
+    local: dict[tuple[str, str], _Pose] = {}
     for parent, child, components in edges:
-        if child in has_parent:
-            raise KinematicsError(f"frame '{child}' has two parents")
-        has_parent.add(child)
-        children.setdefault(parent, []).append((child, components))
+        local.setdefault((parent, child), components)
+    tree = frame_tree(local, roots=(root,))
     n = max((components.shape[-1] for _, _, components in edges), default=1)
-    frames = [root]
-    poses: list[_Pose] = [np.array([[0.0], [0.0], [0.0], [0.0], [0.0], [0.0], [1.0]])]
-    i = 0
-    while i < len(frames):
-        for child, local in children.get(frames[i], []):
-            frames.append(child)
-            poses.append(_compose_pair(poses[i], local))
-        i += 1
-    return frames, [np.broadcast_to(pose, (7, n)) for pose in poses]
+    frames = tree.reachable(root)
+    poses: dict[str, _Pose] = {root: np.array([[0.0], [0.0], [0.0], [0.0], [0.0], [0.0], [1.0]])}
+    for frame in frames[1:]:
+        parent = tree.parent[frame]
+        poses[frame] = _compose_pair(poses[parent], local[(parent, frame)])
+    return frames, [np.broadcast_to(poses[frame], (7, n)) for frame in frames]
 
 
 def _compose_pair(a: _Pose, b: _Pose) -> _Pose:

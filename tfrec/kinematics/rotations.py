@@ -114,11 +114,14 @@ def rotation_error(qa: Array, qb: Array) -> Array:
     ``2·atan2(|v|, |w|)`` of the relative rotation: in [0, π], the same for q and -q, and
     accurate for tiny angles (unlike ``acos``). The quaternions need not be normalized.
     """
-    va, wa = qa[..., :3], qa[..., 3:4]
-    vb, wb = qb[..., :3], qb[..., 3:4]
-    v = wa * vb - wb * va - np.cross(va, vb)
-    w = (wa * wb)[..., 0] + np.einsum("...i,...i->...", va, vb)
-    angle: Array = 2.0 * np.arctan2(np.linalg.norm(v, axis=-1), np.abs(w))  # numpy types einsum and norm as Any
+    ax, ay, az, aw = (qa[..., i] for i in range(4))
+    bx, by, bz, bw = (qb[..., i] for i in range(4))
+    # v = wa·vb − wb·va − va × vb, by components (np.cross costs ~30 µs a call on small arrays)
+    vx = aw * bx - bw * ax - (ay * bz - az * by)
+    vy = aw * by - bw * ay - (az * bx - ax * bz)
+    vz = aw * bz - bw * az - (ax * by - ay * bx)
+    w = aw * bw + ax * bx + ay * by + az * bz
+    angle: Array = 2.0 * np.arctan2(np.sqrt(vx * vx + vy * vy + vz * vz), np.abs(w))
     return angle
 
 

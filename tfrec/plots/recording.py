@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tfrec.errors import DescriptionError, display_path
+from tfrec.frames import FrameTree, frame_tree, graph_problems
 from tfrec.kinematics.fk import Transforms, root_from_link
 from tfrec.model import JointType, Robot
 from tfrec.plots._figure import (
@@ -30,7 +31,7 @@ from tfrec.plots._figure import (
     plot_format,
     refuse_existing,
 )
-from tfrec.recording import Recording
+from tfrec.recording import JointStates, Recording
 from tfrec.resample import align, data_start_ns
 
 if TYPE_CHECKING:
@@ -44,6 +45,14 @@ DRAWABLE = 1e100
 """The largest magnitude a plot's axes reach (m, rad): a description may put a frame at 1e308 m, where
 matplotlib's margins overflow; what lies beyond is drawn at the edge (joints) or not at all (paths)."""
 
+MAX_POSES = 1_000_000
+"""Poses (instants × frames on the way to the drawn ones) composed for the frame paths at most (56 MB): a
+deep tree is drawn at fewer instants."""
+
+MAX_PLOTTED = 64
+"""Joints, and frame paths, drawn at most (each is a line and a legend entry: matplotlib lays out 5,000 legend
+entries for minutes)."""
+
 MAX_DEFAULT_FRAMES = 6
 """Leaves drawn when no frames are chosen: the deepest ones first."""
 
@@ -51,55 +60,25 @@ _UNITS = {"rad": ("position (rad)", "velocity (rad/s)"), "m": ("position (m)", "
           "": ("position", "velocity (per s)")}
 
 
-def _parents(recording: Recording) -> dict[str, str]:
-    """child → parent over /tf_static and /tf; a child with several parents keeps the first in
-    name order (with a warning), as a tf listener keeps one."""
-    seen: dict[str, set[str]] = {}
-    for parent, child in list(recording.tf_static) + list(recording.tf):
-        seen.setdefault(child, set()).add(parent)
-    out: dict[str, str] = {}
-    for child, parents in seen.items():
-        chosen = sorted(parents, key=natural_key)
-        if len(chosen) > 1:
-            warnings.warn(f"{recording.path}: frame '{child}' has {len(chosen)} parents ({', '.join(chosen)}); "
-                          f"its path is drawn below '{chosen[0]}'", stacklevel=3)
-        out[child] = chosen[0]
-    return out
-
-
-def _root(frame: str, parents: dict[str, str]) -> str:
-    seen = {frame}
-    while frame in parents and parents[frame] not in seen:
-        frame = parents[frame]
-        seen.add(frame)
-    return frame
+def _tree(recording: Recording) -> FrameTree:
+    """The recorded TF as a forest (:func:`tfrec.frames.frame_tree`): /tf_static, then /tf; a frame with
+    several parents is placed below the first that reaches it, a cycle is not followed."""
+    return frame_tree([*recording.tf_static, *recording.tf])
 
 
 def default_frames(recording: Recording, *, limit: int = MAX_DEFAULT_FRAMES) -> list[str]:
-    """The leaves of the recorded TF tree (frames that are nobody's parent), deepest first, at most ``limit``."""
-    parents = _parents(recording)
-    has_children = set(parents.values())
-    leaves = [frame for frame in parents if frame not in has_children]
-
-    def depth(frame: str) -> int:
-        return len({frame} | _ancestors(frame, parents))
-
-    return sorted(leaves, key=lambda f: (-depth(f), natural_key(f)))[:limit]
+    """The leaves of the recorded TF tree (frames below another that are nobody's parent), deepest
+    first, at most ``limit``."""
+    tree = _tree(recording)
+    has_children = set(tree.parent.values())
+    leaves = [frame for frame in tree.parent if frame not in has_children]
+    return sorted(leaves, key=lambda f: (-tree.depth[f], natural_key(f)))[:limit]
 
 
 def every_frame(recording: Recording) -> list[str]:
     """Every frame of the recorded TF tree, roots first, then by depth and name."""
-    parents = _parents(recording)
-    frames = set(parents) | set(parents.values())
-    return sorted(frames, key=lambda f: (len(_ancestors(f, parents)), natural_key(f)))
-
-
-def _ancestors(frame: str, parents: dict[str, str]) -> set[str]:
-    out: set[str] = set()
-    while frame in parents and parents[frame] not in out:
-        frame = parents[frame]
-        out.add(frame)
-    return out
+    tree = _tree(recording)
+    return sorted(tree.order, key=lambda f: (tree.depth[f], natural_key(f)))
 
 
 @dataclass(frozen=True, slots=True)
@@ -121,19 +100,28 @@ class FramePaths:
 def frame_paths(recording: Recording, frames: Sequence[str], *, max_samples: int = MAX_POINTS) -> FramePaths:
     """Root → frame positions of ``frames``, from /tf_static and /tf (:func:`~tfrec.kinematics.root_from_link`).
 
-    Times are the stamps of the longest /tf series (at most ``max_samples`` of them, evenly spread);
+    Times are the stamps of the longest /tf series (at most ``max_samples`` of them, evenly spread, and
+    fewer for frames deep in a tree: :data:`MAX_POSES`);
     the other series are interpolated at them (linearly, slerp for rotations), NaN outside their span.
 
     Raises:
         PlotError: a frame that is in neither /tf_static nor /tf.
     """
-    parents = _parents(recording)
-    known = set(parents) | set(parents.values())
+    tree = _tree(recording)
+    known = tree.root
     unknown = [frame for frame in frames if frame not in known]
     if unknown:
         listed = ", ".join(sorted(known, key=natural_key)[:12]) + (" …" if len(known) > 12 else "")
         raise PlotError(f"{recording.path}: frames {', '.join(unknown)} not in /tf or /tf_static "
                         f"(its frames: {listed or 'none'})")
+    for problem in graph_problems(tree):
+        warnings.warn(f"{recording.path}: {problem}; frame paths are drawn along the other transforms", stacklevel=3)
+    needed: set[str] = set()  # the frames on the way from the roots to ``frames``, each walked up once
+    for frame in frames:
+        while frame not in needed and frame in tree.parent:
+            needed.add(frame)
+            frame = tree.parent[frame]
+    max_samples = max(2, min(max_samples, MAX_POSES // max(1, len(needed))))  # a chain of 100,000: 10 instants
     origin = data_start_ns(recording) or 0
     series = [s for s in recording.tf.values() if len(s)]
     if series:
@@ -142,37 +130,46 @@ def frame_paths(recording: Recording, frames: Sequence[str], *, max_samples: int
         times = longest[index]
     else:
         times = np.array([origin], dtype=np.int64)
-    static: dict[tuple[str, str], tuple[Array, Array]] = {}
-    dynamic_t: list[Array] = []
-    dynamic_q: list[Array] = []
-    dynamic_pairs: list[tuple[str, str]] = []
-    for child, parent in parents.items():
-        moving = recording.tf.get((parent, child))
+    roots = {frame: tree.root[frame] for frame in frames}
+    positions: dict[str, Array] = {}
+    for root, (fixed, dynamic) in _root_transforms(recording, tree, frames, needed, times).items():
+        composed = root_from_link(fixed, dynamic, root=root)
+        column = {child: k for k, child in enumerate(composed.children)}
+        for frame in frames:
+            if roots[frame] == root:
+                k = column.get(frame)
+                positions[frame] = (np.full((len(times), 3), np.nan) if k is None else
+                                    np.broadcast_to(composed.translation[:, k], (len(times), 3)).copy())
+    return FramePaths((times - origin) / 1e9, positions, roots)
+
+
+def _root_transforms(recording: Recording, tree: FrameTree, frames: Sequence[str], needed: set[str],
+                     times: NDArray[np.int64]) -> dict[str, tuple[Transforms, Transforms]]:
+    """Root of each of ``frames`` → the transforms on the way from it to them (static, and /tf at ``times``):
+    only the edges of the tree into the ``needed`` frames."""
+    static: dict[str, dict[tuple[str, str], tuple[Array, Array]]] = {}
+    dynamic: dict[str, list[tuple[tuple[str, str], Array, Array]]] = {}
+    for frame in sorted({tree.root[frame] for frame in frames}, key=natural_key):
+        static[frame], dynamic[frame] = {}, []
+    for child in (frame for frame in tree.order if frame in needed):
+        pair = (tree.parent[child], child)
+        moving = recording.tf.get(pair)
         if moving is not None and len(moving):
             alignment = align(times, moving.time_ns)
             translation = np.full((len(times), 3), np.nan)
             rotation = np.full((len(times), 4), np.nan)
             translation[alignment.inside] = alignment.linear(moving.translation)
             rotation[alignment.inside] = alignment.rotations(moving.rotation)
-            dynamic_pairs.append((parent, child))
-            dynamic_t.append(translation)
-            dynamic_q.append(rotation)
-        elif (parent, child) in recording.tf_static:
-            static[(parent, child)] = recording.tf_static[(parent, child)]
+            dynamic[tree.root[child]].append((pair, translation, rotation))
+        elif pair in recording.tf_static:
+            static[tree.root[child]][pair] = recording.tf_static[pair]
     n = len(times)
-    dynamic = Transforms(tuple(p for p, _ in dynamic_pairs), tuple(c for _, c in dynamic_pairs),
-                         np.stack(dynamic_t, axis=1) if dynamic_t else np.zeros((n, 0, 3)),
-                         np.stack(dynamic_q, axis=1) if dynamic_q else np.zeros((n, 0, 4)))
-    fixed = Transforms.from_poses(static) if static else Transforms((), (), np.zeros((1, 0, 3)), np.zeros((1, 0, 4)))
-    roots = {frame: _root(frame, parents) for frame in frames}
-    positions: dict[str, Array] = {}
-    for root in sorted(set(roots.values()), key=natural_key):
-        composed = root_from_link(fixed, dynamic, root=root)
-        column = {child: k for k, child in enumerate(composed.children)}
-        for frame in frames:
-            if roots[frame] == root:
-                positions[frame] = np.broadcast_to(composed.translation[:, column[frame]], (n, 3)).copy()
-    return FramePaths((times - origin) / 1e9, positions, roots)
+    none = Transforms((), (), np.zeros((1, 0, 3)), np.zeros((1, 0, 4)))
+    return {root: (Transforms.from_poses(static[root]) if static[root] else none,
+                   Transforms(tuple(p for (p, _), _, _ in dynamic[root]), tuple(c for (_, c), _, _ in dynamic[root]),
+                              np.stack([t for _, t, _ in dynamic[root]], axis=1) if dynamic[root] else np.zeros((n, 0, 3)),
+                              np.stack([q for _, _, q in dynamic[root]], axis=1) if dynamic[root] else np.zeros((n, 0, 4))))
+            for root in static}
 
 
 def _robot(recording: Recording, robot: Robot | None) -> Robot | None:
@@ -290,9 +287,20 @@ def plot_recording(recording: Recording, path: str | os.PathLike[str], *, robot:
     js = recording.joint_states
     if js is not None and not (len(js) and js.names):  # joint states that name no joint: nothing to draw
         js = None
+    if js is not None and len(js.names) > MAX_PLOTTED:
+        warnings.warn(f"{recording.path}: {len(js.names):,} joints in /joint_states: the first {MAX_PLOTTED} are "
+                      "drawn (a plot of more is unreadable, and takes matplotlib minutes)", stacklevel=2)
+        js = JointStates(js.time_ns, js.names[:MAX_PLOTTED], js.positions[:, :MAX_PLOTTED])
     model = _robot(recording, robot)
     still = js is None and not any(len(series) for series in recording.tf.values())
     chosen = list(frames) if frames is not None else (every_frame(recording) if still else default_frames(recording))
+    if len(chosen) > MAX_PLOTTED:
+        warnings.warn(f"{recording.path}: {len(chosen):,} frames chosen: the paths of the first {MAX_PLOTTED} are "
+                      "drawn", stacklevel=2)
+        chosen = chosen[:MAX_PLOTTED]
+    if js is None and not chosen and not still:  # /tf holds nothing but frames that are their own parent
+        raise PlotError(f"{recording.path}: nothing to plot: no /joint_states, and no frame of /tf lies below "
+                        f"another ({'; '.join(graph_problems(_tree(recording), parents=False)) or 'no frames'})")
     paths = frame_paths(recording, chosen) if chosen else None
     if js is None and paths is None:
         if model is None or model.joints:

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from tfrec.errors import TfrecError, display_path, one_line, printable
+from tfrec.frames import FrameTree, frame_tree, graph_problems
 from tfrec.model import Joint, JointType, Robot
 from tfrec.plots._figure import PlotError, graph_format, natural_key, refuse_existing, write_text
 from tfrec.plots._layout import tidy_layout
@@ -134,26 +135,15 @@ def _rate(time_ns: np.ndarray[Any, np.dtype[np.int64]]) -> tuple[str, ...]:
     return (f"average {rate_hz:.4g} Hz", count)
 
 
-def _tree_order(nodes: list[str], edges: list[GraphEdge]) -> tuple[list[str], list[GraphEdge]]:
-    """Nodes breadth-first from the roots (then any left in a cycle), edges in the order of their child."""
-    out: dict[str, list[GraphEdge]] = {}
-    for edge in edges:
-        out.setdefault(edge.parent, []).append(edge)
+def _tree_order(nodes: list[str], edges: list[GraphEdge]) -> tuple[FrameTree, list[str], list[GraphEdge]]:
+    """The forest (:func:`tfrec.frames.frame_tree`), nodes breadth-first from the roots (then any left in a
+    cycle), edges in the order of their child."""
     has_parent = {edge.child for edge in edges}
-    order: dict[str, None] = {}
-    for start in [n for n in nodes if n not in has_parent] + nodes:
-        if start in order:
-            continue
-        order[start] = None
-        frontier = [start]
-        while frontier:
-            node = frontier.pop(0)
-            for edge in out.get(node, ()):
-                if edge.child not in order:
-                    order[edge.child] = None
-                    frontier.append(edge.child)
+    tree = frame_tree([(edge.parent, edge.child) for edge in edges], roots=[*(n for n in nodes if n not in has_parent),
+                                                                             *nodes])
+    order = list(dict.fromkeys([*tree.order, *nodes]))
     rank = {node: k for k, node in enumerate(order)}
-    return list(order), sorted(edges, key=lambda edge: (rank[edge.child], rank[edge.parent]))
+    return tree, order, sorted(edges, key=lambda edge: (rank[edge.child], rank[edge.parent]))
 
 
 def recorded_graph(recording: Recording) -> TreeGraph:
@@ -175,7 +165,7 @@ def recorded_graph(recording: Recording) -> TreeGraph:
         else:
             both.append(child)
             edges.append(GraphEdge(parent, child, "/tf + /tf_static", BOTH, _rate(series.time_ns)))
-    frames, edges = _tree_order(sorted({frame for pair in pairs for frame in pair}, key=natural_key), edges)
+    tree, frames, edges = _tree_order(sorted({frame for pair in pairs for frame in pair}, key=natural_key), edges)
     parents: dict[str, list[str]] = {}
     for edge in edges:
         parents.setdefault(edge.child, []).append(edge.parent)
@@ -185,6 +175,7 @@ def recorded_graph(recording: Recording) -> TreeGraph:
     for child, of in parents.items():
         if len(of) > 1:
             notes.append(f"frame '{child}' has {len(of)} parents ({', '.join(of)}): tf keeps one")
+    notes += graph_problems(tree, parents=False)
     roots = tuple(frame for frame in frames if frame not in parents)
     if not frames:  # a robot without joints has no TF: its tree is its root link alone
         frames = described_roots(recording)
@@ -258,6 +249,9 @@ _GAP_X, _GAP_Y = 0.22, 0.16  # inches between columns, between a box and a label
 _MARGIN, _TITLE_H = 0.3, 0.62
 MAX_INCHES = 60.0
 """The longest side of a graph picture; larger trees are drawn smaller."""
+MAX_DRAWN_FRAMES = 1_000
+"""Frames a picture (SVG, PNG, PDF) is drawn of at most: 1,000 frames in a chain take ~9 s to draw and are
+unreadable at :data:`MAX_INCHES` already; larger trees are written as DOT (linear, any size)."""
 
 
 class _Measure:
@@ -297,30 +291,17 @@ def _put(ax: Axes, x: float, y: float, text: str, **style: Any) -> None:
 
 
 def _spanning_forest(graph: TreeGraph) -> tuple[list[str], dict[str, list[str]], dict[str, GraphEdge], list[GraphEdge]]:
-    """Roots, tree children, each tree child's edge, and the edges left over (a second parent, a cycle)."""
-    out: dict[str, list[GraphEdge]] = {}
-    for edge in graph.edges:
-        out.setdefault(edge.parent, []).append(edge)
-    seen: set[str] = set()
+    """Roots, tree children, each tree child's edge, and the edges left over (a second parent, a cycle):
+    :func:`tfrec.frames.frame_tree` from the graph's roots, nodes in a cycle starting trees of their own."""
+    tree = frame_tree([(edge.parent, edge.child) for edge in graph.edges], roots=[*graph.roots, *graph.nodes])
     children: dict[str, list[str]] = {}
-    tree: set[int] = set()
-    roots: list[str] = []
-    for start in list(graph.roots) + list(graph.nodes):  # nodes in a cycle start a tree of their own
-        if start in seen:
-            continue
-        roots.append(start)
-        seen.add(start)
-        frontier = [start]
-        while frontier:
-            node = frontier.pop(0)
-            for edge in out.get(node, ()):
-                if edge.child not in seen:
-                    seen.add(edge.child)
-                    tree.add(id(edge))
-                    children.setdefault(node, []).append(edge.child)
-                    frontier.append(edge.child)
-    incoming = {edge.child: edge for edge in graph.edges if id(edge) in tree}
-    return roots, children, incoming, [edge for edge in graph.edges if id(edge) not in tree]
+    incoming: dict[str, GraphEdge] = {}
+    for edge in graph.edges:
+        if tree.parent.get(edge.child) == edge.parent and edge.child not in incoming:
+            incoming[edge.child] = edge
+            children.setdefault(edge.parent, []).append(edge.child)
+    extra = [edge for edge in graph.edges if incoming.get(edge.child) is not edge]
+    return tree.roots, children, incoming, extra
 
 
 def render_graph(graph: TreeGraph, path: str | os.PathLike[str], *, force: bool = False) -> None:
@@ -332,13 +313,17 @@ def render_graph(graph: TreeGraph, path: str | os.PathLike[str], *, force: bool 
     the same graph.
 
     Raises:
-        PlotError: a suffix other than ``.dot``, ``.svg``, ``.png`` or ``.pdf``, or a graph without frames.
+        PlotError: a suffix other than ``.dot``, ``.svg``, ``.png`` or ``.pdf``, a graph without frames, or
+            a picture of more than :data:`MAX_DRAWN_FRAMES` frames.
         WriteError: the file cannot be written.
     """
     fmt = graph_format(path)
     refuse_existing(path, force=force)
     if not graph.nodes:
         raise PlotError(f"{graph.title}: no frames to draw")
+    if fmt != "dot" and len(graph.nodes) > MAX_DRAWN_FRAMES:
+        raise PlotError(f"{graph.title}: {len(graph.nodes):,} frames are more than a picture is drawn of (at most "
+                        f"{MAX_DRAWN_FRAMES:,}): write a .dot file instead (Graphviz lays it out: dot -Tsvg)")
     if fmt == "dot":
         write_text(path, to_dot(graph), force=force)
         return

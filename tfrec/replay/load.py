@@ -49,6 +49,7 @@ from tfrec.conventions import (
 )
 from tfrec.errors import DescriptionError, ReplayError
 from tfrec.formats.reader import read_recording
+from tfrec.frames import frame_tree, graph_problems
 from tfrec.kinematics.fk import dynamic_transforms, static_transforms
 from tfrec.kinematics.joints import apply_mimic
 from tfrec.model import Robot
@@ -233,6 +234,10 @@ def _prepare(found: RecordedRobot, model: Robot | None, override: bool, selected
     static = dict(found.tf_static) if _selects(selected, found.tf_namespace, TF_STATIC) else {}
     recorded_tf = dict(found.tf) if _selects(selected, found.tf_namespace, TF) else {}
     joint_states = found.joint_states if _selects(selected, found.joint_states_namespace, JOINT_STATES) else None
+    for problem in graph_problems(frame_tree([*static, *recorded_tf]), parents=False):
+        who = "" if only else f"{found.label}: "
+        warnings.warn(f"{where}: {who}{problem}; its transforms are replayed as recorded, and the robot is placed "
+                      "along the others", stacklevel=3)
     prefix = found.frame_prefix
     if model is not None and (override or model is not found.model):
         prefix = detect_frame_prefix(model, [f for pair in list(static) + list(recorded_tf) for f in pair],

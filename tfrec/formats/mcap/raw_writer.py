@@ -40,7 +40,7 @@ from tfrec.formats.mcap.records import (
 )
 from tfrec.formats.mcap.writer import DEFAULT_CHUNK_BYTES, LIBRARY, PROFILE, chunk_compressor, serialize_records
 from tfrec.formats.ros.connection import Connection
-from tfrec.formats.rosbag2.metadata import bag_info, offered_qos_profiles, qos_yaml, yaml_dump
+from tfrec.formats.rosbag2.metadata import bag_info, bag_metadata_yaml, offered_qos_profiles, qos_yaml
 
 __all__ = ["McapWriter"]
 
@@ -50,6 +50,9 @@ _HEAD = RECORD.size + MESSAGE_HEAD_SIZE
 """Bytes of a Message record before its data."""
 
 Buffer = bytes | memoryview
+
+MAX_IDS = 65_535
+"""Channels, and schemas, an MCAP holds at most: their ids are uint16 (0 is no schema)."""
 
 
 class McapWriter:
@@ -115,6 +118,9 @@ class McapWriter:
         from mcap.records import Channel, Schema
 
         self._check_open()
+        if len(self._channels) >= MAX_IDS or len(self._schema_ids) >= MAX_IDS:
+            raise WriteError(f"{connection.topic}: more than {MAX_IDS:,} channels (or schemas) to write: an MCAP "
+                             "numbers them with 16 bits (leave topics out, or write a ROS 1 bag)")
         schema_id = 0
         if connection.msgtype:
             encoding = (connection.definition_encoding or "ros2msg") if connection.definition else ""  # "": none
@@ -328,7 +334,7 @@ class McapWriter:
              for (topic, msgtype, profiles, type_hash), channel, count in zip(self._topics, self._channels, self._counts)],
             message_count=self.message_count, start_ns=start, end_ns=self._end_ns,
         )
-        metadata = serialize_records(Metadata(name="rosbag2", metadata={"serialized_metadata": yaml_dump(self._bag_info)}))
+        metadata = serialize_records(Metadata(name="rosbag2", metadata={"serialized_metadata": bag_metadata_yaml(self._bag_info)}))
         metadata_index = MetadataIndex(offset=self._offset, length=len(metadata), name="rosbag2")
         self._write(metadata + serialize_records(DataEnd(data_section_crc=0)))
         statistics = Statistics(

@@ -56,7 +56,7 @@ from tfrec.formats.mcap.records import (
 )
 from tfrec.formats.ros.encode import JointStateEncoder, TFMessageEncoder, encode_string
 from tfrec.formats.ros.types import typestore
-from tfrec.formats.rosbag2.metadata import QOS_LATCHED, QOS_VOLATILE, bag_info, qos_yaml, yaml_dump
+from tfrec.formats.rosbag2.metadata import QOS_LATCHED, QOS_VOLATILE, bag_info, bag_metadata_yaml, qos_yaml
 
 if TYPE_CHECKING:
     from tfrec.kinematics.fk import Transforms
@@ -456,7 +456,7 @@ class McapSink:
              for channel, (topic, msgtype, qos) in enumerate(TOPICS, start=1)],
             message_count=self.message_count, start_ns=start, end_ns=self._end_ns,
         )
-        metadata = serialize_records(Metadata(name="rosbag2", metadata={"serialized_metadata": yaml_dump(self._bag_info)}))
+        metadata = serialize_records(Metadata(name="rosbag2", metadata={"serialized_metadata": bag_metadata_yaml(self._bag_info)}))
         metadata_index = MetadataIndex(offset=self._offset, length=len(metadata), name="rosbag2")
         self._write(metadata + serialize_records(DataEnd(data_section_crc=0)))
 

@@ -34,6 +34,7 @@ from tfrec.formats.rrd.paths import (
     joint_entity,
     velocity_entity,
 )
+from tfrec.frames import frame_tree
 from tfrec.kinematics.fk import Transforms
 from tfrec.kinematics.rotations import quaternion_rotate
 from tfrec.model import JointType, Robot
@@ -66,6 +67,10 @@ FILL = 0.7
 """The part of the view's height the ball around the robot's reach fills."""
 MAX_POINTS = 50_000
 """Points :class:`Reach` keeps (every other one is dropped when there are more): memory stays bounded."""
+EYE_SAMPLES = 64
+"""Instants of each chunk (evenly spread) the robot's reach, and so the camera, is fitted to..."""
+EYE_POSES = 1_000_000
+"""...and poses (instants × frames) composed for it at most (56 MB): fewer instants for a robot of many links."""
 MIN_RADIUS_M = 0.05
 """A reach smaller than this (a robot of points) is framed as a ball of this radius."""
 
@@ -115,44 +120,66 @@ class Reach:
     radii: Mapping[tuple[str, int], float] = field(default_factory=dict)
     low: Array | None = None
     high: Array | None = None
-    points: list[tuple[Array, float]] = field(default_factory=list)
+    points: list[tuple[Array, Array]] = field(default_factory=list)
+    """(points (m, 3), their radii (m,)): the link origins and visual centres gathered."""
+    _count: int = 0
+
+    @staticmethod
+    def instants(samples: int, *, frames: int) -> NDArray[np.intp]:
+        """Which of a chunk's ``samples`` the camera is fitted to: :data:`EYE_SAMPLES` evenly spread, fewer when
+        ``frames`` frames would compose more than :data:`EYE_POSES` poses (100,000 frames: 10 instants)."""
+        count = max(1, min(samples, EYE_SAMPLES, EYE_POSES // max(1, frames)))
+        return np.unique(np.linspace(0, samples - 1, count).astype(np.intp))
 
     def merge(self, other: Reach) -> None:
         """Widen by another robot's reach (the two robots of an overlay)."""
-        for points, pad in other.points:
-            self._widen(points, pad)
+        for points, pads in other.points:
+            self._widen(points, pads)
 
     def add(self, world: Transforms) -> None:
         """Widen the box by the robot at the poses ``world`` (root_from_frame, N instants); NaN
-        poses (frames not placed at an instant) are left out."""
+        poses (frames not placed at an instant) are left out. All links at once: linear in links."""
         by_frame = {child: k for k, child in enumerate(world.children)}
+        columns: list[int] = []
+        offsets: list[tuple[float, float, float]] = []
+        pads: list[float] = []
+        origins: list[int] = []
         for link in self.robot.links:
             k = by_frame.get(self.frame_prefix + link.name)
             if k is None:
                 continue
-            origin = world.translation[:, k]
-            self._widen(origin, 0.0)
+            origins.append(k)
             for index, visual in enumerate(link.visuals):
-                centre = origin + quaternion_rotate(world.rotation[:, k], np.asarray(visual.origin.xyz))
-                self._widen(centre, self.radii.get((link.name, index), 0.0))
+                columns.append(k)
+                offsets.append(visual.origin.xyz)
+                pads.append(self.radii.get((link.name, index), 0.0))
+        n = len(world)
+        if origins:
+            self._widen(world.translation[:, origins].reshape(-1, 3), np.zeros(n * len(origins)))
+        if columns:
+            centres = world.translation[:, columns] + quaternion_rotate(world.rotation[:, columns], np.asarray(offsets))
+            self._widen(centres.reshape(-1, 3), np.tile(np.asarray(pads, dtype=np.float64), n))
 
-    def _widen(self, points: Array, pad: float) -> None:
-        points = points[np.all(np.isfinite(points), axis=1)]
+    def _widen(self, points: Array, pads: Array) -> None:
+        kept = np.all(np.isfinite(points), axis=1)
+        points, pads = points[kept], pads[kept]
         if not len(points):
             return
-        low, high = points.min(axis=0) - pad, points.max(axis=0) + pad
+        low, high = (points - pads[:, np.newaxis]).min(axis=0), (points + pads[:, np.newaxis]).max(axis=0)
         self.low = low if self.low is None else np.minimum(self.low, low)
         self.high = high if self.high is None else np.maximum(self.high, high)
-        self.points.append((points, pad))
-        if sum(len(p) for p, _ in self.points) > MAX_POINTS:
-            self.points = [(p[::2], r) for p, r in self.points if len(p[::2])]
+        self.points.append((points, pads))
+        self._count += len(points)
+        while self._count > MAX_POINTS:
+            self.points = [(p[::2], r[::2]) for p, r in self.points if len(p[::2])]
+            self._count = sum(len(p) for p, _ in self.points)
 
     def eye(self, fill: float = FILL) -> rrb.EyeControls3D | None:
         """A ¾ view of the ball around the reach (centred on its box), Z up; None before anything was added."""
         if self.low is None or self.high is None:
             return None
         centre = (self.low + self.high) / 2.0
-        radius = max(float(np.max(np.linalg.norm(p - centre, axis=1))) + pad for p, pad in self.points)
+        radius = max(float(np.max(np.linalg.norm(p - centre, axis=1) + pads)) for p, pads in self.points)
         distance = view_distance(radius, fill)
         yaw, pitch = math.radians(EYE_YAW_DEG), math.radians(EYE_PITCH_DEG)
         direction = np.array([math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch)])
@@ -162,36 +189,34 @@ class Reach:
 
 def tf_tree_layout(pairs: Sequence[tuple[str, str]]) -> dict[str, tuple[float, float]]:
     """Positions of the frames of a TF tree for a graph view: each parent above its children,
-    leaves side by side in the order given, a parent centred over its children (2D, y down)."""
+    leaves side by side in the order given, a parent centred over its children (2D, y down).
+    Every frame is placed once (:func:`tfrec.frames.frame_tree`: a second parent or a cycle is not
+    followed), depth-first without recursion: a chain of 100,000 frames is laid out like a short one."""
+    tree = frame_tree(pairs)
     children: dict[str, list[str]] = {}
-    has_parent = set()
-    for parent, child in pairs:
+    for parent, child in tree.edges():
         children.setdefault(parent, []).append(child)
-        has_parent.add(child)
-    roots = [frame for frame in dict.fromkeys(p for p, _ in pairs) if frame not in has_parent]
     widest = max((len(frame) for pair in pairs for frame in pair), default=8)
     dx, dy = 7.0 * widest + 10.0, 30.0
-    out: dict[str, tuple[float, float]] = {}
+    x: dict[str, float] = {}
+    preorder: list[str] = []
     next_x = 0.0
-
-    def place(frame: str, depth: int) -> float:
-        nonlocal next_x
-        if frame in out:  # a frame reached twice (not a tree): keep the first place
-            return out[frame][0]
-        kids = children.get(frame, [])
-        if not kids:
-            x = next_x
-            next_x += dx
-        else:
-            out[frame] = (0.0, depth * dy)  # mark before recursing
-            xs = [place(kid, depth + 1) for kid in kids]
-            x = (min(xs) + max(xs)) / 2.0
-        out[frame] = (x, depth * dy)
-        return x
-
-    for root in roots:
-        place(root, 0)
-    return out
+    for root in tree.roots:
+        stack = [(root, False)]
+        while stack:
+            frame, done = stack.pop()
+            kids = children.get(frame, [])
+            if not done:
+                preorder.append(frame)
+            if not done and kids:
+                stack.append((frame, True))
+                stack.extend((kid, False) for kid in reversed(kids))
+            elif kids:
+                x[frame] = (min(x[kid] for kid in kids) + max(x[kid] for kid in kids)) / 2.0
+            else:
+                x[frame] = next_x
+                next_x += dx
+    return {frame: (x[frame], tree.depth[frame] * dy) for frame in preorder}
 
 
 def tf_tree_columns(pairs: Sequence[tuple[str, str]]) -> list[Any]:

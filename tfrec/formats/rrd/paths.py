@@ -25,7 +25,7 @@ Joint plots carry a ``SeriesLines`` style (the joint's colour and name) beside t
 
 A replay may hold frames the robot model does not name (or have no model); they keep entities
 of their own: ``/tf/<parent>/<child>`` (*ros_time*) and ``/tf_static/<parent>/<child>`` for a
-pair whose child is no link, ``/robot/<frame>`` (``CoordinateFrame`` and ``TransformAxes3D``)
+pair that is no joint of the robot (its child no link, or a link below another parent than its joint's), ``/robot/<frame>`` (``CoordinateFrame`` and ``TransformAxes3D``)
 for such a frame.
 
 The timeline ``ros_time`` holds the stamps of the recording as timestamps (integer
@@ -41,12 +41,16 @@ import sys
 
 import rerun as rr
 
+from tfrec.errors import WriteError
+from tfrec.model import Robot
+
 __all__ = [
     "APPLICATION_ID",
     "DESCRIPTION_ROOT",
     "DISPLAY_PREFIX_ROOT",
     "JOINTS_ROOT",
     "JOINT_COUNT",
+    "MAX_LINKS",
     "NO_JOINTS_ENTITY",
     "ROBOT_ROOT",
     "TF_ROOT",
@@ -54,6 +58,7 @@ __all__ = [
     "TF_TREE_ROOT",
     "TIMELINE",
     "VELOCITIES_ROOT",
+    "check_rerun_robot",
     "joint_entity",
     "link_entity",
     "pair_entity",
@@ -163,3 +168,18 @@ def joint_entity(joint: str) -> str:
 def velocity_entity(joint: str) -> str:
     """``/joint_velocities/<joint>``: the joint's velocity as a time series."""
     return f"/{VELOCITIES_ROOT}/{rr.escape_entity_path_part(joint)}"
+
+
+MAX_LINKS = 10_000
+"""Links of a robot tfrec logs to Rerun at most. Rerun takes an entity per link and per visual, about a
+millisecond and 60 kB each (a chain of 10,000 links: 10 s and 600 MB to record with an .rrd, 100,000 would take
+minutes and gigabytes); the ROS outputs have no such bound."""
+
+
+def check_rerun_robot(robot: Robot | None, target: str, *, hint: str = "") -> None:
+    """Raise WriteError for a robot of more than :data:`MAX_LINKS` links (before any output is written);
+    ``hint``: what to do instead, ending the message."""
+    if robot is not None and len(robot.links) > MAX_LINKS:
+        raise WriteError(f"{target}: robot '{robot.name}' has {len(robot.links):,} links, more than tfrec logs to "
+                         f"Rerun (at most {MAX_LINKS:,}: each link is an entity of its own, ~1 ms and 60 kB)"
+                         + (f"; {hint}" if hint else ""))

@@ -23,7 +23,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 from numpy.typing import NDArray
 
-from tfrec.errors import KinematicsError, WriteError
+from tfrec.errors import WriteError
 from tfrec.formats.rrd._flush import disconnect, flush
 from tfrec.formats.rrd.blueprint import Reach, blueprint_of, joint_colour, joint_units, robot_layout, tf_tree_columns
 from tfrec.formats.rrd.columns import check_stamps, no_joint_columns, repeated_strings, time_column
@@ -35,6 +35,7 @@ from tfrec.formats.rrd.paths import (
     NO_JOINTS_ENTITY,
     ROBOT_ROOT,
     TF_TREE_ROOT,
+    check_rerun_robot,
     joint_entity,
     link_entity,
     pair_entity,
@@ -51,8 +52,6 @@ __all__ = ["RerunSink"]
 
 Array = NDArray[np.float64]
 
-_EYE_SAMPLES = 64
-"""Instants of each chunk (evenly spread) the robot's reach, and so the camera, is fitted to."""
 _FRAME_AXIS_LENGTH_M = 0.1  # of the TF axes of frames that are not links of the robot
 
 _FLUSH_BYTES = 16 << 20
@@ -84,7 +83,7 @@ class RerunSink:
             for none (to colour them over time: static colours would hide those).
 
     Raises:
-        WriteError: the file cannot be created.
+        WriteError: the file cannot be created, or a robot of more than :data:`MAX_LINKS` links.
     """
 
     def __init__(
@@ -100,6 +99,7 @@ class RerunSink:
         colour: int | None = None,
     ) -> None:
         file = Path(path)
+        check_rerun_robot(robot, os.fspath(file))
         stream = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id, send_properties=False)
         try:
             with open(file, "wb"):
@@ -129,6 +129,7 @@ class RerunSink:
             target: what the stream goes to, for error messages (a URL, "the Rerun viewer on port 9876").
             robot, **options: as for the constructor (``package_paths``, ``frame_prefix``, ...).
         """
+        check_rerun_robot(robot, target)
         sink = cls.__new__(cls)
         sink._setup(stream, target=target, file=None, robot=robot, **options)
         return sink
@@ -160,7 +161,8 @@ class RerunSink:
         links = robot.links if robot is not None else ()
         self._link_frames = frozenset(frame_prefix + link.name for link in links)
         joints = robot.joints if robot is not None else ()
-        self._joint_of_child = {frame_prefix + joint.child: joint.name for joint in joints}
+        # a pair that names a link below another parent (reparented, a cycle) keeps an entity of its own
+        self._joint_of_pair = {(frame_prefix + joint.parent, frame_prefix + joint.child): joint.name for joint in joints}
         self._other_frames: set[str] = set()
         self._static: Transforms | None = None
         self._visual_radii: dict[tuple[str, int], float] = {}
@@ -237,7 +239,7 @@ class RerunSink:
                               rr.TextDocument.columns(text=[robot_description], media_type=["text/plain"]))
         self.log_robot()
         for k, (parent, child) in enumerate(zip(static.parents, static.children)):
-            joint = self._joint_of_child.get(child)
+            joint = self._joint_of_pair.get((parent, child))
             entity = tf_static_entity(joint) if joint is not None else static_pair_entity(parent, child)
             self._send_static(entity, rr.Transform3D.columns(
                 translation=static.translation[:1, k], quaternion=static.rotation[:1, k], parent_frame=[parent],
@@ -340,8 +342,8 @@ class RerunSink:
     ) -> None:
         """Log one frame pair's transforms at their own stamps.
 
-        A pair whose child is a link of the robot goes to ``/tf/<joint>``, any other to
-        ``/tf/<parent>/<child>``. Pairs are independent of each other and of the joint states.
+        A pair that is a joint of the robot (its parent and child frames) goes to ``/tf/<joint>``, any
+        other to ``/tf/<parent>/<child>``. Pairs are independent of each other and of the joint states.
 
         Args:
             parent, child: the frame ids (frame prefix included).
@@ -389,18 +391,14 @@ class RerunSink:
         """Widen the robot's reach (the camera frames it) by the robot at (up to 64 of) the instants of ``moving``.
 
         ``moving`` is composed with :meth:`begin`'s latched transforms; the camera looks at the
-        whole reach (:class:`tfrec.formats.rrd.blueprint.Reach`). Without a robot, or when the frames
-        do not form a tree, the viewer's own camera is kept.
+        whole reach (:class:`tfrec.formats.rrd.blueprint.Reach`). Without a robot the viewer's own camera
+        is kept; frames that do not form a tree are placed as :func:`~tfrec.kinematics.root_from_link` places them.
         """
         if self._static is None or self._robot is None or self._reach is None or not len(moving):
             return
-        picked = np.unique(np.linspace(0, len(moving) - 1, min(len(moving), _EYE_SAMPLES)).astype(int))
+        picked = Reach.instants(len(moving), frames=len(self._static.children) + len(moving.children) + 1)
         sampled = Transforms(moving.parents, moving.children, moving.translation[picked], moving.rotation[picked])
-        try:
-            world = root_from_link(self._static, sampled, root=self._prefix + self._robot.root)
-        except KinematicsError:  # a frame with two parents (in a replayed recording)
-            return
-        self._reach.add(world)
+        self._reach.add(root_from_link(self._static, sampled, root=self._prefix + self._robot.root))
 
     def blueprint(self) -> rrb.Blueprint:  # the layout (tfrec.formats.rrd.blueprint) of :meth:`layout`
         return blueprint_of(self.layout())
@@ -488,7 +486,7 @@ class RerunSink:
         if np.any(np.diff(stamps) < 0) or (last is not None and stamps[0] < last):
             raise WriteError(f"transforms '{parent}' -> '{child}': stamps go back in time")
         self._last_pair_ns[(parent, child)] = int(stamps[-1])
-        joint = self._joint_of_child.get(child)
+        joint = self._joint_of_pair.get((parent, child))
         n = len(stamps)
         columns = rr.Transform3D.columns(translation=translation, quaternion=rotation,
                                          parent_frame=repeated_strings(parent, n), child_frame=repeated_strings(child, n))
