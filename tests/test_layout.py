@@ -48,3 +48,28 @@ def test_every_entry_of_the_slow_tier_names_a_test() -> None:
         path = REPO / file
         assert path.is_file(), entry
         assert not name or f"def {name.partition('[')[0]}" in path.read_text(encoding="utf-8"), entry
+
+
+def test_every_warning_of_tfrec_has_its_category() -> None:
+    """``-W error::tfrec.TfrecWarning`` (and pytest's ``filterwarnings``) reach every warning tfrec gives: each
+    ``warnings.warn`` in tfrec/ names ``TfrecWarning`` (or a subclass), passes such a warning, or relays a caught
+    warning with its own category."""
+    import tfrec.errors
+
+    categories = {name for name, value in vars(tfrec.errors).items()
+                  if isinstance(value, type) and issubclass(value, tfrec.errors.TfrecWarning)}
+    for path in PACKAGE.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "warn"
+                    and isinstance(node.func.value, ast.Name) and node.func.value.id == "warnings"):
+                continue
+            where = f"{path.relative_to(REPO)}:{node.lineno}"
+            category = node.args[1] if len(node.args) > 1 else next(
+                (k.value for k in node.keywords if k.arg == "category"), None)
+            first = node.args[0]
+            if isinstance(first, ast.Call) and isinstance(first.func, ast.Name) and first.func.id.endswith("Warning"):
+                assert first.func.id in categories, where
+            elif isinstance(category, ast.Name):
+                assert category.id in categories, where
+            else:
+                assert isinstance(category, ast.Attribute) and category.attr == "category", where

@@ -21,7 +21,7 @@ from types import TracebackType
 from typing import final
 
 from tfrec._outputs import REPLACES, STALE, NotOurs, OutputKind, check_existing, refusal, temporary_name
-from tfrec.errors import RecordingError, TfrecError, WriteError
+from tfrec.errors import RecordingError, TfrecError, TfrecWarning, WriteError
 
 __all__ = ["AtomicOutputs", "remove_stale_temporaries"]
 
@@ -177,7 +177,7 @@ def _replace(temp: Path, target: Path, owned: list[Path] | None) -> None:
     except OSError:  # something appeared in the old folder while it was replaced: kept (under a name that no
         kept = aside.with_name(f".tfrec-kept-{uuid.uuid4().hex[:8]}")  # cleanup of temporaries removes), said
         os.rename(aside, kept)
-        warnings.warn(f"{target}: files that appeared in it while it was replaced are kept in {kept}", stacklevel=4)
+        warnings.warn(f"{target}: files that appeared in it while it was replaced are kept in {kept}", TfrecWarning, stacklevel=4)
 
 
 def _rename_new(temp: Path, target: Path) -> None:
@@ -224,7 +224,7 @@ def remove_stale_temporaries(folder: Path) -> list[Path]:
     if removed:
         shown = ", ".join(p.name for p in removed[:3]) + (f" and {len(removed) - 3} more" if len(removed) > 3 else "")
         warnings.warn(f"{folder}: removed {len(removed)} unfinished output{'s' if len(removed) > 1 else ''} of "
-                      f"killed runs: {shown}", stacklevel=3)
+                      f"killed runs: {shown}", TfrecWarning, stacklevel=3)
     return removed
 
 

@@ -21,7 +21,7 @@ from datetime import datetime, timezone
 from typing import Any
 
 from tfrec.conventions import CLOCK_GAP_NS, JOINT_STATES, NS_PER_S, TF, namespace_name
-from tfrec.errors import printable
+from tfrec.errors import TfrecWarning, printable
 from tfrec.formats.reader import identify_recording, read_recording
 from tfrec.recording import Recording
 from tfrec.robots import RecordedRobot, find_robots
@@ -63,7 +63,7 @@ def summarize(path: str | os.PathLike[str], *, namespace: str | None = None,
     source = identify_recording(path)
     recording = read_recording(source, namespace=namespace, remap=remap, summary=True)
     if recording.read_error is not None:
-        warnings.warn(recording.read_error, stacklevel=2)
+        warnings.warn(recording.read_error, TfrecWarning, stacklevel=2)
     robots = find_robots(recording, namespace=None if namespace is None else namespace_name(namespace))
     meta = source.bag
     firsts = [t.first_ns for t in recording.topics.values() if t.first_ns is not None and t.count]

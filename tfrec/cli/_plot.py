@@ -6,6 +6,7 @@ import argparse
 from typing import Any
 
 from tfrec.cli._common import load_robot_option, show
+from tfrec.errors import TfrecWarning
 
 __all__ = ["add_parser"]
 
@@ -51,7 +52,7 @@ def _cmd_plot(ns: argparse.Namespace) -> int:
     if recording.read_error:
         import warnings
 
-        warnings.warn(recording.read_error, stacklevel=1)
+        warnings.warn(recording.read_error, TfrecWarning, stacklevel=1)
     plot_recording(recording, ns.output, robot=robot, frames=ns.frames, namespace=namespace, force=ns.force)
     show(f"wrote {ns.output}")
     return 0

@@ -23,7 +23,7 @@ from tfrec.conventions import (
     NS_PER_S,
     ROS1_COMPRESSIONS,
 )
-from tfrec.errors import KinematicsError, TrajectoryError, WriteError
+from tfrec.errors import KinematicsError, TfrecWarning, TrajectoryError, WriteError
 
 if TYPE_CHECKING:
     from tfrec.description.launch import LaunchRobot
@@ -113,7 +113,7 @@ def _cmd_record(ns: argparse.Namespace) -> int:
     robot, launch = load_robot_and_launch(ns)
     params = launch.node_params if launch is not None else None
     if csv and ns.duration is not None:
-        warnings.warn(f"--duration does not apply to the CSV trajectory {ns.traj}: its own times are used",
+        warnings.warn(f"--duration does not apply to the CSV trajectory {ns.traj}: its own times are used", TfrecWarning,
                       stacklevel=1)
     rate = ns.rate
     if rate is None and params is not None and not csv:  # the launch file's joint_state_publisher and
@@ -123,7 +123,7 @@ def _cmd_record(ns: argparse.Namespace) -> int:
             if len(rates) == 2 and params.publish_frequency_hz and params.publish_frequency_hz < (params.jsp_rate_hz or 0):
                 warnings.warn(f"{launch.launch_file if launch else ''}: robot_state_publisher publishes /tf at "
                               f"{params.publish_frequency_hz:g} Hz, below joint_state_publisher's {params.jsp_rate_hz:g} "
-                              "Hz: both are recorded at the /tf rate (--rate overrides)", stacklevel=1)
+                              "Hz: both are recorded at the /tf rate (--rate overrides)", TfrecWarning, stacklevel=1)
     overrides = _parse_overrides(ns.overrides)
     if not overrides and params is not None and params.jsp_zeros and ns.traj == "center":
         overrides = dict(params.jsp_zeros)  # joint_state_publisher's zeros: where Center puts the joints

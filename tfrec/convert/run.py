@@ -31,7 +31,7 @@ from tfrec.conventions import (
 )
 from tfrec.convert.joints import plan_derivations
 from tfrec.convert.stream import Copier, CopyReport
-from tfrec.errors import ConvertError
+from tfrec.errors import ConvertError, TfrecWarning
 from tfrec.formats.kinds import MCAP, ROS1_BAG, ROSBAG2, RRD
 from tfrec.formats.messages import open_messages
 from tfrec.formats.output import open_output
@@ -216,7 +216,7 @@ def convert(
     for d in derivations:
         unseen = {name: count for name, count in d.repeated.items() if name not in d.warned}
         if unseen:
-            warnings.warn(repeated_joints(where, d.joint_topic, unseen), stacklevel=2)
+            warnings.warn(repeated_joints(where, d.joint_topic, unseen), TfrecWarning, stacklevel=2)
     return ConvertResult(path, kind, report, (start_s, end_s))
 
 
@@ -242,7 +242,7 @@ def _selection(summary: Recording, *, topics: Collection[str] | None, exclude: C
     recorded = set(summary.topics) | produced
     absent = sorted(t for t in (chosen or set()) | left if t not in recorded)
     if absent:
-        warnings.warn(f"{summary.path}: no {', '.join(absent)} in the recording", stacklevel=3)
+        warnings.warn(f"{summary.path}: no {', '.join(absent)} in the recording", TfrecWarning, stacklevel=3)
     return _Selected(chosen, left, namespace, shared)
 
 
@@ -265,12 +265,12 @@ class _Selected:
 
 def _warn(report: CopyReport, where: str) -> None:
     for topic, note in report.notes.items():
-        warnings.warn(f"{where}: {topic}: {note}", stacklevel=3)
+        warnings.warn(f"{where}: {topic}: {note}", TfrecWarning, stacklevel=3)
     for topic, (count, reason) in report.dropped.items():
-        warnings.warn(f"{where}: {topic}: {count:,} message{'s' if count != 1 else ''} not written: {reason}",
+        warnings.warn(f"{where}: {topic}: {count:,} message{'s' if count != 1 else ''} not written: {reason}", TfrecWarning,
                       stacklevel=3)
     if report.read_error is not None:
-        warnings.warn(f"{report.read_error}; converted up to there", stacklevel=3)
+        warnings.warn(f"{report.read_error}; converted up to there", TfrecWarning, stacklevel=3)
 
 
 def _to_rerun(source: str | os.PathLike[str], target: Path, *, start_s: float | None, end_s: float | None,

@@ -50,7 +50,7 @@ from tfrec.description._launch_files import (
 from tfrec.description._launch_ros1 import Ros1Reader
 from tfrec.description._launch_ros2 import Ros2Reader
 from tfrec.description.packages import PackageFinder
-from tfrec.errors import DescriptionError, display_path, one_line, suggest
+from tfrec.errors import DescriptionError, TfrecWarning, display_path, one_line, suggest
 
 __all__ = ["DescriptionKind", "DescriptionSource", "LaunchRobot", "NodeParams", "is_launch_file", "read_launch"]
 
@@ -237,7 +237,7 @@ def _warn_unknown_args(file: Path, given: Mapping[str, str], declared: set[str],
             hint = suggest(name, declared) or (f" (it declares {', '.join(sorted(declared))})" if declared
                                                else " (it declares none)")
             warnings.warn(f"{display_path(file)}: launch argument '{name}' is not declared by the launch file{hint}",
-                          UserWarning, stacklevel=3)
+                          TfrecWarning, stacklevel=3)
 
 
 # ---- Python launch files ---------------------------------------------------------------------------
@@ -392,7 +392,7 @@ def _serving(model: LaunchModel, chosen: Candidate, *, jsp: bool) -> Node | None
     if len(nodes) > 1:
         kind = "joint_state_publisher" if jsp else "robot_state_publisher"
         warnings.warn(f"{nodes[1].at}: a second {kind} for the robot; its parameters are ignored (the first one's, "
-                      f"at {nodes[0].at}, are used)", UserWarning, stacklevel=4)
+                      f"at {nodes[0].at}, are used)", TfrecWarning, stacklevel=4)
     return nodes[0] if nodes else None
 
 

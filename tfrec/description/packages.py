@@ -21,7 +21,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from urllib.parse import unquote, urlparse
 
-from tfrec.errors import DescriptionError
+from tfrec.errors import DescriptionError, TfrecWarning
 
 __all__ = ["PackageFinder", "find_in_package", "package_name"]
 
@@ -181,7 +181,7 @@ class PackageFinder:
         for name, (found, others) in self.twins.items():
             if name not in self._warned:
                 self._warned.add(name)
-                warnings.warn(f"package '{name}' is in {found} and {', '.join(map(str, others))}; using {found}",
+                warnings.warn(f"package '{name}' is in {found} and {', '.join(map(str, others))}; using {found}", TfrecWarning,
                               stacklevel=3)
 
     def taken(self, path: str | os.PathLike[str]) -> str | None:

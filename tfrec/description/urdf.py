@@ -13,7 +13,7 @@ import xml.etree.ElementTree as ET
 import xml.parsers.expat
 from collections.abc import Callable, Sequence
 
-from tfrec.errors import DescriptionError, display_path, suggest
+from tfrec.errors import DescriptionError, TfrecWarning, display_path, suggest
 from tfrec.model import (
     Box,
     Cylinder,
@@ -126,7 +126,7 @@ class _Parser:
         return DescriptionError(f"{self.place(elem) or self.where}: {message}")
 
     def warn(self, elem: ET.Element | None, message: str) -> None:
-        warnings.warn(str(self.fail(elem, message)), stacklevel=4)
+        warnings.warn(str(self.fail(elem, message)), TfrecWarning, stacklevel=4)
 
     # ---- attribute readers -------------------------------------------------------------
 
@@ -350,7 +350,7 @@ def parse_urdf(text: str, *, source: str | None = None, user_lines: bool = True,
         shown = ", ".join(f"'{name}'" for name in frozen[:_SHOWN]) + (f" and {len(frozen) - _SHOWN} more"
                                                                       if len(frozen) > _SHOWN else "")
         warnings.warn(f"{where}: joint{'s' if len(frozen) > 1 else ''} {shown} cannot move: lower and upper limit "
-                      "are equal (blank limits, as sw_urdf_exporter writes them?)", stacklevel=2)
+                      "are equal (blank limits, as sw_urdf_exporter writes them?)", TfrecWarning, stacklevel=2)
     for joint in joints:
         if joint.type is JointType.PLANAR:
             p.warn(joint_elems[joint.name], f"joint '{joint.name}' is planar: treated as fixed, "
@@ -390,7 +390,7 @@ def _warn_ignored(p: _Parser, root: ET.Element) -> None:
     if ignored:
         more = f" and {len(ignored) - _SHOWN} more" if len(ignored) > _SHOWN else ""
         warnings.warn(f"{p.where}: ignored {len(ignored)} element{'s' if len(ignored) > 1 else ''} that URDF "
-                      f"does not define (as urdfdom does): {', '.join(ignored[:_SHOWN])}{more}", stacklevel=3)
+                      f"does not define (as urdfdom does): {', '.join(ignored[:_SHOWN])}{more}", TfrecWarning, stacklevel=3)
 
 
 def _check_tree(p: _Parser, robot: str, links: list[Link], joints: list[Joint],

@@ -33,7 +33,7 @@ from tfrec.description._xacro_dialect import DialectHooks, LegacyForm, LegacyFou
 from tfrec.description._xacro_errors import describe_error
 from tfrec.description._xml_bytes import origin
 from tfrec.description.packages import PackageFinder
-from tfrec.errors import DescriptionError, LegacyXacroWarning, display_path
+from tfrec.errors import DescriptionError, LegacyXacroWarning, TfrecWarning, display_path
 
 __all__ = ["XacroExpansion", "expand_xacro", "xacro_expansion"]
 
@@ -137,7 +137,7 @@ def xacro_expansion(
     _warn_unused_args(job.filename, run.mappings)
     for line in run.chatter.splitlines():
         if line.strip():
-            warnings.warn(f"{display_path(job.filename)}: xacro: {line.strip()}", stacklevel=3)
+            warnings.warn(f"{display_path(job.filename)}: xacro: {line.strip()}", TfrecWarning, stacklevel=3)
     legacy = tuple(run.hooks.forms)
     if legacy:
         warnings.warn(LegacyXacroWarning(_legacy_message(legacy, expanded=not strict)), stacklevel=3)
@@ -279,4 +279,4 @@ def _warn_unused_args(filename: str, args: _Args) -> None:
         hint = f"; did you mean '{close[0]}'?" if close else (
             f" (its arguments: {', '.join(declared)})" if declared else " (it declares none)")
         warnings.warn(f"{display_path(filename)}: xacro argument {name}:={args[name]} is not an argument of this "
-                      f"description, and is ignored{hint}", stacklevel=4)
+                      f"description, and is ignored{hint}", TfrecWarning, stacklevel=4)

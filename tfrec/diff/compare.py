@@ -63,7 +63,7 @@ from tfrec.conventions import (
 from tfrec.diff.precision import FLOAT32_ULPS, float32_tolerance
 from tfrec.diff.report import Difference, DiffReport, Largest, at_time, format_time
 from tfrec.diff.topics import renamed_b_topics, same_type
-from tfrec.errors import DiffError
+from tfrec.errors import DiffError, TfrecWarning
 from tfrec.formats._collect import decodes_type
 from tfrec.formats.reader import read_recording
 from tfrec.kinematics.rotations import rotation_error
@@ -454,7 +454,7 @@ def compare(
                         time_base="log" if "log" in (rec_a.time_base, rec_b.time_base) else "header")
     for rec in (rec_a, rec_b):
         if rec.read_error is not None:
-            warnings.warn(rec.read_error, stacklevel=2)
+            warnings.warn(rec.read_error, TfrecWarning, stacklevel=2)
             report.notes.append(f"damaged file, compared as far as readable: {rec.read_error}")
     ns = None if namespace is None else namespace_name(namespace)
     cmp = _Comparison(rec_a, rec_b, report, wanted, absolute, ns)

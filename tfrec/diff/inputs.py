@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tfrec.description import load_description, parse_urdf
-from tfrec.errors import DescriptionError, DiffError, ReadError
+from tfrec.errors import DescriptionError, DiffError, ReadError, TfrecWarning
 from tfrec.formats.reader import read_recording, recording_format
 from tfrec.model import Robot
 from tfrec.recording import JointStates, Recording
@@ -137,7 +137,7 @@ def load_input(
 def _recording_input(recording: Recording, label: str) -> DiffInput:
     side = DiffInput(label, recording.path, None, recording)
     if recording.read_error is not None:
-        warnings.warn(recording.read_error, stacklevel=3)
+        warnings.warn(recording.read_error, TfrecWarning, stacklevel=3)
     if recording.robot_description is None:
         side.robot_note = f"{recording.path} has no /robot_description"
         return side

@@ -36,7 +36,7 @@ from tfrec.diff.motion_report import DescriptionDiffReport, LinkDelta, Side
 from tfrec.diff.precision import float32_tolerance
 from tfrec.diff.report import Difference, Largest, at_time
 from tfrec.diff.urdf import diff_robots
-from tfrec.errors import DiffError
+from tfrec.errors import DiffError, TfrecWarning
 from tfrec.formats.reader import read_recording
 from tfrec.frames import frame_tree, graph_problems
 from tfrec.kinematics.fk import Transforms, dynamic_transforms, root_from_link, static_transforms
@@ -297,7 +297,7 @@ def _pose(side: DiffInput, trajectory: JointTrajectory | None, time_ns: NDArray[
             rotation[alignment.inside, i] = alignment.rotations(series.rotation)
         dynamic = Transforms(tuple(p for p, _ in rec.tf), tuple(c for _, c in rec.tf), translation, rotation)
         for problem in graph_problems(frame_tree([*rec.tf_static, *rec.tf], roots=(root,))):
-            warnings.warn(f"{side.path}: {problem}; links are placed along the other transforms", stacklevel=3)
+            warnings.warn(f"{side.path}: {problem}; links are placed along the other transforms", TfrecWarning, stacklevel=3)
     world = root_from_link(static, dynamic, root=root)
     return Posed(side, static, dynamic, tuple(names), positions, world)
 

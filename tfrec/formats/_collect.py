@@ -30,7 +30,7 @@ from tfrec.conventions import (
     namespace_name,
     robot_topic_kind,
 )
-from tfrec.errors import ReadError
+from tfrec.errors import ReadError, TfrecWarning
 from tfrec.formats.ros.decode import JointStateAccumulator, TFAccumulator, transforms_of
 from tfrec.formats.ros.definitions import foreign_layout
 from tfrec.formats.ros.joint_names import repeated_joints
@@ -262,7 +262,7 @@ class Collector:
             what = {JOINT_STATES: "joint states", ROBOT_DESCRIPTION: "a robot description"}.get(
                 kind[1] if kind else "", "TF")
             warnings.warn(f"{self.recording.path}: {topic} ({msgtype}): {reason}; its messages are not read as "
-                          f"{what} (foreign data: listed, and copied as they are by convert)", stacklevel=3)
+                          f"{what} (foreign data: listed, and copied as they are by convert)", TfrecWarning, stacklevel=3)
         return False
 
     def set_deserializer(self, topic: str, deserialize: Callable[[bytes], Any]) -> None:
@@ -353,7 +353,7 @@ class Collector:
                 self._warn_zero_stamps(topic, time)
                 if repeated:
                     warnings.warn(repeated_joints(self.recording.path, topic, repeated, decoded.taken,
-                                                  first=self.options.summary), stacklevel=4)
+                                                  first=self.options.summary), TfrecWarning, stacklevel=4)
             elif decoded.kind == TF and decoded.accumulator is not None:
                 assert isinstance(decoded.accumulator, TFAccumulator)
                 part["tf"] = tf = _frames(decoded.accumulator)
@@ -381,7 +381,7 @@ class Collector:
         else:
             what = "transforms are stamped 0 (tf2's \"latest\": they have no time of their own)"
         warnings.warn(f"{self.recording.path}: {zero:,} of {len(time_ns):,} {topic} {what}; their times are "
-                      "meaningless: `use_log_time` replays by log time", stacklevel=4)
+                      "meaningless: `use_log_time` replays by log time", TfrecWarning, stacklevel=4)
 
 
 def _descriptions(decoded: _Decoded) -> list[str]:

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.errors import DescriptionError, display_path
+from tfrec.errors import DescriptionError, TfrecWarning, display_path
 from tfrec.frames import FrameTree, frame_tree, graph_problems
 from tfrec.kinematics.fk import Transforms, root_from_link
 from tfrec.model import JointType, Robot
@@ -115,7 +115,7 @@ def frame_paths(recording: Recording, frames: Sequence[str], *, max_samples: int
         raise PlotError(f"{recording.path}: frames {', '.join(unknown)} not in /tf or /tf_static "
                         f"(its frames: {listed or 'none'})")
     for problem in graph_problems(tree):
-        warnings.warn(f"{recording.path}: {problem}; frame paths are drawn along the other transforms", stacklevel=3)
+        warnings.warn(f"{recording.path}: {problem}; frame paths are drawn along the other transforms", TfrecWarning, stacklevel=3)
     needed: set[str] = set()  # the frames on the way from the roots to ``frames``, each walked up once
     for frame in frames:
         while frame not in needed and frame in tree.parent:
@@ -180,7 +180,7 @@ def _robot(recording: Recording, robot: Robot | None) -> Robot | None:
     try:
         return parse_urdf(recording.robot_description, source=f"{recording.path}:/robot_description")
     except DescriptionError as err:
-        warnings.warn(f"{err}; joints are plotted without units and limits", stacklevel=3)
+        warnings.warn(f"{err}; joints are plotted without units and limits", TfrecWarning, stacklevel=3)
         return None
 
 
@@ -289,14 +289,14 @@ def plot_recording(recording: Recording, path: str | os.PathLike[str], *, robot:
         js = None
     if js is not None and len(js.names) > MAX_PLOTTED:
         warnings.warn(f"{recording.path}: {len(js.names):,} joints in /joint_states: the first {MAX_PLOTTED} are "
-                      "drawn (a plot of more is unreadable, and takes matplotlib minutes)", stacklevel=2)
+                      "drawn (a plot of more is unreadable, and takes matplotlib minutes)", TfrecWarning, stacklevel=2)
         js = JointStates(js.time_ns, js.names[:MAX_PLOTTED], js.positions[:, :MAX_PLOTTED])
     model = _robot(recording, robot)
     still = js is None and not any(len(series) for series in recording.tf.values())
     chosen = list(frames) if frames is not None else (every_frame(recording) if still else default_frames(recording))
     if len(chosen) > MAX_PLOTTED:
         warnings.warn(f"{recording.path}: {len(chosen):,} frames chosen: the paths of the first {MAX_PLOTTED} are "
-                      "drawn", stacklevel=2)
+                      "drawn", TfrecWarning, stacklevel=2)
         chosen = chosen[:MAX_PLOTTED]
     if js is None and not chosen and not still:  # /tf holds nothing but frames that are their own parent
         raise PlotError(f"{recording.path}: nothing to plot: no /joint_states, and no frame of /tf lies below "
@@ -310,7 +310,7 @@ def plot_recording(recording: Recording, path: str | os.PathLike[str], *, robot:
         far = sorted(frame for frame, xyz in paths.positions.items() if (np.abs(xyz) > DRAWABLE).any())
         if far:
             warnings.warn(f"{recording.path}: frame paths not drawn: {', '.join(far)} reach{'es' if len(far) == 1 else ''}"
-                          f" more than {DRAWABLE:g} m from the root", stacklevel=2)
+                          f" more than {DRAWABLE:g} m from the root", TfrecWarning, stacklevel=2)
             paths = None
     from tfrec.plots._figure import plot_style, save_figure
 

@@ -47,7 +47,7 @@ from tfrec.conventions import (
     offset_ns,
     robot_topic_kind,
 )
-from tfrec.errors import DescriptionError, ReplayError
+from tfrec.errors import DescriptionError, ReplayError, TfrecWarning
 from tfrec.formats.reader import read_recording
 from tfrec.frames import frame_tree, graph_problems
 from tfrec.kinematics.fk import dynamic_transforms, static_transforms
@@ -200,7 +200,7 @@ def _transforms_not_recorded(
         listed = ", ".join(unplaced[:5]) + (f" and {len(unplaced) - 5} more" if len(unplaced) > 5 else "")
         plural = len(unplaced) > 1
         warnings.warn(f"{where}: no /tf and no {joint_topic} position for joint{'s' if plural else ''} {listed}; "
-                      f"{'their links are' if plural else 'its link is'} not placed", stacklevel=4)
+                      f"{'their links are' if plural else 'its link is'} not placed", TfrecWarning, stacklevel=4)
     return latched, computed
 
 
@@ -213,7 +213,7 @@ def _model_of(found: RecordedRobot, where: str, *, required: bool, only: bool) -
     if required and only:
         raise DescriptionError(f"{where}: {topic} is not a usable robot description: {found.problem}")
     warnings.warn(f"{where}: {who}{topic} is not a usable robot description ({found.problem}); "
-                  "replaying without the robot model (give `robot` FILE)", stacklevel=4)
+                  "replaying without the robot model (give `robot` FILE)", TfrecWarning, stacklevel=4)
     return None
 
 
@@ -227,7 +227,7 @@ def _prepare(found: RecordedRobot, model: Robot | None, override: bool, selected
                     else "only the joint positions are replayed, with no robot model to move")
             who = "" if only else f"{found.label}: "
             warnings.warn(f"{where}: {who}no {found.namespace}{ROBOT_DESCRIPTION} in the recording and no `robot`: "
-                          f"{what} (give `robot` FILE)", stacklevel=3)
+                          f"{what} (give `robot` FILE)", TfrecWarning, stacklevel=3)
     description = None
     if _selects(selected, found.namespace, ROBOT_DESCRIPTION):
         description = model.urdf if model is not None and model.urdf else found.description
@@ -237,7 +237,7 @@ def _prepare(found: RecordedRobot, model: Robot | None, override: bool, selected
     for problem in graph_problems(frame_tree([*static, *recorded_tf]), parents=False):
         who = "" if only else f"{found.label}: "
         warnings.warn(f"{where}: {who}{problem}; its transforms are replayed as recorded, and the robot is placed "
-                      "along the others", stacklevel=3)
+                      "along the others", TfrecWarning, stacklevel=3)
     prefix = found.frame_prefix
     if model is not None and (override or model is not found.model):
         prefix = detect_frame_prefix(model, [f for pair in list(static) + list(recorded_tf) for f in pair],
@@ -325,7 +325,7 @@ def load_replay(
         rec_kind = " (an .rrd not written by tfrec?)" if rec.format == "rrd" and not rec.topics else ""
         raise ReplayError(f"{where}: no {_listed(absent)} in the recording{rec_kind}; nothing to replay")
     if topics is not None and absent:
-        warnings.warn(f"{where}: no {', '.join(absent)} in the recording", stacklevel=2)
+        warnings.warn(f"{where}: no {', '.join(absent)} in the recording", TfrecWarning, stacklevel=2)
     ns = None if namespace is None else namespace_name(namespace)
     found = find_robots(rec, namespace=ns)
     if not found:
@@ -359,7 +359,7 @@ def load_replay(
     end_ns = max(int(s[-1]) for s in stamps) if stamps else None
     if start_ns is None and had_samples:
         window = f"from {start_s or 0:g} s to " + ("the end" if end_s is None else f"{end_s:g} s")
-        warnings.warn(f"{where}: no /joint_states or /tf sample {window}; only latched data is replayed",
+        warnings.warn(f"{where}: no /joint_states or /tf sample {window}; only latched data is replayed", TfrecWarning,
                       stacklevel=2)
     return Replay(path=where, format=rec.format, robots=robots, origin_ns=origin, start_ns=start_ns, end_ns=end_ns,
                   read_error=rec.read_error, time_base=rec.time_base)

@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tfrec.conventions import NS_PER_S
+from tfrec.errors import TfrecWarning
 from tfrec.model import Robot
 from tfrec.recording import FrameSeries, JointStates
 
@@ -200,4 +201,4 @@ class Replay:
             return
         self._damage_reported = True
         upto = "" if self.end_ns is None else f"; replayed up to t={self.seconds(self.end_ns):.3f} s"
-        warnings.warn(self.read_error + upto, stacklevel=2)
+        warnings.warn(self.read_error + upto, TfrecWarning, stacklevel=2)

@@ -34,7 +34,7 @@ import os
 import warnings
 from pathlib import Path
 
-from tfrec.errors import ReadError
+from tfrec.errors import ReadError, TfrecWarning
 from tfrec.formats._collect import (
     Collector,
     ReadOptions,
@@ -123,7 +123,7 @@ def read_mcap_into(path: Path, collector: Collector, *, where: str,
             read[channel.topic] = read.get(channel.topic, 0) + channel.count
         differ = count_differences(read, indexed, index="its summary statistics")
         if differ is not None:
-            warnings.warn(f"{name}: {differ}", stacklevel=3)
+            warnings.warn(f"{name}: {differ}", TfrecWarning, stacklevel=3)
     if not problems:
         return None
     line = read_error_line(name, problems, reader.messages)

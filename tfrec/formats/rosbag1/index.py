@@ -27,7 +27,7 @@ from typing import IO
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.errors import ReadError
+from tfrec.errors import ReadError, TfrecWarning
 from tfrec.formats._collect import Collector, ReadOptions, count_differences
 from tfrec.formats._compression import decompress
 from tfrec.formats.ros.connection import Connection
@@ -357,7 +357,7 @@ def read_rosbag1(path: Path, options: ReadOptions) -> Recording:
     if problem is not None:
         recording = read_rosbag1_records(path, options, refused=problem)
         if recording.read_error is None:  # an intact bag whose index is wrong
-            warnings.warn(f"{where}: {problem}; the bag was read record by record", stacklevel=3)
+            warnings.warn(f"{where}: {problem}; the bag was read record by record", TfrecWarning, stacklevel=3)
         return recording
     recording.details = {"compression": ", ".join(sorted({chunk.compression for chunk in bag.chunks}))}
     collector.finish()
@@ -369,5 +369,5 @@ def read_rosbag1(path: Path, options: ReadOptions) -> Recording:
         counted[name] = counted.get(name, 0) + indexed.get(conn, 0)
     differ = count_differences(read, counted, index="its chunk info records")
     if differ is not None:
-        warnings.warn(f"{where}: {differ} (its index data records count otherwise)", stacklevel=3)
+        warnings.warn(f"{where}: {differ} (its index data records count otherwise)", TfrecWarning, stacklevel=3)
     return recording

@@ -22,7 +22,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from tfrec.errors import ReadError
+from tfrec.errors import ReadError, TfrecWarning
 from tfrec.formats._yaml import load_yaml
 
 __all__ = [
@@ -314,7 +314,7 @@ def _storage_files(folder: Path, meta: Path, names: list[Any]) -> tuple[Path, ..
     if len(files) < len(names):
         repeated = len(names) - len(files)
         warnings.warn(f"{meta}: relative_file_paths names {len(files):,} file{'s' if len(files) != 1 else ''} "
-                      f"{len(names):,} times ({repeated:,} repeated, or names of one file): each is read once",
+                      f"{len(names):,} times ({repeated:,} repeated, or names of one file): each is read once", TfrecWarning,
                       stacklevel=4)
     return tuple(files.values())
 

@@ -17,7 +17,7 @@ import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
-from tfrec.errors import ReadError
+from tfrec.errors import ReadError, TfrecWarning
 from tfrec.formats._collect import ReadOptions, count_differences
 from tfrec.formats._compression import MAX_CHUNK_BYTES
 from tfrec.formats.rosbag2.metadata import BagMetadata
@@ -108,4 +108,4 @@ def check_metadata_counts(recording: Recording, meta: BagMetadata, options: Read
             expected.setdefault(topic, 0)  # a topic metadata.yaml does not list
     differ = count_differences(read, expected, index="metadata.yaml")
     if differ is not None:
-        warnings.warn(f"{where}: {differ}", stacklevel=4)
+        warnings.warn(f"{where}: {differ}", TfrecWarning, stacklevel=4)

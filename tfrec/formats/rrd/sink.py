@@ -23,7 +23,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 from numpy.typing import NDArray
 
-from tfrec.errors import WriteError
+from tfrec.errors import TfrecWarning, WriteError
 from tfrec.formats.rrd._flush import disconnect, flush
 from tfrec.formats.rrd.blueprint import Reach, blueprint_of, joint_colour, joint_units, robot_layout, tf_tree_columns
 from tfrec.formats.rrd.columns import check_stamps, no_joint_columns, repeated_strings, time_column
@@ -275,7 +275,7 @@ class RerunSink:
                 self._send_static(visual_entity(link.name, index), [
                     *rr.CoordinateFrame.columns(frame=frame), *visual_columns(visual, asset, colour=self._colour)])
         if missing:
-            warnings.warn(missing_meshes(missing), stacklevel=3)
+            warnings.warn(missing_meshes(missing), TfrecWarning, stacklevel=3)
         self.log_tf_tree([(self._prefix + j.parent, self._prefix + j.child) for j in robot.tree_order])
 
     def log_frames(self, frames: Iterable[str]) -> None:
