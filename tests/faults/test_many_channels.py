@@ -99,5 +99,5 @@ def test_bag_metadata_of_many_topics_is_written_as_pyyaml_writes_it() -> None:
            ("", "", "", [], "", 0), ("/π", "p/msg/T", "cdr", [QOS_LATCHED], "", 1)]
     topics = [(f"/topic_{i}", "std_msgs/msg/String", "cdr" if i % 7 else "ros1",
                [QOS_VOLATILE if i % 3 else QOS_LATCHED], "RIHS01_abc" if i % 5 else "", i) for i in range(300)]
-    info = bag_info(topics + odd, message_count=1, start_ns=0, end_ns=1, file_name="x.mcap")
+    info = bag_info(topics + odd, message_count=1, start_ns=0, end_ns=1)
     assert bag_metadata_yaml(info) == yaml_dump(info)
