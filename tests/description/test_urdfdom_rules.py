@@ -203,3 +203,27 @@ def test_a_zero_axis_is_refused_saying_what_ros_does(jtype: str) -> None:
     with pytest.raises(DescriptionError, match=r"^r\.urdf:1: joint 'j' has a zero axis: it defines no motion \(urdfdom "
                                                r"3\.0\.1 loads it, and robot_state_publisher publishes NaN for it\)$"):
         parse_urdf(_joint(jtype, '<axis xyz="0 0 0"/>' + LIMIT), source="r.urdf")
+
+
+def test_an_axis_on_a_fixed_or_floating_joint_is_not_read() -> None:
+    """urdfdom reads no axis of a fixed or floating joint: a malformed one there is nothing to refuse."""
+    for jtype in ("fixed", "floating"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # floating: "it gets no transform"
+            robot = parse_urdf(_joint(jtype, '<axis xyz="x y"/>'), source="r.urdf")
+        assert robot.joint_by_name["j"].axis == (1.0, 0.0, 0.0)
+    with pytest.raises(DescriptionError, match=r"joint 'j' axis: malformed xyz=\"x y\""):
+        parse_urdf(_joint("continuous", '<axis xyz="x y"/>'), source="r.urdf")
+
+
+def test_an_empty_robot_name_is_loaded_with_a_warning(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """urdfdom loads <robot name="">; without a name attribute it refuses (tests/description/test_description.py)."""
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text('<robot name=""><link name="a"/><link name="b"/>'
+                    '<joint name="j" type="continuous"><parent link="a"/><child link="b"/></joint></robot>')
+    with pytest.warns(UserWarning, match=r'r\.urdf:1: <robot name="">: an empty robot name \(urdfdom 3\.0\.1 loads it\)$'):
+        assert load_description(urdf).name == ""
+    from tfrec.recorder import default_stem
+
+    with pytest.warns(UserWarning, match="empty robot name"):
+        assert default_stem(load_description(urdf), "sine", now=0).startswith("robot-sine-")

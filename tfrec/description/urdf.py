@@ -356,7 +356,7 @@ class _Parser:
             links[role] = node.get("link", "")
         axis: tuple[float, ...] = (1.0, 0.0, 0.0)
         axis_elem = elem.find("axis")
-        if axis_elem is not None:
+        if axis_elem is not None and jtype not in (JointType.FIXED, JointType.FLOATING):  # urdfdom reads no other
             axis = self.floats(axis_elem, "xyz", 3, f"{what} axis", (1.0, 0.0, 0.0))
         if jtype in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC, JointType.PLANAR):
             axis = self.unit_axis(axis_elem, axis, what)
@@ -408,8 +408,10 @@ def parse_urdf(text: str, *, source: str | None = None, user_lines: bool = True)
     if root.tag != "robot":
         raise p.fail(root, f"root element is <{root.tag}>, not <robot>")
     name = root.get("name")
-    if not name:
+    if name is None:
         raise p.fail(root, "<robot> has no name")
+    if not name:
+        p.warn(root, f'<robot name="">: an empty robot name ({URDFDOM} loads it)')
 
     p.version = _version(p, root)
     _warn_ignored(p, root)
