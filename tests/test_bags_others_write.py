@@ -267,3 +267,21 @@ def test_a_recording_of_tfrec_has_no_extras_to_warn_of(tmp_path: Path, marm_mcap
         warnings.simplefilter("error")
         result = convert(marm_mcap, tmp_path / "out.bag")
     assert result.report is not None and result.report.extras == [] and result.report.extras_left_out == []
+
+
+def test_a_damaged_attachment_record_is_left_out_and_the_messages_after_it_are_copied(tmp_path: Path,
+                                                                                         marm_mcap: Path) -> None:
+    """An attachment whose name runs past its record: left out with a warning; the walk goes on after it (the
+    record's length frames it)."""
+    source = _with_extras(marm_mcap, tmp_path / "with_extras.mcap")
+    data = bytearray(source.read_bytes())
+    name = data.index(b"calibration.yaml")
+    struct.pack_into("<I", data, name - 4, 0x7FFF_FFFF)  # the name's length: past the record
+    source.write_bytes(bytes(data))
+    expected = lone_messages(read_recording(marm_mcap))
+    with pytest.warns(UserWarning, match=r"with_extras\.mcap: a damaged attachment record at byte [\d,]+ \(a name runs "
+                                         r"past the record\): left out$"):
+        result = convert(source, tmp_path / "out.mcap")
+    assert result.report is not None and result.report.messages == expected
+    attachments, metadata, _ = _extras(tmp_path / "out.mcap")
+    assert [a[0] for a in attachments] == ["weights.bin"] and len(metadata) == 1

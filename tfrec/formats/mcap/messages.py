@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import os
 import struct
+import warnings
 import zlib
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -189,9 +190,9 @@ class McapMessages(MessageSource):
                 if opcode in (OP_ATTACHMENT, OP_METADATA):  # kept where they are: copied by the writer
                     try:
                         self._extra(stream, path, opcode, start, length)
-                    except (struct.error, ValueError) as err:
-                        self._stop(name, start, size, f"a damaged {record_name(opcode)} record ({err})")
-                        break
+                    except (struct.error, ValueError) as err:  # its length is known: the walk goes on after it
+                        warnings.warn(f"{name}: a damaged {record_name(opcode)} record at byte {start:,} ({err}): "
+                                      "left out", stacklevel=2)
                     offset += length
                     stream.seek(offset)
                     continue
