@@ -208,6 +208,21 @@ class Ros:
                 raise AssertionError(f"no publisher of {topic} after {BACKSTOP_S:.0f} s")
             time.sleep(0.1)
 
+    def wait_connected(self, node: str, topic: str, peer: str) -> None:
+        """Until ``node`` publishes ``topic`` over a live connection to a node whose name starts with ``peer``
+        (the node's own XML-RPC ``getBusInfo``): a subscriber the master lists may not be connected yet."""
+        deadline = time.monotonic() + BACKSTOP_S
+        while time.monotonic() < deadline:
+            code, _, uri = self.call("lookupNode", node)
+            if code == 1:
+                with contextlib.suppress(OSError, xmlrpc.client.Error), xmlrpc.client.ServerProxy(uri) as api:
+                    _, _, connections = api.getBusInfo("/tfrec_tests")
+                    if any(c[2] == "o" and c[4] == topic and str(c[1]).startswith(peer) and (len(c) < 6 or c[5])
+                           for c in connections):
+                        return
+            time.sleep(0.1)
+        raise AssertionError(f"{node} never connected to a {peer}… subscriber of {topic}")
+
     def wait_gone(self, node: str) -> None:
         """Until the master no longer lists ``node`` (a stopped node unregisters itself)."""
         deadline = time.monotonic() + 30.0

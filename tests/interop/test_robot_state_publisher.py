@@ -213,11 +213,13 @@ def test_tfrecs_bag_played_through_real_robot_state_publisher_gives_tfrecs_tf(
         ros.wait_publishers("/tf_static")
         recorder = ros.start("rosbag", "record", "-O", replayed, "/tf", "/tf_static", name=f"record-own-{name}")
         try:
-            _wait_subscribed(ros, "/tf_static", "/record")
-            _wait_subscribed(ros, "/joint_states", "/robot_state_publisher")
+            ros.wait_connected("/robot_state_publisher", "/tf", "/record")
+            ros.wait_connected("/robot_state_publisher", "/tf_static", "/record")
             # at a quarter of the recorded rate: robot_state_publisher's subscription keeps one message (queue size
-            # 1), so a busy machine must not make it drop one between two of its callbacks
-            ros.run("rosbag", "play", "--quiet", "--rate", "0.25", own, "--topics", "/joint_states")
+            # 1), so a busy machine must not make it drop one between two of its callbacks; the first message
+            # waits for robot_state_publisher's connection
+            ros.run("rosbag", "play", "--quiet", "--wait-for-subscribers", "--rate", "0.25", own,
+                    "--topics", "/joint_states")
             time.sleep(1.0)  # the last /tf messages on their way to the recorder (not a measurement)
         finally:
             ros.stop(recorder)
@@ -242,14 +244,3 @@ def test_tfrecs_bag_played_through_real_robot_state_publisher_gives_tfrecs_tf(
                   sum(len(v) for v in ours_tf.values()))
     max_figure("own bag through robot_state_publisher: max translation difference (m)", worst_t)
     max_figure("own bag through robot_state_publisher: max rotation difference (rad)", worst_r)
-
-
-def _wait_subscribed(ros: Ros, topic: str, prefix: str) -> None:
-    """Until a node whose name starts with ``prefix`` subscribes to ``topic`` (a wall-clock backstop)."""
-    deadline = time.monotonic() + 120.0
-    while time.monotonic() < deadline:
-        _, _, (_, subscribers, _) = ros.call("getSystemState")
-        if any(name == topic and any(node.startswith(prefix) for node in nodes) for name, nodes in subscribers):
-            return
-        time.sleep(0.1)
-    raise AssertionError(f"no {prefix}… subscribed to {topic}")

@@ -33,7 +33,7 @@ def test_view_frames_draws_the_edges_info_graph_draws(ros: Ros, robot: str, tmp_
     ours = dot_edges((tmp_path / "info.dot").read_text())
     work = tmp_path / "view_frames"
     work.mkdir()
-    with ros.running("rosbag", "play", "--quiet", bag, name=f"play-{robot}"):
+    with ros.running("rosbag", "play", "--quiet", "--loop", bag, name=f"play-{robot}"):  # until view_frames is done
         ros.wait_publishers("/tf")
         ros.run(VIEW_FRAMES, cwd=work)  # listens 5 s, writes frames.gv (and frames.pdf with Graphviz)
     theirs = dot_edges((work / "frames.gv").read_text())
