@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 PIP    := $(BIN)/python -m pip --disable-pip-version-check -q
 
-.PHONY: demo test test-slow test-lowest fuzz lint bench clean screenshots
+.PHONY: demo test test-slow test-lowest interop fuzz lint bench clean screenshots
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -31,13 +31,22 @@ demo: $(VENV)/.installed
 	@echo "  $(BIN)/tfrec info <file>.mcap    (topics, rates, joints, frames)"
 	@echo "Or activate the environment first ('. $(BIN)/activate') and type tfrec and rerun."
 
-# The default tier: every test but those marked `slow` (Ray clusters, many subprocesses, pictures), a few
-# minutes on 2 cores. CI runs both tiers, with the newest and the lowest allowed versions (docs/ci.md).
+# The default tier: every test but those marked `slow` (Ray clusters, many subprocesses, pictures) or `interop`
+# (Debian's ROS 1), a few minutes on 2 cores. CI runs every tier, with the newest and the lowest allowed versions
+# (docs/ci.md).
 test: $(VENV)/.installed-test
-	$(BIN)/python -m pytest -q -m "not slow"
+	$(BIN)/python -m pytest -q -m "not slow and not interop"
 
 test-slow: $(VENV)/.installed-test
-	$(BIN)/python -m pytest -q -m slow
+	$(BIN)/python -m pytest -q -m "slow and not interop"
+
+# The interop tier: tfrec against Debian's ROS 1 (check_urdf, roscore, robot_state_publisher, joint_state_publisher,
+# rosbag, view_frames, roslaunch), installed by .ci/install-ros1 when missing (apt-get, as root; elsewhere the tests
+# skip and say why). The figures it measures (docs/ros-parity.md) are printed at the end and kept in
+# $(VENV)/interop-figures.json.
+interop: $(VENV)/.installed-test
+	.ci/install-ros1
+	TFREC_INTEROP_FIGURES=$(VENV)/interop-figures.json $(BIN)/python -m pytest -q -m interop tests/interop
 
 # The default tier again in .venv-lowest, with every dependency at the lowest version pyproject.toml allows
 # (.ci/lowest.txt): a lower bound that no longer works fails here, not on a user's machine.
@@ -50,7 +59,7 @@ $(LOWEST)/.installed: pyproject.toml .ci/lowest.txt
 	@touch $@
 
 test-lowest: $(LOWEST)/.installed
-	$(LOWEST)/bin/python -m pytest -q -p no:cacheprovider -m "not slow"
+	$(LOWEST)/bin/python -m pytest -q -p no:cacheprovider -m "not slow and not interop"
 
 # The long fuzz run (docs/security.md): tests/fuzz with TFREC_FUZZ_EXAMPLES random mutations per target (default
 # 300), each run of tfrec in its own process under a 1 GiB address-space limit and a timeout. `make test` runs a

@@ -74,10 +74,17 @@ SLOW_TIER = (
 (a prefix: every parametrization, and every test whose name starts so), kept in this one list."""
 
 
+INTEROP_TIER = "tests/interop/"
+"""The interop tier (``make interop``, run by CI): tfrec against Debian's ROS 1 (check_urdf, roscore,
+robot_state_publisher, rosbag, view_frames, roslaunch); ``make test`` and ``make test-slow`` leave it out."""
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     for item in items:
         if item.nodeid.startswith(SLOW_TIER):
             item.add_marker(pytest.mark.slow)
+        if item.nodeid.startswith(INTEROP_TIER):
+            item.add_marker(pytest.mark.interop)
 
 
 @pytest.fixture

@@ -42,10 +42,11 @@ __all__ = [
 
 
 def default_stem(robot: Robot, traj: str, *, now: float | None = None) -> str:
-    """``<robot>-<traj>-<YYYYmmdd-HHMMSS>`` (local time), like ros2 bag's default names."""
+    """``<robot>-<traj>-<YYYYmmdd-HHMMSS>`` (local time), like ros2 bag's default names (``robot`` for a robot
+    whose name is empty, which urdfdom allows)."""
     label = traj if traj in {kind.value for kind in TrajectoryKind} else Path(traj).stem
     stamp = time.strftime("%Y%m%d-%H%M%S", time.localtime(time.time() if now is None else now))
-    return f"{robot.name}-{label}-{stamp}"
+    return f"{robot.name or 'robot'}-{label}-{stamp}"
 
 
 @dataclass(frozen=True, slots=True)

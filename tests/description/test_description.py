@@ -305,9 +305,6 @@ TWO_LINKS = '<link name="a"/>\n<link name="b"/>\n'
          r"r\.urdf:4: joint 'j' is revolute but has no <limit>"),
         (TWO_LINKS + '<joint name="j" type="prismatic"><parent link="a"/><child link="b"/></joint>\n',
          r"r\.urdf:4: joint 'j' is prismatic but has no <limit>"),
-        (TWO_LINKS + '<joint name="j" type="revolute"><parent link="a"/><child link="b"/>\n'
-         '<limit lower="1" upper="-1" effort="1" velocity="1"/></joint>\n',
-         r"r\.urdf:5: joint 'j' has lower limit 1 above upper limit -1"),
         (TWO_LINKS + '<joint name="j" type="continuous"><parent link="a"/><child link="b"/>\n<axis xyz="0 0 0"/></joint>\n',
          r"r\.urdf:5: joint 'j' has a zero axis"),
         (TWO_LINKS + '<joint name="j" type="continuous"><parent link="a"/><child link="b"/>\n<axis xyz="0 nan 1"/></joint>\n',

@@ -88,15 +88,23 @@ def test_the_wrong_robot_misses_frames(fleet_dir: Path) -> None:
     assert "base_link" in {r.frame for r in rows[1:]}
 
 
-def test_no_description_is_a_finding_even_with_a_robot(tmp_path: Path, fleet_dir: Path) -> None:
+@pytest.mark.parametrize("kind", ["rosbag2", "ros1"])
+def test_no_description_is_a_finding_unless_a_robot_is_given(tmp_path: Path, fleet_dir: Path, kind: str) -> None:
+    """ROS 1 keeps the description as a parameter: a bag `rosbag record` wrote has /tf, /tf_static and /joint_states
+    only. Without --robot that is a finding (nothing to re-simulate with); with --robot it is none."""
     rec = read_recording(fleet_dir / "marm" / "sine.mcap")
     rec.robot_description = None
-    bag = write_rosbag2(rec, tmp_path / "no_description", storage="mcap")
+    bag = (write_rosbag2(rec, tmp_path / "no_description", storage="mcap") if kind == "rosbag2"
+           else write_rosbag1(rec, tmp_path / "no_description.bag"))
     head, row = check_recording(bag)
     assert (head.verdict, row.check, row.detail) == (FAIL, "description", "no /robot_description in the recording")
     assert "nothing re-simulated" in head.detail
-    head, row = check_recording(bag, robot_path=ROBOTS / "marm.xacro")
-    assert row.check == "description" and head.detail.startswith("9 of 9 frames re-simulated")
+    rows = check_recording(bag, robot_path=ROBOTS / "marm.xacro")
+    assert [(r.check, r.verdict) for r in rows] == [(SUMMARY, PASS)]
+    assert rows[0].detail.startswith("9 of 9 frames re-simulated") and rows[0].robot == "marm"
+    rec.tf[next(iter(rec.tf))].translation[5:, 2] += 0.01  # still checked: a wrong transform is found
+    head, row = check_recording(write_rosbag1(rec, tmp_path / "moved.bag"), robot_path=ROBOTS / "marm.xacro")
+    assert (head.verdict, row.check) == (FAIL, "resim")
 
 
 def test_an_unusable_description_is_a_finding(tmp_path: Path, fleet_dir: Path) -> None:

@@ -145,6 +145,85 @@ def test_message_definitions_are_ros_ones() -> None:
     assert (text, md5sum) == ("string data\n", "992ce8a1687cec8c8bd883ec73ca41d1")
 
 
+SEPARATOR = "=" * 80 + "\n"
+
+
+def test_message_definitions_are_the_text_rosbag_record_writes() -> None:
+    """genmsg's full text, comments included, as in a bag `rosbag record` wrote (Debian's ROS 1): `rosbag check`
+    compares the text, not only the md5sum. The interop tier checks every type against Debian's classes."""
+    tf, _ = ros1_message_definition("tf2_msgs/TFMessage")
+    assert tf.startswith("geometry_msgs/TransformStamped[] transforms\n\n" + SEPARATOR +
+                         "MSG: geometry_msgs/TransformStamped\n# This expresses a transform from coordinate frame "
+                         "header.frame_id\n")
+    assert [line[5:] for line in tf.splitlines() if line.startswith("MSG: ")] == [
+        "geometry_msgs/TransformStamped", "std_msgs/Header", "geometry_msgs/Transform", "geometry_msgs/Vector3",
+        "geometry_msgs/Quaternion"]  # depth first, in field order, each once
+    assert tf.endswith("float64 z\n" + SEPARATOR + "MSG: geometry_msgs/Quaternion\n# This represents an orientation "
+                       "in free space in quaternion form.\n\nfloat64 x\nfloat64 y\nfloat64 z\nfloat64 w\n")
+    joint_state, _ = ros1_message_definition("sensor_msgs/JointState")
+    assert joint_state.startswith("# This is a message that holds data to describe the state of a set of torque "
+                                  "controlled joints. \n")
+    assert "\nHeader header\n\nstring[] name\n" in joint_state
+    assert joint_state.endswith("time stamp\n#Frame this data is associated with\nstring frame_id\n")
+
+
+def test_every_genmsg_text_has_noetics_md5sum() -> None:
+    """Each text of noetic.msg, composed and parsed by rosbags into an empty store, defines the fields of rosbags'
+    Noetic type (registering a different definition of a type raises) and gives its md5sum."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    from tfrec.formats.ros.types import _noetic_texts, genmsg_definition
+
+    noetic = get_typestore(Stores.ROS1_NOETIC)
+    checked = 0
+    for msgtype in _noetic_texts():
+        full = msgtype.replace("/", "/msg/", 1)
+        text = genmsg_definition(msgtype)
+        assert text is not None
+        if full not in noetic.fielddefs:
+            continue  # tf2_msgs: not in rosbags' Noetic store
+        fresh = get_typestore(Stores.EMPTY)
+        fresh.register({name: noetic.fielddefs[name] for name in noetic.fielddefs if name.startswith("builtin_")})
+        fresh.register(get_types_from_msg(text, full))
+        assert fresh.generate_msgdef(full, ros_version=1)[1] == noetic.generate_msgdef(full, ros_version=1)[1], msgtype
+        noetic.register(get_types_from_msg(text, full))  # the same fields as rosbags' Noetic type
+        checked += 1
+    assert checked > 100
+
+
+def test_types_outside_noetics_packages_keep_rosbags_text() -> None:
+    from tfrec.formats.ros.types import genmsg_definition, ros1_definition_text
+
+    assert genmsg_definition("nope_msgs/Nope") is None
+    assert ros1_definition_text("nope_msgs/Nope", "0" * 32, "int32 x\n") == "int32 x\n"
+    text, md5sum = ros1_message_definition("geometry_msgs/PoseStamped")
+    assert ros1_definition_text("geometry_msgs/msg/PoseStamped", md5sum, "x") == text != "x"
+    assert ros1_definition_text("geometry_msgs/PoseStamped", "0" * 32, "other") == "other"  # another layout
+
+
+def test_the_header_record_has_rosbags_size_so_its_rewrite_in_place_spares_the_first_chunk(
+        tmp_path: Path, marm: Robot, traj: JointTrajectory) -> None:
+    """`rosbag reindex` and rosbag's append mode rewrite the bag header record in place, its fields and padding
+    4096 bytes long (rosbag/bag.py: _write_record(..., padded_size=_FILE_HEADER_LENGTH)). A shorter record (ours
+    was 8 bytes shorter) let the rewrite overwrite the first chunk's start: 0 messages after `rosbag reindex`."""
+    from rosbags.rosbag1 import Reader
+
+    path = write_bag(tmp_path / "marm.bag", marm, traj, chunk_bytes=16384)
+    ours, _ = fields(path.read_bytes(), 13)
+    head = b"".join(struct.pack("<I", len(k) + 1 + len(v)) + k + b"=" + v for k, v in (
+        (b"op", b"\x03"), (b"index_pos", ours["index_pos"]), (b"conn_count", ours["conn_count"]),
+        (b"chunk_count", ours["chunk_count"])))  # in the order rosbag's Python writer puts them
+    rewritten = struct.pack("<I", len(head)) + head + struct.pack("<I", 4096 - len(head)) + b" " * (4096 - len(head))
+    with path.open("r+b") as stream:
+        stream.seek(13)
+        stream.write(rewritten)
+    data = path.read_bytes()
+    chunk, _ = fields(data, 13 + len(rewritten))  # what `rosbag reindex` reads next: the first chunk, intact
+    assert op(chunk) == 5 and struct.unpack("<I", chunk["size"])[0] > 16384
+    with Reader(path) as reader:
+        assert reader.message_count == 2 + 2 * len(traj.time_ns)  # the index still points at every message
+
+
 def test_unknown_message_type() -> None:
     with pytest.raises(RecordingError, match="message type 'nope_msgs/Nope' has no ROS 1 definition"):
         ros1_message_definition("nope_msgs/Nope")
@@ -193,14 +272,16 @@ def test_layout_is_rosbags(tmp_path: Path, marm: Robot, traj: JointTrajectory) -
     assert data.startswith(b"#ROSBAG V2.0\n")
     bag_header, _ = fields(data, 13)
     assert list(bag_header) == ["chunk_count", "conn_count", "index_pos", "op"]  # sorted, as rosbag's std::map
-    (padding,) = struct.unpack_from("<I", data, 13 + 4 + struct.unpack_from("<I", data, 13)[0])
-    assert data[4109 - padding : 4109] == b" " * padding  # the bag header record ends at byte 13 + 4096
+    (header_size,) = struct.unpack_from("<I", data, 13)
+    (padding,) = struct.unpack_from("<I", data, 13 + 4 + header_size)
+    assert header_size + padding == 4096  # as rosbag pads it: the header record ends at byte 13 + 4 + 4096 + 4
+    assert data[4117 - padding : 4117] == b" " * padding
     index_pos = struct.unpack("<Q", bag_header["index_pos"])[0]
     chunk_count = struct.unpack("<I", bag_header["chunk_count"])[0]
     assert struct.unpack("<I", bag_header["conn_count"])[0] == 4
 
     # the data section: each chunk, then its IndexData records
-    body = list(records(data, 4109, index_pos))
+    body = list(records(data, 4117, index_pos))
     chunks = [i for i, (head, _) in enumerate(body) if op(head) == 5]
     assert len(chunks) == chunk_count > 5
     for i in chunks:
@@ -230,7 +311,7 @@ def test_layout_is_rosbags(tmp_path: Path, marm: Robot, traj: JointTrajectory) -
 def test_lz4_chunks_are_frames_roslz4_reads(tmp_path: Path, marm: Robot, traj: JointTrajectory) -> None:
     data = write_bag(tmp_path / "marm.bag", marm, traj, compression="lz4").read_bytes()
     bag_header, _ = fields(data, 13)
-    chunk = next(body for head, body in records(data, 4109, struct.unpack("<Q", bag_header["index_pos"])[0])
+    chunk = next(body for head, body in records(data, 4117, struct.unpack("<Q", bag_header["index_pos"])[0])
                  if op(head) == 5)
     assert chunk[:4] == b"\x04\x22\x4d\x18"  # LZ4 frame magic
     # version 1, independent blocks, no block checksums, no content size, content checksum, no dictionary

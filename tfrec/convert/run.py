@@ -33,7 +33,7 @@ from tfrec.convert.joints import plan_derivations
 from tfrec.convert.stream import Copier, CopyReport
 from tfrec.errors import ConvertError, TfrecWarning
 from tfrec.formats.kinds import MCAP, ROS1_BAG, ROSBAG2, RRD
-from tfrec.formats.messages import open_messages
+from tfrec.formats.messages import listed_extras, open_messages
 from tfrec.formats.output import open_output
 from tfrec.formats.reader import identify_recording, read_recording
 from tfrec.formats.ros.joint_names import repeated_joints
@@ -269,6 +269,11 @@ def _warn(report: CopyReport, where: str) -> None:
     for topic, (count, reason) in report.dropped.items():
         warnings.warn(f"{where}: {topic}: {count:,} message{'s' if count != 1 else ''} not written: {reason}", TfrecWarning,
                       stacklevel=3)
+    reasons: dict[str, list[str]] = {}
+    for what, why in report.extras_left_out:
+        reasons.setdefault(why, []).append(what)
+    for why, whats in reasons.items():
+        warnings.warn(f"{where}: {', '.join(whats)} not written: {why}", stacklevel=3)
     if report.read_error is not None:
         warnings.warn(f"{report.read_error}; converted up to there", TfrecWarning, stacklevel=3)
 
@@ -292,4 +297,8 @@ def _to_rerun(source: str | os.PathLike[str], target: Path, *, start_s: float | 
                          end_s=end_s, namespace=namespace, remap=remap)
     replay.report_damage()
     replay_to_rerun(replay, save=target, package_paths=package_paths, force=force, checked=True)
+    extras = listed_extras(identify_recording(source))
+    if extras:
+        warnings.warn(f"{os.fspath(source)}: {', '.join(extra.shown for extra in extras)} not written: a Rerun "
+                      "recording of the replay holds no attachments or metadata records", stacklevel=3)
     return ConvertResult(target, "rrd", None, (start_s, end_s))

@@ -8,7 +8,9 @@ serialization: the reason is kept for one warning), or written (as it is, or con
 every latched connection (transient_local, ``latching=1``: /tf_static, /robot_description, a map)
 is kept and written at the cut, before anything else, keeping its QoS or latching — what a late
 subscriber of the running system would have received. TF computed from joint states
-(:mod:`tfrec.convert.joints`) is written beside the joint states it comes from.
+(:mod:`tfrec.convert.joints`) is written beside the joint states it comes from. An MCAP input's attachments
+(a calibration file) and metadata records are copied to an MCAP output, after the messages; where the output
+cannot hold them the report names them.
 """
 
 from __future__ import annotations
@@ -47,6 +49,8 @@ class CopyReport:
         notes: topic → something to tell about it (a definition that does not fit its messages).
         latched: topics whose last message before the cut was written at the cut.
         derived: robot key → (moving joints, fixed frames) whose TF was computed.
+        extras: the input's attachments and metadata records copied (``attachment 'calibration.yaml'``).
+        extras_left_out: those not written, and why (the output cannot hold them, a CRC fails).
         read_error: what was lost of a damaged input, or None.
     """
 
@@ -57,6 +61,8 @@ class CopyReport:
     notes: dict[str, str] = field(default_factory=dict)
     latched: list[str] = field(default_factory=list)
     derived: dict[str, tuple[int, int]] = field(default_factory=dict)
+    extras: list[str] = field(default_factory=list)
+    extras_left_out: list[tuple[str, str]] = field(default_factory=list)
     read_error: str | None = None
 
     @property
@@ -130,6 +136,11 @@ class Copier:
         for conn in list(self.source.connections):  # topics without messages are listed too, as rosbag2 lists them
             self._plan(conn)
         self._begin()
+        if self.source.extras:  # an MCAP's attachments and metadata: copied while the input is open
+            left = self.writer.copy_extras(self.source.extras)
+            self.report.extras_left_out = left
+            lost = {shown for shown, _ in left}
+            self.report.extras = [extra.shown for extra in self.source.extras if extra.shown not in lost]
         for plan in self._plans.values():
             if plan.translation is not None and plan.translation.failed:
                 count, _ = self.report.dropped.get(plan.topic, (0, ""))

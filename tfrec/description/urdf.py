@@ -3,11 +3,18 @@
 Every failure is one :class:`DescriptionError` line naming the file, the line when the text
 is the user's own file, and the element: ``arm.urdf:42: joint 'elbow' names unknown parent
 link 'uper_arm'``.
+
+The rules follow :data:`URDFDOM`, the urdfdom Debian's ROS 1 loads URDFs with (check_urdf,
+robot_state_publisher): what it refuses, tfrec refuses, saying what urdfdom would say; what it
+loads, tfrec loads, except what has no defined motion (a zero axis, mimic joints in a cycle, a
+link without a name). A broken visual or inertial never stops TF: urdfdom leaves it out with an
+error message and so does tfrec, with a warning. docs/ros-parity.md lists each difference.
 """
 
 from __future__ import annotations
 
 import math
+import re
 import warnings
 import xml.etree.ElementTree as ET
 import xml.parsers.expat
@@ -34,7 +41,12 @@ from tfrec.model import (
     mimic_levels,
 )
 
-__all__ = ["COMMON_COLOURS", "parse_urdf"]
+__all__ = ["COMMON_COLOURS", "URDFDOM", "parse_urdf"]
+
+URDFDOM = "urdfdom 3.0.1"
+"""The urdfdom whose rules :func:`parse_urdf` follows: Debian's liburdfdom 3.0.1, which Debian's ROS 1
+(check_urdf, robot_state_publisher, joint_state_publisher's URDF) uses. Messages about a rule of it
+name it, so that a user of another ROS knows what to compare with."""
 
 COMMON_COLOURS: dict[str, tuple[float, float, float, float]] = {
     "red": (0.8, 0.0, 0.0, 1.0),
@@ -83,8 +95,42 @@ _SHOWN = 5
 """Ignored elements named in the one warning about them; the rest are counted."""
 
 
+_DECLARATION = re.compile(r"\A(\s*)(<\?xml(?=[\s?]).*?\?>)", re.DOTALL | re.IGNORECASE)
+
+
+def _declaration_ignored(text: str, where: str) -> str:
+    """``text`` with its XML declaration blanked (its lines kept) when expat would refuse it and TinyXML2,
+    urdfdom's parser, reads past it: a misspelled ``<?xml verison="1.0"?>``, an unknown encoding, a
+    declaration after blank lines. TinyXML2 reads any ``<?xml …?>`` and always as UTF-8, which ``text`` is."""
+    found = _DECLARATION.match(text)
+    if found is None:
+        return text
+    declaration = found.group(2)
+    problem = ""
+    if found.group(1):
+        problem = "not at the start of the file"
+    else:
+        probe = xml.parsers.expat.ParserCreate()
+        try:
+            probe.Parse(declaration.encode("utf-8") + b"<r/>", True)
+        except xml.parsers.expat.ExpatError as err:
+            problem = xml.parsers.expat.ErrorString(err.code) or "malformed"
+        except (LookupError, ValueError) as err:
+            problem = f"unsupported encoding ({err})"
+    if not problem:
+        return text
+    shown = declaration if len(declaration) <= 60 else declaration[:57] + "..."
+    line = text.count("\n", 0, found.start(2)) + 1
+    warnings.warn(f"{where}:{line}: XML declaration {shown!r} ignored ({problem}), as {URDFDOM} (TinyXML2) "
+                  "ignores it", stacklevel=4)
+    blank = "".join(c if c == "\n" else " " for c in declaration)
+    return text[: found.start(2)] + blank + text[found.end(2) :]
+
+
 def _parse_xml(text: str, where: str) -> tuple[ET.Element, dict[int, tuple[int, int]]]:
     """Parse XML keeping each element's line number and place in document order (ElementTree drops them)."""
+    if isinstance(text, str):
+        text = _declaration_ignored(text, where)
     builder = ET.TreeBuilder()
     lines: dict[int, tuple[int, int]] = {}
     parser = xml.parsers.expat.ParserCreate()
@@ -114,6 +160,7 @@ class _Parser:
         self._lines = lines
         self._user_lines = user_lines  # False: line numbers are not the user's (expanded xacro)
         self._origins = origins
+        self.version = (1, 0)  # the <robot version>: 1.1 reads <origin quat_xyzw>
 
     def place(self, elem: ET.Element | None) -> str | None:
         """``file:line`` of an element: where the user wrote it (a xacro file's line, with ``origins``)."""
@@ -152,15 +199,32 @@ class _Parser:
         if origin is None:
             return Pose()
         xyz = self.floats(origin, "xyz", 3, f"{what} origin", (0.0, 0.0, 0.0))
+        if self.version >= (1, 1) and origin.get("quat_xyzw") is not None:
+            if origin.get("rpy") is not None:
+                raise self.fail(origin, f"{what} origin has both rpy and quat_xyzw (URDF 1.1 allows one)")
+            return Pose(xyz=(xyz[0], xyz[1], xyz[2]), rpy=self.quat_rpy(origin, what))
         rpy = self.floats(origin, "rpy", 3, f"{what} origin", (0.0, 0.0, 0.0))
         return Pose(xyz=(xyz[0], xyz[1], xyz[2]), rpy=(rpy[0], rpy[1], rpy[2]))
+
+    def quat_rpy(self, origin: ET.Element, what: str) -> tuple[float, float, float]:
+        """URDF 1.1's ``quat_xyzw`` as fixed-axis roll, pitch, yaw (the quaternion normalized)."""
+        x, y, z, w = self.floats(origin, "quat_xyzw", 4, f"{what} origin", None)
+        norm = math.sqrt(x * x + y * y + z * z + w * w)
+        if not norm > 0.0:
+            raise self.fail(origin, f"{what} origin has a zero quat_xyzw")
+        x, y, z, w = x / norm, y / norm, z / norm, w / norm
+        roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+        pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+        yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        return roll, pitch, yaw
 
     def unit_axis(self, elem: ET.Element | None, axis: tuple[float, ...], what: str) -> tuple[float, ...]:
         """``axis`` normalized, as robot_state_publisher does; scaled first, so that ``1e200 1e200 1e200``
         (whose squares overflow) is the diagonal it means and ``1e-200 0 0`` the x axis."""
         scale = max(abs(a) for a in axis)
-        if not scale > 0.0:
-            raise self.fail(elem, f"{what} has a zero axis")
+        if not scale > 0.0:  # urdfdom loads it; robot_state_publisher then publishes NaN transforms
+            raise self.fail(elem, f"{what} has a zero axis: it defines no motion ({URDFDOM} loads it, and "
+                            "robot_state_publisher publishes NaN for it)")
         scaled = [a / scale for a in axis]
         norm = math.sqrt(sum(a * a for a in scaled))
         return tuple(a / norm for a in scaled)
@@ -172,8 +236,12 @@ class _Parser:
         color = elem.find("color")
         rgba = None
         if color is not None:
-            c = self.floats(color, "rgba", 4, f"{what} material '{name}' color", None)
-            rgba = (c[0], c[1], c[2], c[3])
+            try:
+                c = self.floats(color, "rgba", 4, f"{what} material '{name}' color", None)
+            except DescriptionError as err:  # urdfdom keeps the material without its colour
+                warnings.warn(f"{err}: the colour is left out, as {URDFDOM} leaves it out", stacklevel=5)
+            else:
+                rgba = (c[0], c[1], c[2], c[3])
         texture = elem.find("texture")
         return Material(name=name, rgba=rgba, texture=texture.get("filename") if texture is not None else None)
 
@@ -210,7 +278,13 @@ class _Parser:
         visuals = []
         for index, visual in enumerate(elem.findall("visual")):
             what = f"link '{name}' visual {index}"
-            geometry = self.geometry(visual, what)
+            try:
+                geometry = self.geometry(visual, what)
+                origin = self.pose(visual, what)
+            except DescriptionError as err:  # urdfdom leaves the visual out; TF does not need it
+                warnings.warn(f"{err}: the visual is left out, as {URDFDOM} leaves it out (TF is not affected)",
+                              stacklevel=4)
+                continue
             material = None
             mat = visual.find("material")
             if mat is not None:
@@ -224,13 +298,55 @@ class _Parser:
                         material = Material(name=material.name, rgba=rgba)
                     else:
                         self.warn(mat, f"{what} uses material '{material.name}', which is not defined")
-            visuals.append(Visual(geometry=geometry, origin=self.pose(visual, what), material=material,
-                                  name=visual.get("name")))
-        mass = None
+            visuals.append(Visual(geometry=geometry, origin=origin, material=material, name=visual.get("name")))
+        return Link(name=name, visuals=tuple(visuals), mass=self.mass(elem, name))
+
+    def mass(self, elem: ET.Element, name: str) -> float | None:
+        """The link's mass; None without one, or (with a warning) with a malformed one: urdfdom leaves
+        such an ``<inertial>`` out and loads the link."""
         inertial = elem.find("inertial")
-        if inertial is not None and inertial.find("mass") is not None:
-            mass = self.number(inertial.find("mass"), "value", f"link '{name}' mass")  # type: ignore[arg-type]
-        return Link(name=name, visuals=tuple(visuals), mass=mass)
+        mass = inertial.find("mass") if inertial is not None else None
+        if mass is None:
+            return None
+        try:
+            return self.number(mass, "value", f"link '{name}' mass")
+        except DescriptionError as err:
+            warnings.warn(f"{err}: the inertial is left out, as {URDFDOM} leaves it out", stacklevel=5)
+            return None
+
+    def limit(self, elem: ET.Element | None, what: str) -> Limit | None:
+        """A joint's ``<limit>``: ``lower`` and ``upper`` default to 0, ``effort`` and ``velocity`` are
+        required (urdfdom refuses a limit without them, on any joint type). Lower above upper is loaded
+        by urdfdom and robot_state_publisher: the bounds are swapped, with a warning."""
+        if elem is None:
+            return None
+        for attr in ("effort", "velocity"):
+            if elem.get(attr) is None:
+                raise self.fail(elem, f"{what} <limit> has no '{attr}': {URDFDOM} (check_urdf, robot_state_publisher) "
+                                f"refuses it (\"joint limit: no {attr}\")")
+        limit = Limit(
+            lower=self.number(elem, "lower", f"{what} limit", 0.0),
+            upper=self.number(elem, "upper", f"{what} limit", 0.0),
+            effort=self.number(elem, "effort", f"{what} limit"),
+            velocity=self.number(elem, "velocity", f"{what} limit"),
+        )
+        if limit.lower > limit.upper:
+            self.warn(elem, f"{what} has lower limit {limit.lower:g} above upper limit {limit.upper:g} ({URDFDOM} "
+                      f"loads it): it moves between {limit.upper:g} and {limit.lower:g}")
+            limit = Limit(lower=limit.upper, upper=limit.lower, effort=limit.effort, velocity=limit.velocity)
+        return limit
+
+    def check_numbers(self, elem: ET.Element, what: str) -> None:
+        """The numbers of ``<dynamics>``, ``<calibration>`` and ``<safety_controller>``, which tfrec does not
+        use but urdfdom refuses when malformed (robot_state_publisher then dies at start)."""
+        for tag, attrs in (("dynamics", ("damping", "friction")), ("calibration", ("rising", "falling")),
+                           ("safety_controller", ("k_position", "k_velocity"))):
+            child = elem.find(tag)
+            if child is None:
+                continue
+            for attr in attrs:
+                if child.get(attr) is not None:
+                    self.number(child, attr, f"{what} {tag}")
 
     def joint(self, elem: ET.Element) -> Joint:
         name = elem.get("name")
@@ -251,24 +367,14 @@ class _Parser:
             links[role] = node.get("link", "")
         axis: tuple[float, ...] = (1.0, 0.0, 0.0)
         axis_elem = elem.find("axis")
-        if axis_elem is not None:
+        if axis_elem is not None and jtype not in (JointType.FIXED, JointType.FLOATING):  # urdfdom reads no other
             axis = self.floats(axis_elem, "xyz", 3, f"{what} axis", (1.0, 0.0, 0.0))
         if jtype in (JointType.REVOLUTE, JointType.CONTINUOUS, JointType.PRISMATIC, JointType.PLANAR):
             axis = self.unit_axis(axis_elem, axis, what)
-        limit = None
-        limit_elem = elem.find("limit")
-        if limit_elem is not None:
-            limit = Limit(
-                lower=self.number(limit_elem, "lower", f"{what} limit", 0.0),
-                upper=self.number(limit_elem, "upper", f"{what} limit", 0.0),
-                effort=self.number(limit_elem, "effort", f"{what} limit", 0.0),
-                velocity=self.number(limit_elem, "velocity", f"{what} limit", 0.0),
-            )
-        if jtype in (JointType.REVOLUTE, JointType.PRISMATIC):
-            if limit is None:
-                raise self.fail(elem, f"{what} is {jtype.value} but has no <limit>")
-            if limit.lower > limit.upper:
-                raise self.fail(limit_elem, f"{what} has lower limit {limit.lower:g} above upper limit {limit.upper:g}")
+        limit = self.limit(elem.find("limit"), what)
+        if jtype in (JointType.REVOLUTE, JointType.PRISMATIC) and limit is None:
+            raise self.fail(elem, f"{what} is {jtype.value} but has no <limit>")
+        self.check_numbers(elem, what)
         mimic = None
         mimic_elem = elem.find("mimic")
         if mimic_elem is not None:
@@ -283,6 +389,9 @@ class _Parser:
         safety = None
         safety_elem = elem.find("safety_controller")
         if safety_elem is not None:
+            if safety_elem.get("k_velocity") is None:
+                raise self.fail(safety_elem, f"{what} <safety_controller> has no 'k_velocity': {URDFDOM} "
+                                "(check_urdf, robot_state_publisher) refuses it (\"joint safety: no k_velocity\")")
             soft = [self.number(safety_elem, attr, f"{what} safety_controller") if safety_elem.get(attr) is not None
                     else None for attr in ("soft_lower_limit", "soft_upper_limit")]
             safety = SafetyController(soft[0], soft[1])
@@ -313,17 +422,21 @@ def parse_urdf(text: str, *, source: str | None = None, user_lines: bool = True,
     if root.tag != "robot":
         raise p.fail(root, f"root element is <{root.tag}>, not <robot>")
     name = root.get("name")
-    if not name:
+    if name is None:
         raise p.fail(root, "<robot> has no name")
+    if not name:
+        p.warn(root, f'<robot name="">: an empty robot name ({URDFDOM} loads it)')
 
+    p.version = _version(p, root)
     _warn_ignored(p, root)
     materials: dict[str, Material] = {}
     for elem in root:
         if elem.tag == "material":
             material = p.material(elem, "robot")
-            if material.name in materials and materials[material.name] != material:
-                p.warn(elem, f"material '{material.name}' is defined twice; the first definition is used")
-            materials.setdefault(material.name, material)
+            if material.name in materials:
+                raise p.fail(elem, f"material '{material.name}' is defined twice: {URDFDOM} (check_urdf, "
+                             f"robot_state_publisher) refuses it (\"material '{material.name}' is not unique.\")")
+            materials[material.name] = material
 
     links: list[Link] = []
     joints: list[Joint] = []
@@ -359,6 +472,47 @@ def parse_urdf(text: str, *, source: str | None = None, user_lines: bool = True,
             p.warn(joint_elems[joint.name], f"joint '{joint.name}' is floating: it gets no transform, "
                    "as robot_state_publisher does")
     return Robot(name=name, links=tuple(links), joints=tuple(joints), urdf=text, source=source)
+
+
+_STRTOL = re.compile(r"[ \t\n\v\f\r]*([+-]?[0-9]+)")
+_ONLY_1_0 = "Invalid 'version' specified; only version 1.0 is currently supported"
+
+
+def _version_field(field: str) -> int | str:
+    """One field of a ``<robot version>`` as urdfdom's ``strToUnsigned`` reads it (C's ``strtol``, then a
+    uint32), or urdfdom's reason for refusing it."""
+    if not field:
+        return "One of the fields of the version attribute is blank"
+    number = _STRTOL.match(field)
+    if number is None:
+        return "Version attribute is not an integer"
+    if number.end() != len(field):
+        return "Extra characters after the version number"
+    value = int(number.group(1))
+    return "Version number must be positive" if value < 0 else min(value, 2**63 - 1) % 2**32
+
+
+def _version(p: _Parser, root: ET.Element) -> tuple[int, int]:
+    """The ``<robot version>`` as urdfdom reads it (``URDFVersion``: two fields split at dots). 1.0 is
+    read; 1.1 is read with a warning (urdfdom 3.0.1 refuses it, urdfdom 5 reads it); anything else is
+    refused with urdfdom's reason."""
+    raw = root.get("version")
+    if raw is None:
+        return (1, 0)
+    fields = raw.split(".")
+    if fields and not fields[-1]:
+        fields.pop()  # urdfdom's split drops one empty last field: "1." is one field
+    values = [_version_field(field) for field in fields] if len(fields) == 2 else []
+    shown = f'<robot version="{raw}">'
+    if values == [1, 0]:
+        return (1, 0)
+    if values == [1, 1]:
+        p.warn(root, f"{shown}: {URDFDOM} (ROS 1's check_urdf and robot_state_publisher) refuses it (\"only version "
+               "1.0 is currently supported\"); newer urdfdom (ROS 2 Rolling's, since ros/urdfdom#235) reads URDF 1.1, and so does tfrec")
+        return (1, 1)
+    reasons = [value for value in values if isinstance(value, str)]
+    reason = reasons[0] if reasons else "The version attribute should be in the form 'x.y'" if not values else _ONLY_1_0
+    raise p.fail(root, f"{shown}: {URDFDOM} (check_urdf, robot_state_publisher) refuses it (\"{reason}\")")
 
 
 def _warn_ignored(p: _Parser, root: ET.Element) -> None:

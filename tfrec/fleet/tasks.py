@@ -111,8 +111,10 @@ def check_recording(
     Findings (``fail`` rows), in this order:
 
     - ``read``: the file is damaged; what was readable is checked.
-    - ``description``: no /robot_description in the recording (even with ``robot_path``), or
-      one that is not a usable URDF (then nothing is re-simulated unless ``robot_path`` is given).
+    - ``description``: no /robot_description in the recording and no ``robot_path`` (with one it
+      is no finding: ROS 1 keeps the description as a parameter, so a bag ``rosbag record`` wrote
+      never has it), or one that is not a usable URDF (then nothing is re-simulated unless
+      ``robot_path`` is given).
     - ``stamps``, ``rate``: zero or repeated header stamps, gaps (:mod:`tfrec.fleet.health`), per
       /joint_states and /tf frame pair.
     - ``frames``: a frame of the robot on neither /tf nor /tf_static.
@@ -193,7 +195,8 @@ def _examine(replay: Replay, *, pos_tol: float, rot_tol: float, gap_periods: flo
     if replay.read_error is not None:
         findings.append(Finding("read", "", "", replay.read_error))
     if replay.robot_description is None:
-        findings.append(Finding("description", "/robot_description", "", "no /robot_description in the recording"))
+        if replay.robot is None:  # else it came from robot_path: ROS 1's description is a parameter, not a topic
+            findings.append(Finding("description", "/robot_description", "", "no /robot_description in the recording"))
     elif replay.robot is None:
         findings.append(Finding("description", "/robot_description", "", _unusable(replay.robot_description)))
     recorded_tf = {pair: s.time_ns for pair, s in replay.tf.items() if pair not in replay.derived_dynamic}

@@ -16,15 +16,16 @@ from pathlib import Path
 
 from tfrec.errors import ReadError
 from tfrec.formats._collect import ReadOptions
+from tfrec.formats.mcap import summary
 from tfrec.formats.mcap.messages import McapMessages
 from tfrec.formats.reader import RecordingSource, identify_recording
-from tfrec.formats.ros.connection import Connection, MessageBatch, MessageSource
+from tfrec.formats.ros.connection import Connection, Extra, MessageBatch, MessageSource
 from tfrec.formats.rosbag1.messages import Ros1Messages
 from tfrec.formats.rosbag2.messages import Sqlite3Messages
 from tfrec.formats.rosbag2.metadata import read_bag_metadata
 from tfrec.formats.rosbag2.storage import message_decompressor, plain_files
 
-__all__ = ["Connection", "MessageBatch", "MessageSource", "open_messages"]
+__all__ = ["Connection", "Extra", "MessageBatch", "MessageSource", "listed_extras", "open_messages"]
 
 
 @contextlib.contextmanager
@@ -68,3 +69,19 @@ def open_messages(
             yield McapMessages(files, where=where, resolve=resolve, decompress=decompress, fmt="rosbag2")
         else:
             yield Sqlite3Messages(files, where=where, resolve=resolve, decompress=decompress)
+
+
+def listed_extras(source: RecordingSource) -> list[Extra]:
+    """The attachments and metadata records the summaries of a recording's MCAP files index (an MCAP file,
+    a rosbag2 bag of MCAP storage whose files are not compressed whole), without reading its messages:
+    what an output that cannot hold them leaves out."""
+    files = [source.path] if source.format == "mcap" else list(source.files) if (
+        source.format == "rosbag2" and source.bag is not None and source.bag.storage == "mcap") else []
+    found: list[Extra] = []
+    for file in files:
+        try:
+            with open(file, "rb") as stream:
+                found.extend(summary.listed_extras(stream, os.fstat(stream.fileno()).st_size, Path(file)))
+        except OSError:
+            continue  # reading the recording says what is wrong with it
+    return found

@@ -7,7 +7,8 @@
 :class:`~tfrec.formats.ros.connection.Connection` s already in the output's serialization
 (:func:`tfrec.formats.translate.translation`); publishers a format cannot tell apart share one
 connection: an MCAP channel per topic, type and durability, a ROS 1 connection per topic, type,
-md5sum, latching and caller id.
+md5sum, latching and caller id. An MCAP input's attachments and metadata records go to an MCAP output
+as they are (:meth:`MessageWriter.copy_extras`); a ROS 1 bag cannot hold them.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tfrec.formats.mcap.raw_writer import McapWriter
-from tfrec.formats.ros.connection import Connection
+from tfrec.formats.ros.connection import Connection, Extra
 from tfrec.formats.ros.decode import RawMessages
 from tfrec.formats.rosbag1.writer import Ros1BagWriter
 from tfrec.formats.rosbag2.metadata import bag_storage_name, write_bag_metadata
@@ -77,6 +78,17 @@ class MessageWriter:
             self._write(conn, log_time, _rows(data), publish_time)
             self.counts[conn] += len(log_time)
 
+    def copy_extras(self, extras: Sequence[Extra]) -> list[tuple[str, str]]:
+        """Copy an input's attachments and metadata records (an MCAP's) after the messages written so far.
+
+        Returns:
+            Those left out and why: (``attachment 'calibration.yaml'``, ``a ROS 1 bag cannot hold …``).
+
+        Raises:
+            WriteError: a write error.
+        """
+        return [(extra.shown, "a ROS 1 bag cannot hold attachments or metadata records") for extra in extras]
+
     def finish(self) -> None:
         """Write the index and summary, and close the file(s).
 
@@ -121,6 +133,9 @@ class _McapOutput(MessageWriter):
 
     def _write(self, conn: int, log_time: NDArray[np.int64], data: Data, publish_time: NDArray[np.int64] | None) -> None:
         self._writer.write(conn, log_time, data, publish_time)
+
+    def copy_extras(self, extras: Sequence[Extra]) -> list[tuple[str, str]]:
+        return self._writer.copy_extras(extras)
 
     def finish(self) -> None:
         self._writer.finish()

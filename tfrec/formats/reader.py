@@ -15,7 +15,8 @@ file's own index where it has one):
 - rosbag2 folders (:mod:`tfrec.formats.rosbag2`): MCAP storage through the MCAP reader,
   file by file; sqlite3 storage through SQL (every message the database holds, whatever the QoS
   in ``metadata.yaml``), a ``.db3`` cut short read up to the first missing page. Counts that differ
-  from ``metadata.yaml`` warn. A folder of ``.mcap`` files without ``metadata.yaml`` is read as one bag.
+  from ``metadata.yaml`` warn. A folder of ``.mcap`` files without ``metadata.yaml`` is read as one bag,
+  and a ``.db3`` given without its ``metadata.yaml`` as a bag of that database (with a warning).
 - ROS 1 ``.bag`` files: :mod:`tfrec.formats.rosbag1.index`, through the bag's index; a bag
   without an index (cut short), with a damaged chunk or an index that does not describe its chunks
   is read record by record (:mod:`tfrec.formats.rosbag1.reader`).
@@ -29,11 +30,12 @@ deserializers, message by message.
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from tfrec.errors import ReadError
+from tfrec.errors import ReadError, display_path
 from tfrec.formats._collect import Collector, ReadOptions
 from tfrec.formats.mcap.reader import read_mcap, read_mcap_into
 from tfrec.formats.mcap.records import MCAP_MAGIC
@@ -104,8 +106,8 @@ def recording_format(path: str | os.PathLike[str]) -> str:
         return "rosbag1"
     if head.startswith(RRD_MAGIC):
         return "rrd"
-    if head.startswith(b"SQLite format 3\0") and (file.parent / "metadata.yaml").is_file():
-        return "rosbag2"
+    if head.startswith(b"SQLite format 3\0") and ((file.parent / "metadata.yaml").is_file() or file.suffix == ".db3"):
+        return "rosbag2"  # a .db3 on its own: rosbag2's database, read as rosbags and `ros2 bag` read it
     if not head:
         raise ReadError(f"{where}: an empty file (0 bytes), not a recording")
     raise ReadError(f"{where}: not a recording (neither MCAP, rosbag2, ROS 1 bag nor Rerun .rrd)")
@@ -124,6 +126,10 @@ def identify_recording(path: str | os.PathLike[str]) -> RecordingSource:
         return RecordingSource(file, fmt)
     folder = file.parent if file.is_file() else file
     if not (folder / "metadata.yaml").is_file():
+        if file.is_file():  # a .db3 given on its own
+            warnings.warn(f"{display_path(file)}: no metadata.yaml beside it: read as a rosbag2 database on its own "
+                          "(as rosbags and `ros2 bag` read it), topics and QoS from its own tables", stacklevel=2)
+            return RecordingSource(file, fmt, BagMetadata("sqlite3", (file,), ""))
         meta = bag_without_metadata(folder)
         assert meta is not None  # recording_format found its files
         return RecordingSource(file, fmt, meta)

@@ -9,6 +9,9 @@ the way rosbags' ``rosbags.convert`` converts it —
   store), with ``std_msgs/Header`` as the target has it (ROS 1's has ``seq``);
 - the target's definition and hash are generated from it (``generate_msgdef``: the ROS 1 text and
   md5sum, or the ROS 2 text and ``hash_rihs01``); ``tf/tfMessage`` becomes ``tf2_msgs/TFMessage``;
+  a ROS 1 type of Noetic's message packages with Noetic's md5sum gets genmsg's text, comments and
+  all, as ``rosbag record`` writes it (:func:`~tfrec.formats.ros.types.ros1_definition_text`), so
+  that ``rosbag check`` finds nothing to migrate;
 - the messages are converted byte to byte (``ros1_to_cdr``, ``cdr_to_ros1``), without building
   message objects; a ROS 1 ``seq`` the target lacks is dropped, one it needs is 0.
 
@@ -35,7 +38,12 @@ from tfrec.formats.ros.connection import Connection
 from tfrec.formats.ros.decode import MessageLayout, RawMessages, match_layout, message_layout
 from tfrec.formats.ros.definitions import DefinitionError, has_known_layout, parse_definition
 from tfrec.formats.ros.encode import TFMessageEncoder, encode_string
-from tfrec.formats.ros.types import deserializer, known_ros1_typestore, typestore
+from tfrec.formats.ros.types import (
+    deserializer,
+    known_ros1_typestore,
+    ros1_definition_text,
+    typestore,
+)
 from tfrec.formats.rosbag2.metadata import QOS_LATCHED, QOS_VOLATILE, qos_yaml
 
 __all__ = [
@@ -142,7 +150,7 @@ def _plan(msgtype: str, definition: str, definition_encoding: str, ros1: bool) -
     try:
         if not ros1:  # CDR → ROS 1
             text, md5sum = _store(types, ros1_header=True).generate_msgdef(msgtype, ros_version=1)
-            return _TypePlan(msgtype, text, md5sum,
+            return _TypePlan(msgtype, ros1_definition_text(msgtype, md5sum, text), md5sum,
                              partial(_store(types, ros1_header=False).cdr_to_ros1, typename=msgtype))
         name = RENAMED.get(msgtype, msgtype)
         store = _store(types, ros1_header=False, rename=(msgtype, name) if name != msgtype else None)
@@ -381,7 +389,8 @@ def _completed(connection: Connection) -> Connection:
         return connection
     if connection.ros1:
         text, md5sum = store.generate_msgdef(connection.msgtype, ros_version=1)
-        return replace(connection, definition=text, definition_encoding="ros1msg", type_hash=md5sum)
+        return replace(connection, definition=ros1_definition_text(connection.msgtype, md5sum, text),
+                       definition_encoding="ros1msg", type_hash=md5sum)
     text, _ = store.generate_msgdef(connection.msgtype, ros_version=2)
     return replace(connection, definition=text, definition_encoding="ros2msg",
                    type_hash=connection.type_hash or store.hash_rihs01(connection.msgtype))

@@ -4,7 +4,8 @@
 become :class:`~tfrec.formats.ros.connection.Connection` s (schema text, offered QoS, type hash),
 and each chunk, decompressed, becomes one :class:`~tfrec.formats.ros.connection.MessageBatch`:
 its messages found through the chunk's message indexes with numpy (:func:`~tfrec.formats.mcap.index.index_chunk`),
-or record by record when it has none. Nothing is decoded.
+or record by record when it has none. Nothing is decoded. Attachments and metadata records are noted where they
+lie (:class:`~tfrec.formats.ros.connection.Extra`), not read: an MCAP output copies them.
 
 A damaged file is read as far as it goes, as :mod:`tfrec.formats.mcap.reader` reads it: a chunk
 that does not decompress or fails its CRC is skipped (the summary's channels stand in for any it
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 import os
 import struct
+import warnings
 import zlib
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -31,12 +33,14 @@ from tfrec.formats.mcap.records import (
     COMPRESSIONS,
     MCAP_MAGIC,
     MESSAGE_HEAD_SIZE,
+    OP_ATTACHMENT,
     OP_CHANNEL,
     OP_CHUNK,
     OP_DATA_END,
     OP_FOOTER,
     OP_HEADER,
     OP_MESSAGE,
+    OP_METADATA,
     OP_SCHEMA,
     RECORD,
     record_name,
@@ -50,7 +54,7 @@ from tfrec.formats.mcap.summary import (
     read_summary_section,
     summary_records,
 )
-from tfrec.formats.ros.connection import Connection, MessageBatch, MessageSource, full_type, raw_messages
+from tfrec.formats.ros.connection import Connection, Extra, MessageBatch, MessageSource, full_type, raw_messages
 from tfrec.formats.ros.decode import RawMessages
 from tfrec.formats.rosbag2.metadata import qos_durability
 
@@ -60,6 +64,23 @@ _BATCH = 32768
 """Messages outside chunks (an unchunked file) handed over at once, at most."""
 _MESSAGE = struct.Struct("<HIQQ")
 """A Message record's channel id, sequence, log time and publish time."""
+
+_EXTRA_HEAD = 4 * 65536 + 32
+"""Bytes read of an attachment or metadata record to find its name (and media type): names longer than 64 KiB
+do not fit, and such a record is damaged."""
+
+
+def _string(data: bytes, at: int) -> tuple[str, int]:
+    """An MCAP string (uint32 length, UTF-8) at ``data[at]``, and where it ends.
+
+    Raises:
+        ValueError: one that runs past ``data``, or is no UTF-8 (UnicodeDecodeError).
+    """
+    (size,) = struct.unpack_from("<I", data, at)
+    if at + 4 + size > len(data):
+        raise ValueError("a name runs past the record")
+    return data[at + 4 : at + 4 + size].decode("utf-8"), at + 4 + size
+
 
 _Found = tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64], RawMessages]
 """Messages found in a chunk: channel ids, log times, publish times, data."""
@@ -147,6 +168,15 @@ class McapMessages(MessageSource):
                     if batch is not None:
                         yield batch
                     continue
+                if opcode in (OP_ATTACHMENT, OP_METADATA):  # kept where they are: copied by the writer
+                    try:
+                        self._extra(stream, path, opcode, start, length)
+                    except (struct.error, ValueError) as err:  # its length is known: the walk goes on after it
+                        warnings.warn(f"{name}: a damaged {record_name(opcode)} record at byte {start:,} ({err}): "
+                                      "left out", stacklevel=2)
+                    offset += length
+                    stream.seek(offset)
+                    continue
                 body = stream.read(length)
                 offset += length
                 try:
@@ -168,6 +198,28 @@ class McapMessages(MessageSource):
                     break
             yield from self._flush(singles, path, stream)
             self._summary_channels(stream)  # channels without messages may be only there
+
+    def _extra(self, stream: IO[bytes], path: Path, opcode: int, start: int, length: int) -> None:
+        """An attachment or metadata record: its name (and an attachment's index fields), read without its
+        data; tfrec's own ``rosbag2`` metadata record is written anew, not copied.
+
+        Raises:
+            ValueError: a record too short for its fields, or a name that is no UTF-8.
+        """
+        head = stream.read(min(length, _EXTRA_HEAD))
+        if opcode == OP_METADATA:
+            name = _string(head, 0)[0]
+            if name != "rosbag2":
+                self.extras.append(Extra("metadata", name, path, start, RECORD.size + length))
+            return
+        log_time, create_time = struct.unpack_from("<QQ", head, 0)
+        name, at = _string(head, 16)
+        media_type, at = _string(head, at)
+        (data_size,) = struct.unpack_from("<Q", head, at)
+        if at + 8 + data_size + 4 != length:
+            raise ValueError("its data length does not fit the record")
+        self.extras.append(Extra("attachment", name, path, start, RECORD.size + length, log_time, create_time,
+                                 media_type, data_size))
 
     def _stop(self, name: str, offset: int, size: int, reason: str) -> None:
         where = "" if name == self.where else f"{Path(name).name}: "

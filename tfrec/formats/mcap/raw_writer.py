@@ -4,7 +4,8 @@
 does not build itself: a schema per message definition and a channel per connection (offered QoS
 and type hash in the channel metadata, as rosbag2's MCAP plugin writes them), written before the
 first chunk that uses them; chunks of about ``chunk_bytes`` uncompressed, each followed by its
-message index records; the ``rosbag2`` metadata record; the summary. Messages of a fixed size
+message index records; an input's attachment and metadata records, copied as they are; the ``rosbag2``
+metadata record; the summary. Messages of a fixed size
 come as one (n, size) array and become their records with a handful of numpy operations;
 chunks are compressed on worker threads (zstd and lz4 release the GIL) while the next one fills.
 """
@@ -23,10 +24,11 @@ from typing import IO, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.errors import WriteError
+from tfrec.errors import ReadError, WriteError
 from tfrec.formats.mcap.records import (
     MCAP_MAGIC,
     MESSAGE_HEAD_SIZE,
+    OP_ATTACHMENT_INDEX,
     OP_CHANNEL,
     OP_CHUNK,
     OP_CHUNK_INDEX,
@@ -39,13 +41,15 @@ from tfrec.formats.mcap.records import (
     RECORD,
 )
 from tfrec.formats.mcap.writer import DEFAULT_CHUNK_BYTES, LIBRARY, PROFILE, chunk_compressor, serialize_records
-from tfrec.formats.ros.connection import Connection
+from tfrec.formats.ros.connection import Connection, Extra
 from tfrec.formats.rosbag2.metadata import bag_info, bag_metadata_yaml, offered_qos_profiles, qos_yaml
 
 __all__ = ["McapWriter"]
 
 _WORKERS = 2
 """Threads compressing chunks: at most this many chunks wait in memory."""
+_COPY_PIECE = 1 << 20
+"""Bytes of an attachment copied at once: a large one never lies in memory whole."""
 _HEAD = RECORD.size + MESSAGE_HEAD_SIZE
 """Bytes of a Message record before its data."""
 
@@ -96,6 +100,7 @@ class McapWriter:
         self._pending: deque[tuple[Future[tuple[bytes, int]], int, dict[int, bytes], tuple[int, int]]] = deque()
         self._pool: ThreadPoolExecutor | None = None
         self._bag_info: dict[str, Any] = {}
+        self._extra_indexes: list[Any] = []  # AttachmentIndex and MetadataIndex of the records copied
         self._state = "open"
         self._write(MCAP_MAGIC + serialize_records(Header(profile=PROFILE, library=LIBRARY)))
 
@@ -287,6 +292,62 @@ class McapWriter:
             compressed_size=len(compressed), uncompressed_size=size,
         ))
 
+    # -- attachments and metadata ------------------------------------------------------------
+
+    def copy_extras(self, extras: Sequence[Extra]) -> list[tuple[str, str]]:
+        """Copy attachment and metadata records of an input as they are (their bytes, piece by piece), after
+        the messages written so far; :meth:`finish` indexes them in the summary.
+
+        Returns:
+            The records left out and why: (``attachment 'x'``, ``its CRC fails``).
+
+        Raises:
+            WriteError: a write error; ReadError: an input that cannot be read any more.
+        """
+        from mcap.records import AttachmentIndex, MetadataIndex
+
+        self._check_open()
+        self._flush_chunk()
+        while self._pending:
+            self._write_pending()
+        left_out = []
+        for extra in extras:
+            offset = self._offset
+            if not self._copy_record(extra):
+                self._stream.seek(offset)
+                self._stream.truncate()
+                self._offset = offset
+                left_out.append((extra.shown, "its CRC fails"))
+                continue
+            self._extra_indexes.append(
+                AttachmentIndex(offset=offset, length=extra.length, log_time=extra.log_time,
+                                create_time=extra.create_time, data_size=extra.data_size, name=extra.name,
+                                media_type=extra.media_type) if extra.kind == "attachment"
+                else MetadataIndex(offset=offset, length=extra.length, name=extra.name))
+        return left_out
+
+    def _copy_record(self, extra: Extra) -> bool:
+        """Copy one record; an attachment's CRC (over its fields and data) is checked on the way: False when it
+        fails (the caller takes back what was written)."""
+        crc_end = extra.length - 4 if extra.kind == "attachment" else RECORD.size  # the CRC field: not summed
+        crc, at, tail = 0, 0, b""
+        try:
+            with open(extra.path, "rb") as source:
+                source.seek(extra.offset)
+                while at < extra.length:
+                    piece = source.read(min(_COPY_PIECE, extra.length - at))
+                    if not piece:
+                        raise ReadError(f"{extra.path}: the file ends inside {extra.shown}")
+                    lo, hi = max(at, RECORD.size), min(at + len(piece), crc_end)
+                    if hi > lo:
+                        crc = zlib.crc32(piece[lo - at : hi - at], crc)
+                    tail = (tail + piece[-4:])[-4:]
+                    self._write(piece)
+                    at += len(piece)
+        except OSError as err:
+            raise ReadError(f"{extra.path}: cannot read: {err.strerror or err}") from err
+        return extra.kind != "attachment" or int.from_bytes(tail, "little") in (0, crc)  # 0: no CRC written
+
     # -- the end ------------------------------------------------------------------------------
 
     def finish(self) -> None:
@@ -335,19 +396,22 @@ class McapWriter:
             message_count=self.message_count, start_ns=start, end_ns=self._end_ns,
         )
         metadata = serialize_records(Metadata(name="rosbag2", metadata={"serialized_metadata": bag_metadata_yaml(self._bag_info)}))
-        metadata_index = MetadataIndex(offset=self._offset, length=len(metadata), name="rosbag2")
+        metadata_indexes = [MetadataIndex(offset=self._offset, length=len(metadata), name="rosbag2"),
+                            *(index for index in self._extra_indexes if isinstance(index, MetadataIndex))]
+        attachment_indexes = [index for index in self._extra_indexes if not isinstance(index, MetadataIndex)]
         self._write(metadata + serialize_records(DataEnd(data_section_crc=0)))
         statistics = Statistics(
             message_count=self.message_count, schema_count=len(self._schemas), channel_count=len(self._channels),
-            attachment_count=0, metadata_count=1, chunk_count=len(self._chunk_indexes), message_start_time=start,
-            message_end_time=self._end_ns,
+            attachment_count=len(attachment_indexes), metadata_count=len(metadata_indexes),
+            chunk_count=len(self._chunk_indexes), message_start_time=start, message_end_time=self._end_ns,
             channel_message_counts={channel.id: count for channel, count in zip(self._channels, self._counts)},
         )
         summary_start = self._offset
         summary = b""
         offsets = []
         for opcode, records in ((OP_SCHEMA, self._schemas), (OP_CHANNEL, self._channels), (OP_STATISTICS, [statistics]),
-                                (OP_CHUNK_INDEX, self._chunk_indexes), (OP_METADATA_INDEX, [metadata_index])):
+                                (OP_CHUNK_INDEX, self._chunk_indexes), (OP_ATTACHMENT_INDEX, attachment_indexes),
+                                (OP_METADATA_INDEX, metadata_indexes)):
             if records:
                 group = serialize_records(*records)
                 offsets.append(SummaryOffset(group_opcode=opcode, group_start=summary_start + len(summary),

@@ -15,6 +15,7 @@ from __future__ import annotations
 import struct
 import zlib
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import IO, NamedTuple
 
 from tfrec.formats.mcap.records import (
@@ -22,15 +23,18 @@ from tfrec.formats.mcap.records import (
     COMPRESSIONS,
     FOOTER,
     MCAP_MAGIC,
+    OP_ATTACHMENT_INDEX,
     OP_CHANNEL,
     OP_CHUNK_INDEX,
     OP_FOOTER,
+    OP_METADATA_INDEX,
     OP_SCHEMA,
     OP_STATISTICS,
     RECORD,
     STATISTICS,
     iter_records,
 )
+from tfrec.formats.ros.connection import Extra
 
 __all__ = [
     "ChannelRecord",
@@ -40,6 +44,7 @@ __all__ = [
     "Statistics",
     "chunk_fields",
     "id_map",
+    "listed_extras",
     "parse_channel",
     "parse_header",
     "parse_schema",
@@ -217,6 +222,36 @@ def summary_records(view: memoryview) -> list[tuple[int, int, int]]:
     """The records of a summary section: (opcode, position of the body, length), up to the
     first that runs past its end."""
     return list(iter_records(view, strict=False))
+
+
+def listed_extras(stream: IO[bytes], size: int, path: Path) -> list[Extra]:
+    """The attachments and metadata records an MCAP file's summary indexes, its ``rosbag2`` metadata
+    record left out; none without a summary."""
+    view = read_summary_section(stream, size, after=len(MCAP_MAGIC))
+    if view is None:
+        return []
+    found: list[Extra] = []
+    for opcode, pos, _ in summary_records(view):
+        try:
+            if opcode == OP_ATTACHMENT_INDEX:
+                offset, length, log_time, create_time, data_size = struct.unpack_from("<QQQQQ", view, pos)
+                name, at = _text(view, pos + 40)
+                media_type, _ = _text(view, at)
+                found.append(Extra("attachment", name, path, offset, length, log_time, create_time, media_type,
+                                   data_size))
+            elif opcode == OP_METADATA_INDEX:
+                offset, length = struct.unpack_from("<QQ", view, pos)
+                name, _ = _text(view, pos + 16)
+                if name != "rosbag2":
+                    found.append(Extra("metadata", name, path, offset, length))
+        except struct.error:
+            break
+    return found
+
+
+def _text(view: memoryview, at: int) -> tuple[str, int]:
+    (length,) = struct.unpack_from("<I", view, at)
+    return bytes(view[at + 4 : at + 4 + length]).decode("utf-8", "replace"), at + 4 + length
 
 
 class Statistics(NamedTuple):

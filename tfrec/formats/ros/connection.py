@@ -13,13 +13,14 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from tfrec.formats.ros.decode import RawMessages
 
-__all__ = ["Connection", "MessageBatch", "MessageSource", "full_type", "raw_messages"]
+__all__ = ["Connection", "Extra", "MessageBatch", "MessageSource", "full_type", "raw_messages"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -53,6 +54,36 @@ class Connection:
     def ros1(self) -> bool:
         """Serialized as ROS 1 (rather than CDR)."""
         return self.encoding == "ros1"
+
+
+@dataclass(frozen=True, slots=True)
+class Extra:
+    """An MCAP attachment or metadata record of an input, copied as it is by ``tfrec convert``: where its
+    bytes are, and what an output's summary indexes of it.
+
+    Attributes:
+        kind: ``attachment`` or ``metadata``.
+        name: its name (a calibration file's name, a metadata map's name).
+        path: the file that holds it.
+        offset: where the record begins in ``path`` (its opcode).
+        length: the whole record's bytes, opcode and length field included.
+        log_time, create_time, media_type, data_size: an attachment's, for its index.
+    """
+
+    kind: str
+    name: str
+    path: Path
+    offset: int
+    length: int
+    log_time: int = 0
+    create_time: int = 0
+    media_type: str = ""
+    data_size: int = 0
+
+    @property
+    def shown(self) -> str:
+        """``attachment 'calibration.yaml'``."""
+        return f"{self.kind} {self.name!r}" if self.kind == "attachment" else f"metadata record {self.name!r}"
 
 
 @dataclass(frozen=True, slots=True)
@@ -118,6 +149,7 @@ class MessageSource:
         messages: messages read so far.
         until_ns: a hint: messages logged after it are not wanted, so a chunk that holds none
             before it may be left unread (its messages are not counted); None: every message.
+        extras: the attachments and metadata records met (an MCAP's), in the file's order.
     """
 
     where: str
@@ -126,6 +158,7 @@ class MessageSource:
     connections: dict[int, Connection] = field(default_factory=dict)
     problems: list[str] = field(default_factory=list)
     messages: int = 0
+    extras: list[Extra] = field(default_factory=list)
     _ids: dict[Connection, int] = field(default_factory=dict, repr=False)
 
     def connection_id(self, connection: Connection) -> int:

@@ -1,15 +1,26 @@
-"""rosbags' type stores and message deserializers: the one place tfrec's readers get them.
+"""rosbags' type stores and message deserializers: the one place tfrec's readers get them; and the
+ROS 1 message definitions tfrec writes.
 
 A type store generates the code of a type's (de)serializer the first time the type is used and
 keeps it, so there is one store per ROS distro for the whole process: ROS 2 Humble (CDR) and
 ROS 1 Noetic. rosbags is imported when a store is first needed.
+
+A ROS 1 bag carries each connection's message definition as genmsg wrote it: the .msg files'
+text, comments and all. ``rosbag check`` compares that text with the installed type's, so a bag
+with rosbags' generated text (no comments) "needs migrations" although the md5sum is the same.
+``noetic.msg`` beside this module holds the .msg texts of the message packages Debian's ROS 1
+ships (std_msgs, geometry_msgs, sensor_msgs, tf2_msgs, nav_msgs, ..., taken from their generated
+classes by ``scripts/ros1_definitions.py``), and :func:`genmsg_definition` composes genmsg's text
+from them.
 """
 
 from __future__ import annotations
 
+import re
 import struct
 from collections.abc import Callable
 from functools import cache
+from importlib import resources
 from typing import Any
 
 from tfrec.errors import ReadError, RecordingError
@@ -18,7 +29,9 @@ __all__ = [
     "TF_MESSAGE_DEFINITION",
     "UndecodableMessage",
     "deserializer",
+    "genmsg_definition",
     "known_ros1_typestore",
+    "ros1_definition_text",
     "ros1_message_definition",
     "topic_deserializer",
     "typestore",
@@ -109,10 +122,94 @@ TF_MESSAGE_DEFINITION = "geometry_msgs/TransformStamped[] transforms\n"
 ``94810edda583a504dfda3829e70d7eec``, ROS's."""
 
 
+_SEPARATOR = "=" * 80 + "\n"
+_BUILTINS = frozenset({"bool", "byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64",
+                       "uint64", "float32", "float64", "string", "time", "duration"})
+_FIELD_TYPE = re.compile(r"\s*([A-Za-z][\w/]*)")
+
+
+@cache
+def _noetic_texts() -> dict[str, str]:
+    """``pkg/Type`` → the type's own .msg text, from ``noetic.msg`` (genmsg's form: each type after a
+    line of 80 ``=`` and ``MSG: pkg/Type``, its text, a newline)."""
+    data = resources.files(__package__).joinpath("noetic.msg").read_text(encoding="utf-8")
+    texts = {}
+    for part in data.split(_SEPARATOR)[1:]:
+        head, text = part.split("\n", 1)
+        texts[head.removeprefix("MSG: ")] = text[:-1]
+    return texts
+
+
+def _depends(msgtype: str, text: str) -> list[str]:
+    """The message types a .msg text's fields use, in field order, resolved as genmsg resolves them
+    (``Header`` is ``std_msgs/Header``; a name without a package is in the type's own)."""
+    package = msgtype.split("/", 1)[0]
+    found = []
+    for line in text.splitlines():
+        match = _FIELD_TYPE.match(line.split("#", 1)[0])
+        if match is None:
+            continue
+        name = match.group(1)
+        if name in _BUILTINS:
+            continue
+        found.append("std_msgs/Header" if name == "Header" else name if "/" in name else f"{package}/{name}")
+    return found
+
+
+@cache
+def genmsg_definition(msgtype: str) -> str | None:
+    """genmsg's full text of a type, as ``rosbag record`` writes it into a bag's connection record
+    (genmsg's ``compute_full_text``): the type's .msg text, then each type it uses (depth first, in
+    field order, each once) after a line of 80 ``=`` and ``MSG: pkg/Type``.
+
+    Args:
+        msgtype: ``sensor_msgs/JointState`` or ``sensor_msgs/msg/JointState``.
+
+    Returns:
+        The text, or None for a type outside the packages of ``noetic.msg``.
+    """
+    texts = _noetic_texts()
+    name = msgtype.replace("/msg/", "/", 1)
+    if name not in texts:
+        return None
+    order: list[str] = []
+    todo = list(reversed(_depends(name, texts[name])))
+    while todo:  # depth first, pre-order: genmsg's get_all_depends, then its _unique_deps
+        dep = todo.pop()
+        if dep not in texts:
+            return None
+        if dep not in order:
+            order.append(dep)
+        todo.extend(reversed(_depends(dep, texts[dep])))
+    parts = [texts[name] + "\n"] + [f"{_SEPARATOR}MSG: {dep}\n{texts[dep]}\n" for dep in order]
+    return "".join(parts)[:-1]
+
+
+def ros1_definition_text(msgtype: str, md5sum: str, text: str) -> str:
+    """The message definition to write for a ROS 1 connection: genmsg's text (:func:`genmsg_definition`)
+    when the type is one of Noetic's and ``md5sum`` is Noetic's md5sum of it, else ``text``.
+
+    Args:
+        msgtype: ``pkg/Type`` or ``pkg/msg/Type``.
+        md5sum: the md5sum the connection is written with.
+        text: the definition otherwise written (rosbags' generated text).
+    """
+    genmsg = genmsg_definition(msgtype)
+    if genmsg is None:
+        return text
+    try:
+        _, noetic_md5sum = ros1_message_definition(msgtype)
+    except RecordingError:
+        return text
+    return genmsg if md5sum == noetic_md5sum else text
+
+
 @cache
 def ros1_message_definition(msgtype: str) -> tuple[str, str]:
-    """The ROS 1 message definition of a type (its .msg, then each dependency once) and its md5sum,
-    from rosbags' Noetic type store with ``tf2_msgs/TFMessage`` added.
+    """The ROS 1 message definition of a type and its md5sum: genmsg's text, as ``rosbag record``
+    writes it (:func:`genmsg_definition`), or for a type outside Noetic's message packages rosbags'
+    (its .msg without comments, then each dependency once); the md5sum from rosbags' Noetic type
+    store with ``tf2_msgs/TFMessage`` added.
 
     Args:
         msgtype: ``sensor_msgs/JointState`` or ``sensor_msgs/msg/JointState``.
@@ -127,7 +224,7 @@ def ros1_message_definition(msgtype: str) -> tuple[str, str]:
         text, md5sum = store.generate_msgdef(_full_type(msgtype), ros_version=1)
     except TypesysError as err:
         raise RecordingError(f"message type '{msgtype}' has no ROS 1 definition: {err}") from err
-    return str(text), str(md5sum)
+    return genmsg_definition(msgtype) or str(text), str(md5sum)
 
 
 def _full_type(msgtype: str) -> str:

@@ -46,7 +46,9 @@ __all__ = [
 
 ROS1_MAGIC = b"#ROSBAG V2.0\n"
 BAG_HEADER_SIZE = 4096
-"""Bytes of the bag header record, padding included, as rosbag writes it."""
+"""The bag header record's header fields plus its padding, in bytes, as rosbag writes it (the record is 8
+bytes longer: its two length fields). ``rosbag reindex`` and ``rosbag`` in append mode rewrite the header in
+place at this size, so a header record of any other size would overwrite the first chunk's start."""
 OP_MESSAGE_DATA, OP_BAG_HEADER, OP_INDEX_DATA, OP_CHUNK, OP_CHUNK_INFO, OP_CONNECTION = 2, 3, 4, 5, 6, 7
 
 LZ4_BLOCK = 6
@@ -80,12 +82,14 @@ def record(fields: dict[str, bytes], data: bytes) -> bytes:
 
 
 def bag_header(index_pos: int, conn_count: int, chunk_count: int) -> bytes:
-    """The bag header record, padded with spaces to :data:`BAG_HEADER_SIZE` bytes."""
+    """The bag header record, its fields and their padding (spaces) :data:`BAG_HEADER_SIZE` bytes long, as
+    rosbag's ``_write_file_header_record`` and C++ ``Bag::writeFileHeaderRecord`` pad it: the first chunk
+    starts at byte 13 + 4 + 4096 + 4 = 4117."""
     head = header({
         "chunk_count": u32(chunk_count), "conn_count": u32(conn_count),
         "index_pos": struct.pack("<Q", index_pos), "op": bytes([OP_BAG_HEADER]),
     })
-    padding = BAG_HEADER_SIZE - len(head) - 4
+    padding = BAG_HEADER_SIZE - (len(head) - 4)
     return head + u32(padding) + b" " * padding
 
 

@@ -36,13 +36,13 @@ from tfrec.formats.ros.encode import ns_from_stamps
 from tfrec.formats.ros.types import known_ros1_typestore, topic_deserializer
 from tfrec.formats.rosbag1.reader import (
     COMPRESSIONS,
-    OP_BAG_HEADER,
     OP_CHUNK,
     OP_CHUNK_INFO,
     OP_CONNECTION,
     OP_INDEX,
     OP_MESSAGE,
     ROS1_MAGIC,
+    bag_header,
     connection_of,
     header_fields,
     read_rosbag1_records,
@@ -116,6 +116,7 @@ class _IndexedBag:
         self.connections: dict[int, Connection] = {}  # topics as recorded
         self.chunks: list[_Chunk] = []
         self.stats: dict[int, TopicStats] = {}
+        self.header_problem = ""  # a damaged bag header record read past
 
     def read_index(self) -> None:
         """The bag header, the connection and chunk info records, and each chunk's header and index data.
@@ -125,26 +126,28 @@ class _IndexedBag:
         """
         stream, size = self.stream, self.size
         stream.seek(len(ROS1_MAGIC))
-        fields, data_pos, data_len = _record(stream, size)
+        header = bag_header(stream, size)
+        if header is None or not header.fields:
+            raise _Unusable(header.problem if header is not None else "a damaged bag header record")
+        self.header_problem = header.problem
+        fields = header.fields
         try:
-            if _op(fields) != OP_BAG_HEADER:
-                raise _Unusable("no bag header record")
             (index_pos,) = struct.unpack("<Q", fields["index_pos"])
             conn_count, chunk_count = uint32_field(fields, "conn_count"), uint32_field(fields, "chunk_count")
         except (KeyError, struct.error, ValueError) as err:
             raise _Unusable(f"a damaged bag header ({err})") from err
-        if index_pos == 0 or not data_pos + data_len <= index_pos <= size:
+        if index_pos == 0 or not header.body_start <= index_pos <= size:
             raise _Unusable("the bag has no index (a recorder stopped before writing it)")
         stream.seek(index_pos)
         try:
             for _ in range(conn_count):
-                fields, data_pos, data_len = _record(stream, size)
+                fields, _, data_len = _record(stream, size)
                 if _op(fields) != OP_CONNECTION:
                     raise _Unusable("the index lacks a connection record")
                 conn = uint32_field(fields, "conn")
                 self.connections[conn] = connection_of(fields, header_fields(stream.read(data_len)))
             for _ in range(chunk_count):
-                fields, data_pos, data_len = _record(stream, size)
+                fields, _, data_len = _record(stream, size)
                 if _op(fields) != OP_CHUNK_INFO or uint32_field(fields, "ver") != 1:
                     raise _Unusable("the index lacks a chunk info record")
                 (chunk_pos,) = struct.unpack("<Q", fields["chunk_pos"])
@@ -157,6 +160,8 @@ class _IndexedBag:
                 self.chunks.append(_Chunk(chunk_pos, counts))
         except (KeyError, struct.error, ValueError) as err:
             raise _Unusable(f"a damaged index record ({err})") from err
+        if stream.tell() != size:
+            raise _Unusable("the index goes on past the records the bag header counts (a damaged count)")
         self.chunks.sort(key=lambda chunk: chunk.pos)
         for chunk in self.chunks:
             self._chunk_index(chunk)
@@ -359,6 +364,8 @@ def read_rosbag1(path: Path, options: ReadOptions) -> Recording:
         if recording.read_error is None:  # an intact bag whose index is wrong
             warnings.warn(f"{where}: {problem}; the bag was read record by record", TfrecWarning, stacklevel=3)
         return recording
+    if bag.header_problem:
+        warnings.warn(f"{where}: {bag.header_problem}; read through its index, as rosbags reads it", stacklevel=3)
     recording.details = {"compression": ", ".join(sorted({chunk.compression for chunk in bag.chunks}))}
     collector.finish()
     read: dict[str, int] = {}

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import os
 import struct
+import warnings
 from collections.abc import Callable, Generator, Iterator
 from dataclasses import replace
 from pathlib import Path
@@ -32,13 +33,13 @@ from tfrec.formats.ros.encode import ns_from_stamps
 from tfrec.formats.rosbag1.index import message_spans
 from tfrec.formats.rosbag1.reader import (
     COMPRESSIONS,
-    OP_BAG_HEADER,
     OP_CHUNK,
     OP_CONNECTION,
     OP_INDEX,
     OP_MESSAGE,
     ROS1_MAGIC,
     RecordDamaged,
+    bag_header,
     connection_of,
     header_fields,
     index_connections,
@@ -66,6 +67,7 @@ class Ros1Messages(MessageSource):
         self.path = path
         self.resolve = resolve
         self._conns: dict[int, int] = {}  # the bag's connection id → connection id
+        self._index_reached = False  # the walk reached the index section (its chunk info records)
 
     def batches(self) -> Iterator[MessageBatch]:
         try:
@@ -76,17 +78,17 @@ class Ros1Messages(MessageSource):
             size = os.fstat(stream.fileno()).st_size
             if stream.read(len(ROS1_MAGIC)) != ROS1_MAGIC:
                 raise ReadError(f"{self.where}: not a ROS 1 bag (format 2.0)")
-            try:
-                fields, data_pos, data_len = read_record(stream, size)
-                if fields.get("op") != bytes([OP_BAG_HEADER]):
-                    raise RecordDamaged("no bag header record")
-            except RecordDamaged as err:
-                raise ReadError(f"{self.where}: cannot read ROS 1 bag: {err}") from err
-            body_start = data_pos + data_len
-            end = self._index(stream, fields, body_start, size)
+            header = bag_header(stream, size)
+            if header is None:
+                raise ReadError(f"{self.where}: cannot read ROS 1 bag: a damaged bag header record, and no record "
+                                "where the records after it begin")
+            if header.problem:
+                warnings.warn(f"{self.where}: {header.problem}; read past it", stacklevel=2)
+            body_start = header.body_start
+            end = self._index(stream, header.fields, body_start, size)
             stream.seek(body_start)
             reached = yield from self._walk(stream, body_start, end, size)
-            if end is None and reached:
+            if end is None and reached and not self._index_reached:
                 self._stop(size, size, "the file ends without an index")
 
     def _index(self, stream: IO[bytes], fields: dict[str, bytes], body_start: int, size: int) -> int | None:
@@ -132,6 +134,7 @@ class Ros1Messages(MessageSource):
             elif op == OP_MESSAGE:  # not where format 2.0 puts them
                 self.problems.append(f"a message record outside any chunk at byte {pos:,} was skipped")
             elif op != OP_INDEX:
+                self._index_reached = True
                 break  # the index section (chunk info records): every chunk was read
             pos = stream.tell()
         return True

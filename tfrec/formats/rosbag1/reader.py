@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import os
 import struct
+from dataclasses import dataclass
 from pathlib import Path
 from typing import IO
 
@@ -26,6 +27,7 @@ from tfrec.formats.ros.connection import Connection
 from tfrec.formats.ros.encode import ns_from_stamps
 from tfrec.formats.ros.types import known_ros1_typestore, topic_deserializer
 from tfrec.formats.rosbag1._records import (
+    BAG_HEADER_SIZE,
     OP_BAG_HEADER,
     OP_CHUNK,
     OP_CHUNK_INFO,
@@ -45,7 +47,9 @@ __all__ = [
     "OP_INDEX",
     "OP_MESSAGE",
     "ROS1_MAGIC",
+    "BagHeader",
     "RecordDamaged",
+    "bag_header",
     "connection_of",
     "header_fields",
     "index_connections",
@@ -161,6 +165,70 @@ def read_record(stream: IO[bytes], size: int, *, cut_ok: bool = False) -> tuple[
 
 
 
+@dataclass(frozen=True, slots=True)
+class BagHeader:
+    """A bag's header record as far as it is readable (:func:`bag_header`).
+
+    Attributes:
+        fields: its header fields (``index_pos``, ``conn_count``, ``chunk_count``); empty when damaged.
+        body_start: where the records after it begin.
+        problem: what is damaged in it, or ``""``.
+    """
+
+    fields: dict[str, bytes]
+    body_start: int
+    problem: str = ""
+
+
+_FIRST_RECORD = (len(ROS1_MAGIC) + 8 + BAG_HEADER_SIZE, len(ROS1_MAGIC) + BAG_HEADER_SIZE)
+"""Where the records after the bag header begin when its length cannot be trusted: as rosbag writes it (its
+fields and padding 4096 bytes long), or 8 bytes earlier, as rosbags (and tfrec before issue 22) wrote it."""
+_BODY_OPS = (OP_CHUNK, OP_CONNECTION, OP_INDEX, OP_CHUNK_INFO)
+
+
+def bag_header(stream: IO[bytes], size: int) -> BagHeader | None:
+    """The bag header record after the magic (the stream's position). Its padding is nothing to read: a
+    damaged padding length, or a damaged header whose records still begin where rosbag (or rosbags) puts them,
+    is a :attr:`BagHeader.problem`, and reading goes on there, as rosbags reads such a bag through its index.
+
+    Returns:
+        The header, or None when it is damaged and no record begins where one would.
+    """
+    try:
+        fields, data_pos, data_len = read_record(stream, size, cut_ok=True)
+        if fields.get("op") != bytes([OP_BAG_HEADER]):
+            raise RecordDamaged("no bag header record")
+    except RecordDamaged as err:
+        reason = str(err).removeprefix("a damaged record header (").removesuffix(")") if "(" in str(err) else str(err)
+        fields, body, problem = {}, None, f"a damaged bag header record ({reason})"
+    else:
+        body = data_pos + data_len if data_pos + data_len <= size else None
+        problem = "" if body is not None else f"a damaged bag header record (its padding is {data_len:,} bytes long)"
+        if body is not None and _record_at(stream, body, size):
+            return BagHeader(fields, body)
+    for start in _FIRST_RECORD:
+        if start != body and _record_at(stream, start, size):
+            return BagHeader(fields, start, problem or f"a damaged bag header record (its padding is "
+                                                       f"{data_len:,} bytes long)")
+    return None if body is None else BagHeader(fields, body)  # what follows it is damaged: its reader says so
+
+
+def _record_at(stream: IO[bytes], pos: int, size: int) -> bool:
+    """Whether a record a bag holds after its header (a chunk, a connection, the index) begins at ``pos``,
+    or ``pos`` is the end of the file (a bag without records)."""
+    if pos == size:
+        return True
+    stream.seek(pos)
+    try:
+        fields, _, _ = read_record(stream, size, cut_ok=True)
+    except RecordDamaged:
+        return False
+    finally:
+        stream.seek(pos)
+    op = fields.get("op", b"")
+    return len(op) == 1 and op[0] in _BODY_OPS
+
+
 def index_connections(stream: IO[bytes], header: dict[str, bytes], body_start: int,
                       size: int) -> tuple[int | None, list[tuple[dict[str, bytes], bytes]]]:
     """The connection records of a bag's index section, read before its chunks so that every chunk's
@@ -236,6 +304,14 @@ class _Ros1Reader:
             ReadStopped: the file ends inside a record, or a record is damaged.
         """
         self._read(len(ROS1_MAGIC))
+        header = bag_header(self.stream, self.size)
+        if header is not None and header.problem:  # read past it, from where its records begin
+            self.stream.seek(header.body_start)
+            self.offset = header.body_start
+            if header.fields:
+                self._index_connections(header.fields)
+        else:
+            self.stream.seek(self.offset)  # an intact header is read as any record (or the damage said below)
         while True:
             start = self.offset
             raw = self._read(4)
