@@ -273,7 +273,7 @@ def _warn(report: CopyReport, where: str) -> None:
     for what, why in report.extras_left_out:
         reasons.setdefault(why, []).append(what)
     for why, whats in reasons.items():
-        warnings.warn(f"{where}: {', '.join(whats)} not written: {why}", stacklevel=3)
+        warnings.warn(f"{where}: {', '.join(whats)} not written: {why}", TfrecWarning, stacklevel=3)
     if report.read_error is not None:
         warnings.warn(f"{report.read_error}; converted up to there", TfrecWarning, stacklevel=3)
 
@@ -300,5 +300,5 @@ def _to_rerun(source: str | os.PathLike[str], target: Path, *, start_s: float | 
     extras = listed_extras(identify_recording(source))
     if extras:
         warnings.warn(f"{os.fspath(source)}: {', '.join(extra.shown for extra in extras)} not written: a Rerun "
-                      "recording of the replay holds no attachments or metadata records", stacklevel=3)
+                      "recording of the replay holds no attachments or metadata records", TfrecWarning, stacklevel=3)
     return ConvertResult(target, "rrd", None, (start_s, end_s))

@@ -122,7 +122,7 @@ def _declaration_ignored(text: str, where: str) -> str:
     shown = declaration if len(declaration) <= 60 else declaration[:57] + "..."
     line = text.count("\n", 0, found.start(2)) + 1
     warnings.warn(f"{where}:{line}: XML declaration {shown!r} ignored ({problem}), as {URDFDOM} (TinyXML2) "
-                  "ignores it", stacklevel=4)
+                  "ignores it", TfrecWarning, stacklevel=4)
     blank = "".join(c if c == "\n" else " " for c in declaration)
     return text[: found.start(2)] + blank + text[found.end(2) :]
 
@@ -239,7 +239,7 @@ class _Parser:
             try:
                 c = self.floats(color, "rgba", 4, f"{what} material '{name}' color", None)
             except DescriptionError as err:  # urdfdom keeps the material without its colour
-                warnings.warn(f"{err}: the colour is left out, as {URDFDOM} leaves it out", stacklevel=5)
+                warnings.warn(f"{err}: the colour is left out, as {URDFDOM} leaves it out", TfrecWarning, stacklevel=5)
             else:
                 rgba = (c[0], c[1], c[2], c[3])
         texture = elem.find("texture")
@@ -282,7 +282,7 @@ class _Parser:
                 geometry = self.geometry(visual, what)
                 origin = self.pose(visual, what)
             except DescriptionError as err:  # urdfdom leaves the visual out; TF does not need it
-                warnings.warn(f"{err}: the visual is left out, as {URDFDOM} leaves it out (TF is not affected)",
+                warnings.warn(f"{err}: the visual is left out, as {URDFDOM} leaves it out (TF is not affected)", TfrecWarning,
                               stacklevel=4)
                 continue
             material = None
@@ -311,7 +311,7 @@ class _Parser:
         try:
             return self.number(mass, "value", f"link '{name}' mass")
         except DescriptionError as err:
-            warnings.warn(f"{err}: the inertial is left out, as {URDFDOM} leaves it out", stacklevel=5)
+            warnings.warn(f"{err}: the inertial is left out, as {URDFDOM} leaves it out", TfrecWarning, stacklevel=5)
             return None
 
     def limit(self, elem: ET.Element | None, what: str) -> Limit | None:

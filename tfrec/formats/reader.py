@@ -35,7 +35,7 @@ from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from tfrec.errors import ReadError, display_path
+from tfrec.errors import ReadError, TfrecWarning, display_path
 from tfrec.formats._collect import Collector, ReadOptions
 from tfrec.formats.mcap.reader import read_mcap, read_mcap_into
 from tfrec.formats.mcap.records import MCAP_MAGIC
@@ -128,7 +128,7 @@ def identify_recording(path: str | os.PathLike[str]) -> RecordingSource:
     if not (folder / "metadata.yaml").is_file():
         if file.is_file():  # a .db3 given on its own
             warnings.warn(f"{display_path(file)}: no metadata.yaml beside it: read as a rosbag2 database on its own "
-                          "(as rosbags and `ros2 bag` read it), topics and QoS from its own tables", stacklevel=2)
+                          "(as rosbags and `ros2 bag` read it), topics and QoS from its own tables", TfrecWarning, stacklevel=2)
             return RecordingSource(file, fmt, BagMetadata("sqlite3", (file,), ""))
         meta = bag_without_metadata(folder)
         assert meta is not None  # recording_format found its files

@@ -26,7 +26,7 @@ from typing import IO
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.errors import ReadError
+from tfrec.errors import ReadError, TfrecWarning
 from tfrec.formats._compression import MAX_CHUNK_BYTES, decompress, salvage
 from tfrec.formats.mcap.index import index_chunk, read_message_indexes
 from tfrec.formats.mcap.records import (
@@ -173,7 +173,7 @@ class McapMessages(MessageSource):
                         self._extra(stream, path, opcode, start, length)
                     except (struct.error, ValueError) as err:  # its length is known: the walk goes on after it
                         warnings.warn(f"{name}: a damaged {record_name(opcode)} record at byte {start:,} ({err}): "
-                                      "left out", stacklevel=2)
+                                      "left out", TfrecWarning, stacklevel=2)
                     offset += length
                     stream.seek(offset)
                     continue

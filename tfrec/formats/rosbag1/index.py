@@ -365,7 +365,7 @@ def read_rosbag1(path: Path, options: ReadOptions) -> Recording:
             warnings.warn(f"{where}: {problem}; the bag was read record by record", TfrecWarning, stacklevel=3)
         return recording
     if bag.header_problem:
-        warnings.warn(f"{where}: {bag.header_problem}; read through its index, as rosbags reads it", stacklevel=3)
+        warnings.warn(f"{where}: {bag.header_problem}; read through its index, as rosbags reads it", TfrecWarning, stacklevel=3)
     recording.details = {"compression": ", ".join(sorted({chunk.compression for chunk in bag.chunks}))}
     collector.finish()
     read: dict[str, int] = {}

@@ -25,7 +25,7 @@ from typing import IO
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.errors import ReadError
+from tfrec.errors import ReadError, TfrecWarning
 from tfrec.formats._compression import MAX_CHUNK_BYTES, decompress, salvage
 from tfrec.formats.ros.connection import MessageBatch, MessageSource
 from tfrec.formats.ros.decode import RawMessages
@@ -83,7 +83,7 @@ class Ros1Messages(MessageSource):
                 raise ReadError(f"{self.where}: cannot read ROS 1 bag: a damaged bag header record, and no record "
                                 "where the records after it begin")
             if header.problem:
-                warnings.warn(f"{self.where}: {header.problem}; read past it", stacklevel=2)
+                warnings.warn(f"{self.where}: {header.problem}; read past it", TfrecWarning, stacklevel=2)
             body_start = header.body_start
             end = self._index(stream, header.fields, body_start, size)
             stream.seek(body_start)
