@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -195,18 +196,23 @@ def plot_errors(series: Sequence[ErrorSeries], path: str | os.PathLike[str], *, 
         save_figure(fig, path, fmt, force=force)
 
 
+_HEADING_WIDTH = 125
+"""Characters of a heading line: what 11-point text holds beside the legend of a 14-inch figure."""
+
+
 def _draw(shown: Sequence[ErrorSeries], rest: Sequence[ErrorSeries], pos_tol: float, rot_tol: float, title: str,
           subtitle: str, notes: Sequence[str], *, item: str, time_origin: str) -> Any:
     from matplotlib.lines import Line2D
 
     from tfrec.plots._figure import new_figure
 
-    height = 7.6 + 0.2 * len(notes)
+    heading = [line for text in (title, subtitle) for line in textwrap.wrap(text, _HEADING_WIDTH)]
+    height = 7.6 + 0.2 * len(notes) + 0.2 * max(0, len(heading) - 2)
     fig = new_figure(14.0, height)
     fig.set_layout_engine("constrained", h_pad=0.08, w_pad=0.08)
     ax_t = fig.add_subplot(2, 1, 1)
     ax_r = fig.add_subplot(2, 1, 2, sharex=ax_t)
-    fig.suptitle(f"{title}\n{subtitle}", x=0.01, ha="left", fontsize=11)
+    fig.suptitle("\n".join(heading), x=0.01, ha="left", fontsize=11)
     colours = assign_colours(s.name for s in shown)
     times = [s.t_s for s in shown if not s.static and s.t_s.size]
     lo = min((float(np.nanmin(t)) for t in times), default=0.0)
