@@ -4,6 +4,8 @@ same for a recording against a description."""
 
 from __future__ import annotations
 
+import re
+
 from pathlib import Path
 
 import numpy as np
@@ -52,7 +54,9 @@ def test_diff_plot_of_a_30_link_robot(snakes: tuple[Path, Path], tmp_path: Path,
     out = capsys.readouterr().out
     assert code == 1 and f"wrote {picture}" in out
     text = picture.read_text()
-    assert "4 of 30 links above (l10, l11, l12, l13)" in text
+    lines = re.findall(r"<text [^>]*>([^<]*)</text>", text)  # the heading wraps: its lines are texts of their own
+    heading = " ".join(lines)
+    assert "4 of 30 links above (l10, l11, l12, l13)" in heading
     assert "and 22 more links (0 above)" in text  # 8 drawn, the others counted
     assert "note: joint 'j10' changed: origin xyz (0 0 0.1) → (0 0.01 0.1)" in text
     assert "time (s) from the motion's start" in text
