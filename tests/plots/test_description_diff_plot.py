@@ -5,7 +5,6 @@ same for a recording against a description."""
 from __future__ import annotations
 
 import re
-
 from pathlib import Path
 
 import numpy as np
