@@ -53,21 +53,21 @@ def main() -> int:
     out.mkdir(parents=True, exist_ok=True)
     os.chdir(REPO)
     robot = load_description("robots/marm.xacro")  # named as given: the title says robots/marm.xacro
-    render_graph(robot_graph(robot), out / "tf-tree-marm.svg")
+    render_graph(robot_graph(robot), out / "tf-tree-marm.svg", force=True)
     edited = _edited(robot)
     with tempfile.TemporaryDirectory() as scratch:
         os.chdir(scratch)
         random = make_trajectory(robot, "random", duration_s=10.0, rate_hz=50.0, seed=0)
         record(robot, random, RecordingPlan(mcap=Path("marm-random.mcap"), rrd=None))
         rec = read_recording("marm-random.mcap")
-        render_graph(recorded_graph(rec), out / "tf-tree-recorded.svg")
-        plot_recording(rec, out / "plot-marm.png")
+        render_graph(recorded_graph(rec), out / "tf-tree-recorded.svg", force=True)
+        plot_recording(rec, out / "plot-marm.png", force=True)
         record(robot, make_trajectory(robot, "sine", duration_s=6.0), RecordingPlan(mcap=Path("marm.mcap"), rrd=None))
         record(edited, make_trajectory(edited, "sine", duration_s=6.0, amplitude=0.8008),
                RecordingPlan(mcap=Path("marm-edited.mcap"), rrd=None))
-        plot_diff(compare("marm.mcap", "marm-edited.mcap", pos_tol=1e-3, rot_tol=1e-3), out / "diff-plot.png")
+        plot_diff(compare("marm.mcap", "marm-edited.mcap", pos_tol=1e-3, rot_tol=1e-3), out / "diff-plot.png", force=True)
         replay = load_replay("marm.mcap", robot=edited)
-        plot_check(check_replay(replay), out / "check-plot.png")
+        plot_check(check_replay(replay), out / "check-plot.png", force=True)
         os.chdir(REPO)
     for name in ("tf-tree-marm.svg", "tf-tree-recorded.svg", "plot-marm.png", "diff-plot.png", "check-plot.png"):
         print(f"wrote {out / name} ({(out / name).stat().st_size:,} bytes)")
