@@ -25,6 +25,7 @@ import pytest
 
 from tests.conftest import ROBOTS
 from tests.fuzz.harness import snapshot
+from tfrec._outputs import process_namespace
 from tfrec.cli import main
 
 SHORT = ["--duration", "0.3", "--rate", "20"]
@@ -499,16 +500,20 @@ def test_temporaries_have_short_names_and_stale_ones_are_removed(tmp_path: Path,
     target = tmp_path / ("t" * 250 + ".mcap")
     with AtomicOutputs() as outputs:
         temp = outputs.path(target, kind=MCAP)
-        assert temp.name.startswith(f".tfrec-{os.getpid()}-") and temp.name.endswith(".mcap") and len(temp.name) < 43
+        assert temp.name.startswith(f".tfrec-{process_namespace()}-{os.getpid()}-") and temp.name.endswith(".mcap")
+        assert len(temp.name) <= 51
     dead = int(subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
                               text=True, check=True).stdout)
-    stale = [tmp_path / f".tfrec-{dead}-0123abcd.rrd", tmp_path / f".tfrec-{dead}-89abcdef"]
-    stale[0].write_bytes(b"half")
+    stale = [tmp_path / f".tfrec-{process_namespace()}-{dead}-0123abcd.rrd",
+             tmp_path / f".tfrec-{process_namespace()}-{dead}-89abcdef"]
+    stale[0].write_bytes(b"RRF2 half written")
     (stale[1] / "x_0.mcap").parent.mkdir()
-    (stale[1] / "x_0.mcap").write_bytes(b"half")
-    assert main(["record", str(ROBOTS / "marm.xacro"), *SHORT, "--no-rrd", "-o", str(tmp_path / "n.mcap")]) == 0
+    (stale[1] / "x_0.mcap").write_bytes(b"\x89MCAP0\r\n half written")
+    assert main(["record", str(ROBOTS / "marm.xacro"), *SHORT, "-o", str(tmp_path / "n.mcap"),
+                 "--rrd", str(tmp_path / "n.rrd")]) == 0
+    assert main(["record", str(ROBOTS / "marm.xacro"), *SHORT, "--no-rrd", "--bag", str(tmp_path / "b")]) == 0
     assert not any(p.exists() for p in stale)
-    assert "removed 2 unfinished outputs of killed runs" in capsys.readouterr().err
+    assert capsys.readouterr().err.count("removed 1 unfinished output of killed runs") == 2
     named_like_one = tmp_path / f".tfrec-{dead}-0123abcd.mcap"
     assert main(["record", str(ROBOTS / "marm.xacro"), *SHORT, "--no-rrd", "-o", str(named_like_one)]) == 2
     assert "named like tfrec's temporary files" in capsys.readouterr().err
@@ -520,7 +525,7 @@ def test_what_appears_in_a_bag_while_it_is_replaced_is_kept(seeds: Path, tmp_pat
     from tfrec._atomic import _replace
     from tfrec.formats.kinds import ROSBAG2
 
-    bag, new = tmp_path / "bag", tmp_path / ".tfrec-1-0123abcd"
+    bag, new = tmp_path / "bag", tmp_path / f".tfrec-{process_namespace()}-1-0123abcd"
     shutil.copytree(seeds / "bag", bag)
     owned = ROSBAG2.owned(bag)
     (bag / "appeared.txt").write_text("written meanwhile")

@@ -20,7 +20,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import final
 
-from tfrec._outputs import REPLACES, STALE, NotOurs, OutputKind, check_existing, refusal, temporary_name
+from tfrec._outputs import REPLACES, NotOurs, OutputKind, check_existing, refusal, stale_temporaries, temporary_name
 from tfrec.errors import RecordingError, TfrecError, TfrecWarning, WriteError
 
 __all__ = ["AtomicOutputs", "remove_stale_temporaries"]
@@ -71,7 +71,7 @@ class AtomicOutputs:
         self._pairs.append((target, target, None))  # until the temporary exists, errors name the target
         target.parent.mkdir(parents=True, exist_ok=True)
         self._pairs.pop()
-        remove_stale_temporaries(target.parent)
+        remove_stale_temporaries(target.parent, kind)
         temp = temporary_name(target)
         if kind.folder:
             temp.mkdir()
@@ -201,20 +201,13 @@ def _rename_new(temp: Path, target: Path) -> None:
     temp.unlink()
 
 
-def remove_stale_temporaries(folder: Path) -> list[Path]:
-    """Remove the temporaries in ``folder`` whose process no longer exists (a run killed by SIGKILL, which
-    cannot clean up), warning once about them; returns them. Temporaries of running processes are left."""
+def remove_stale_temporaries(folder: Path, kind: OutputKind) -> list[Path]:
+    """Remove the temporaries of ``kind`` in ``folder`` that killed runs left (SIGKILL cannot clean up) — only
+    those :func:`tfrec._outputs.stale_temporaries` is sure of —, warning once about them; returns them."""
     removed: list[Path] = []
-    try:
-        entries = list(folder.iterdir())
-    except OSError:
-        return removed
-    for entry in entries:
-        match = next((m for m in (p.fullmatch(entry.name) for p in STALE) if m is not None), None)
-        if match is None or _alive(int(match.group(1))):
-            continue
+    for entry in stale_temporaries(folder, kind, alive=_alive):
         try:
-            if entry.is_dir() and not entry.is_symlink():
+            if kind.folder:
                 shutil.rmtree(entry)
             else:
                 entry.unlink()

@@ -9,8 +9,10 @@
   :data:`tfrec.formats.kinds.ROSBAG2`) the entries it would remove. Anything else is refused with one line and
   never replaced: a file of another kind, an empty file (tfrec writes none, but a JSON-lines report of a run
   stopped before its first row), a folder holding anything else, a symbolic link, a folder where a file goes.
-* Temporaries are named ``.tfrec-<pid>-<8 hex digits>[.ext]`` (:func:`temporary_name`: at most 42 bytes, whatever
-  the target's name, so that a 255-byte output name works).
+* Temporaries are named ``.tfrec-<namespace>-<pid>-<8 hex digits>[.ext]`` (:func:`temporary_name`: at most 51
+  bytes, whatever the target's name, so that a 255-byte output name works). Those a killed run left are removed
+  only when the name says this machine and PID namespace, the process is gone, and what they hold can only be an
+  unfinished output (:func:`stale_temporaries`).
 
 :class:`tfrec._atomic.AtomicOutputs` writes the outputs and checks an existing target again when it replaces it.
 """
@@ -41,8 +43,10 @@ __all__ = [
     "check_outputs",
     "check_path_length",
     "check_target",
+    "process_namespace",
     "read_head",
     "refusal",
+    "stale_temporaries",
     "temporary_name",
 ]
 
@@ -83,6 +87,11 @@ class OutputKind(Protocol):
 
     def inner_names(self, target: Path) -> tuple[str, ...]:
         """The names a folder output creates inside itself (their length is checked); () for a file."""
+
+    def unfinished(self, path: Path) -> bool:
+        """Whether ``path`` can be what a run writing this kind left when it was killed: a regular file that is
+        empty or begins as the kind does; a folder holding nothing but such entries. Anything else is not removed
+        as a stale temporary, whatever its name."""
 
 
 @final
@@ -129,6 +138,14 @@ class FileKind:
 
     def inner_names(self, target: Path) -> tuple[str, ...]:
         return ()
+
+    def unfinished(self, path: Path) -> bool:
+        """A regular file, empty or beginning with a signature of the kind (a kind without one: nothing is)."""
+        try:
+            head = read_head(path, self.HEAD)
+        except NotOurs:
+            return False
+        return not head or bool(self.signatures and head.startswith(self.signatures))
 
 
 def read_head(path: Path, size: int) -> bytes:
@@ -371,11 +388,50 @@ def _recording_folder(real: str, bags: dict[str, bool]) -> str | None:
 
 _MARK = "tfrec-"
 STALE = (
-    re.compile(r"\.tfrec-(\d+)-[0-9a-f]{8}(?:\.[A-Za-z0-9]{1,16})?"),
+    re.compile(r"\.tfrec-([0-9a-f]{8})-(\d+)-[0-9a-f]{8}(?:\.[A-Za-z0-9]{1,16})?"),
+    re.compile(r"\.tfrec-(\d+)-[0-9a-f]{8}(?:\.[A-Za-z0-9]{1,16})?"),  # before the process namespace was named
     re.compile(r"\..+\.tmp-(\d+)-[0-9a-f]{8}"),  # tfrec 0.x's, named after the target
 )
-"""The names of temporaries: ``.tfrec-<pid>-<8 hex digits>[.<the target's extension>]``, and the older
-``.<target>.tmp-<pid>-<8 hex digits>``."""
+"""The names of temporaries: ``.tfrec-<namespace>-<pid>-<8 hex digits>[.<the target's extension>]``, and older
+ones. Only the first kind is ever removed as stale (:func:`stale_temporaries`): the others do not say whose
+process numbers they carry."""
+
+
+@functools.cache
+def process_namespace() -> str:
+    """8 hex digits that name this machine's boot and this process's PID namespace: a temporary whose name carries
+    them was written by a process whose number means something here (a container or another host sharing the
+    folder numbers its processes apart)."""
+    import hashlib
+
+    parts = []
+    for source in ("/proc/sys/kernel/random/boot_id", "/proc/self/ns/pid"):
+        try:
+            parts.append(Path(source).read_text().strip() if source.endswith("boot_id") else str(os.stat(source).st_ino))
+        except OSError:
+            parts.append(os.uname().nodename)
+    return hashlib.sha256(":".join(parts).encode()).hexdigest()[:8]
+
+
+def stale_temporaries(folder: Path, kind: OutputKind, *, alive: Callable[[int], bool]) -> list[Path]:
+    """The temporaries in ``folder`` a killed run of this machine and PID namespace left while writing ``kind``:
+    named as this process names them, its process gone (``alive`` says), and what they hold no more than an
+    unfinished output of the kind (:meth:`OutputKind.unfinished`). A user's file that only looks like one, and the
+    temporaries of runs in another container or on another host, are never among them."""
+    found: list[Path] = []
+    try:
+        entries = list(folder.iterdir())
+    except OSError:
+        return found
+    ours = process_namespace()
+    for entry in entries:
+        match = STALE[0].fullmatch(entry.name)
+        if match is None or match.group(1) != ours or alive(int(match.group(2))):
+            continue
+        if (entry.is_dir() and not entry.is_symlink()) != kind.folder or not kind.unfinished(entry):
+            continue
+        found.append(entry)
+    return found
 
 
 def _temp_suffix(target: Path) -> str:
@@ -384,8 +440,8 @@ def _temp_suffix(target: Path) -> str:
 
 
 def temporary_name(target: Path) -> Path:
-    """A new temporary name beside ``target``: short whatever the target's name (42 bytes at most)."""
-    return target.parent / f".{_MARK}{os.getpid()}-{uuid.uuid4().hex[:8]}{_temp_suffix(target)}"
+    """A new temporary name beside ``target``: short whatever the target's name (51 bytes at most)."""
+    return target.parent / f".{_MARK}{process_namespace()}-{os.getpid()}-{uuid.uuid4().hex[:8]}{_temp_suffix(target)}"
 
 
 def _is_temporary(name: str) -> bool:

@@ -56,19 +56,38 @@ def test_a_stalled_writer_is_an_error_and_closing_it_does_not_hang(tmp_path: Pat
 
 
 def test_sigkill_leftovers_are_removed_by_the_next_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A temporary a killed run of this machine left (its name says so, its process is gone, it holds what an
+    unfinished MCAP holds) is removed by the next run writing there, with a warning; anything else named like one
+    — a running process's, a container's or another host's (another namespace in the name), a user's file, an old
+    name that does not say whose process number it carries — is left as it is."""
+    from tfrec._outputs import process_namespace
+    from tfrec.formats.kinds import MCAP
+
     dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True, check=False)
     pid = int(dead.stdout)
-    stale = tmp_path / f".old.mcap.tmp-{pid}-0123abcd"
-    stale.write_bytes(b"half")
-    alive = tmp_path / f".other.mcap.tmp-{os.getpid()}-89abcdef"  # a running process's: kept
-    alive.write_bytes(b"in progress")
+    ours, other = process_namespace(), "0" * 8 if process_namespace() != "0" * 8 else "1" * 8
+    stale = tmp_path / f".tfrec-{ours}-{pid}-0123abcd.mcap"
+    stale.write_bytes(b"\x89MCAP0\r\n half written")
+    kept = {
+        tmp_path / f".tfrec-{ours}-{os.getpid()}-89abcdef.mcap": b"\x89MCAP0\r\n in progress",  # a running process's
+        tmp_path / f".tfrec-{other}-{pid}-0123abcd.mcap": b"\x89MCAP0\r\n another namespace's",
+        tmp_path / f".tfrec-{ours}-{pid}-11111111.mcap": b"the user's notes",  # named like one, not an MCAP
+        tmp_path / f".old.mcap.tmp-{pid}-0123abcd": b"\x89MCAP0\r\n tfrec 0.x's",
+        tmp_path / f".tfrec-{pid}-0123abcd.mcap": b"\x89MCAP0\r\n no namespace in the name",
+    }
+    for path, data in kept.items():
+        path.write_bytes(data)
+    folder = tmp_path / f".tfrec-{ours}-{pid}-22222222"  # a folder, where an MCAP file is written: not its kind
+    folder.mkdir()
+    (folder / "important.txt").write_text("x")
     assert main(["record", str(ROBOTS / "marm.xacro"), "--duration", "1", "--no-rrd",
                  "-o", str(tmp_path / "new.mcap")]) == 0
-    assert not stale.exists() and alive.exists()
+    assert not stale.exists()
+    assert all(path.read_bytes() == data for path, data in kept.items()) and (folder / "important.txt").exists()
     assert f"removed 1 unfinished output of killed runs: {stale.name}" in capsys.readouterr().err
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        assert remove_stale_temporaries(tmp_path) == []
+        assert remove_stale_temporaries(tmp_path, MCAP) == []
 
 
 def _mount_tmpfs(folder: Path, options: str) -> bool:

@@ -182,3 +182,17 @@ def test_the_probe_in_process(silent_server: int, web_server: int, grpc_like_ser
     assert probe(HOST, silent_server, timeout_s=0.5) == "something listens there but gave no gRPC answer within 0.5 s"
     assert probe(HOST, web_server, timeout_s=5) == "something else listens there (it does not speak gRPC)"
     assert probe("127.0.0.1", _closed_port(), timeout_s=5) == "nothing listens there (connection refused)"
+
+
+def test_a_local_cluster_that_cannot_start_is_one_line(tmp_path: Path) -> None:
+    """Under a 1 GiB address-space limit Ray's own processes cannot start, and ``ray.init`` raises a plain
+    ``Exception`` ("The current node timed out during startup"): one line, and none of the processes it started
+    is left to say "subprocess N is still running" or to outlive the run."""
+    from tests.fuzz.harness import contract_violations, run_tfrec
+
+    (tmp_path / "fleet").mkdir()
+    (tmp_path / "fleet" / "a.mcap").write_bytes((REPO / "tests" / "golden" / "mbot-sine-2s.mcap").read_bytes())
+    outcome = run_tfrec(["check", "fleet", "--engine", "ray", "--jobs", "1"], cwd=tmp_path, isolated=True)
+    assert not contract_violations(outcome, codes=()), outcome.stderr
+    assert outcome.stderr.startswith("tfrec: error: cannot start a local Ray cluster: ")
+    assert outcome.stderr.count("\n") == 1, outcome.stderr

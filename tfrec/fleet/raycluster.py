@@ -154,10 +154,30 @@ def _init(ray: Any, target: str, options: dict[str, Any], *, failed: str) -> Non
     """``ray.init`` with its output silenced; ``failed`` starts the message of a failure."""
     with quiet_stderr(), warnings.catch_warnings():
         warnings.simplefilter("ignore")
+        message = None
         try:
             ray.init(address=target, **options)
-        except (ConnectionError, TimeoutError, RuntimeError, ValueError) as err:
-            raise FleetError(f"{failed}: {_ray_says(err)}") from None
+        except Exception as err:
+            # Ray raises these, and a plain Exception for a node that does not start (under a memory limit, say);
+            # anything else is a bug and keeps its traceback
+            if not isinstance(err, (ConnectionError, TimeoutError, RuntimeError, ValueError)) and type(err) is not Exception:
+                raise
+            message = _ray_says(err)
+        if message is not None:  # out of the except clause: the error's frames, which hold Ray's processes, are gone
+            _stop_what_started(ray)
+            raise FleetError(f"{failed}: {message}")
+
+
+def _stop_what_started(ray: Any) -> None:
+    """After a failed ``ray.init``: stop the processes it started, and let their handles go while warnings are
+    silenced (each would say "subprocess N is still running")."""
+    import gc
+
+    try:
+        ray.shutdown()
+    except (RuntimeError, OSError, ValueError):
+        pass
+    gc.collect()
 
 
 def _ray_says(err: BaseException) -> str:

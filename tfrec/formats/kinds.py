@@ -80,6 +80,25 @@ class Rosbag2Folder:
     def inner_names(self, target: Path) -> tuple[str, ...]:
         return ("metadata.yaml", bag_storage_name(target.name))
 
+    def unfinished(self, path: Path) -> bool:
+        """A folder of regular files only: ``metadata.yaml`` and storage files, each empty or beginning as MCAP,
+        SQLite or zstd (what a bag being written holds)."""
+        try:
+            with os.scandir(path) as scan:
+                entries = list(scan)
+        except OSError:
+            return False
+        for entry in entries:
+            if entry.name == "metadata.yaml" and entry.is_file(follow_symlinks=False):
+                continue
+            try:
+                head = read_head(Path(entry.path), 16)
+            except NotOurs:
+                return False
+            if head and not head.startswith(STORAGE_SIGNATURES):
+                return False
+        return True
+
 
 def _after_path(message: str) -> str:
     """An error's message without the path it begins with."""
