@@ -17,7 +17,7 @@ import warnings
 from collections.abc import Iterator, Sequence
 from typing import TextIO
 
-from tfrec import __version__
+from tfrec._version import __version__
 from tfrec.cli._common import (
     PROG,
     Parser,

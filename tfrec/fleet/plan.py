@@ -21,7 +21,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from tfrec import __version__
+from tfrec._version import __version__
 from tfrec.conventions import CHECK_POS_TOL, CHECK_ROT_TOL, DIFF_JOINT_TOL, DIFF_POS_TOL, DIFF_ROT_TOL
 from tfrec.errors import FleetError
 from tfrec.fleet.discover import Pair

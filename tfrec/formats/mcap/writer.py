@@ -27,7 +27,7 @@ from typing import IO, TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec import __version__
+from tfrec._version import __version__
 from tfrec.conventions import (
     COMPRESSIONS,
     DEFAULT_START_TIME_NS,
