@@ -106,24 +106,40 @@ def _stage(module: str) -> Any:
     """The stage ``module``, imported by an import statement (no ``importlib``: the import graph stays what
     import-linter sees)."""
     if module == "tfrec.description":
-        import tfrec.description as found
-    elif module == "tfrec.trajectory":
-        import tfrec.trajectory as found
-    elif module == "tfrec.kinematics":
-        import tfrec.kinematics as found
-    elif module == "tfrec.recording":
-        import tfrec.recording as found
-    elif module == "tfrec.recorder":
-        import tfrec.recorder as found
-    elif module == "tfrec.formats":
-        import tfrec.formats as found
-    elif module == "tfrec.diff":
-        import tfrec.diff as found
-    elif module == "tfrec.replay":
-        import tfrec.replay as found
-    else:
-        import tfrec.robots as found
-    return found
+        import tfrec.description
+
+        return tfrec.description
+    if module == "tfrec.trajectory":
+        import tfrec.trajectory
+
+        return tfrec.trajectory
+    if module == "tfrec.kinematics":
+        import tfrec.kinematics
+
+        return tfrec.kinematics
+    if module == "tfrec.recording":
+        import tfrec.recording
+
+        return tfrec.recording
+    if module == "tfrec.recorder":
+        import tfrec.recorder
+
+        return tfrec.recorder
+    if module == "tfrec.formats":
+        import tfrec.formats
+
+        return tfrec.formats
+    if module == "tfrec.diff":
+        import tfrec.diff
+
+        return tfrec.diff
+    if module == "tfrec.replay":
+        import tfrec.replay
+
+        return tfrec.replay
+    import tfrec.robots
+
+    return tfrec.robots
 
 
 def __getattr__(name: str) -> Any:  # lazy: each stage imports its heavy libraries itself
