@@ -177,7 +177,7 @@ def resume(tasks: Sequence[Task], previous: Sequence[Mapping[str, Any]]) -> tupl
 
     Args:
         tasks: from :func:`check_tasks` or :func:`diff_tasks`.
-        previous: the rows of the previous report (:func:`tfrec.formats.report.read_report`).
+        previous: the rows of the previous report (:func:`tfrec.fleet.report.read_report`).
 
     Returns:
         (tasks to run, in their order; rows to keep, grouped by task in the same order).

@@ -8,7 +8,7 @@
   bounded YAML loader, and the storage files it lists (MCAP, SQLite or zstd-compressed), nothing else: no other
   file, no subfolder, no link. Replacing it removes exactly those entries.
 
-The reports of ``tfrec check`` have their kinds in :mod:`tfrec.formats.report`, pictures in :mod:`tfrec.plots`.
+The reports of ``tfrec check`` have their kinds in :mod:`tfrec.fleet.report`, pictures in :mod:`tfrec.plots`.
 """
 
 from __future__ import annotations
