@@ -73,9 +73,8 @@ if TYPE_CHECKING:
     from tfrec.description import load_description, parse_urdf
     from tfrec.diff import assert_descriptions_match, assert_recordings_match, compare, compare_descriptions
     from tfrec.formats import read_recording
-    from tfrec.kinematics import Transforms
     from tfrec.recorder import plan_outputs, record
-    from tfrec.recording import Recording
+    from tfrec.recording import Recording, Transforms
     from tfrec.replay import check_replay, load_replay
     from tfrec.robots import RecordedRobot, find_robots
     from tfrec.trajectory import JointTrajectory, make_trajectory
@@ -85,7 +84,7 @@ _LAZY = {
     "parse_urdf": "tfrec.description",
     "make_trajectory": "tfrec.trajectory",
     "JointTrajectory": "tfrec.trajectory",
-    "Transforms": "tfrec.kinematics",
+    "Transforms": "tfrec.recording",
     "record": "tfrec.recorder",
     "plan_outputs": "tfrec.recorder",
     "Recording": "tfrec.recording",

@@ -1,12 +1,19 @@
-"""What a recording holds, format aside: the :class:`Recording` every reader builds.
+"""What a recording holds, format aside: the :class:`Recording` every reader builds, and the TF types the stages share.
 
 The readers in :mod:`tfrec.formats` build one (:func:`tfrec.formats.read_recording`); ``info``,
-``replay``, ``diff``, ``convert`` and ``check`` only read it.
+``replay``, ``diff``, ``convert`` and ``check`` only read it. TF comes in two shapes, both here: frame pairs that
+share their stamps (:class:`Transforms`: what forward kinematics computes, what the sinks write and the viewer
+logs; at one instant, :meth:`Transforms.poses` gives the ``(parent, child) → (translation, rotation)`` mapping of
+latched transforms) and one recorded pair with stamps of its own (:class:`FrameSeries`: a recording's pairs are
+published at different instants).
 """
 
 from __future__ import annotations
 
+import io
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from xml.etree import ElementTree
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,6 +27,8 @@ __all__ = [
     "RobotTopics",
     "TopicInfo",
     "TopicStats",
+    "Transforms",
+    "robot_name",
 ]
 
 Array = NDArray[np.float64]
@@ -107,6 +116,57 @@ class JointStates:
 
     def __len__(self) -> int:
         return len(self.time_ns)
+
+
+@dataclass(frozen=True, slots=True)
+class Transforms:
+    """K transforms ``parent_from_child`` at N instants.
+
+    Attributes:
+        parents: frame ids of the parent frames (frame prefix included), length K.
+        children: frame ids of the child frames, length K.
+        translation: float64 (N, K, 3), metres: the child origin in the parent frame.
+        rotation: float64 (N, K, 4), unit quaternions (x, y, z, w) with w >= 0.
+    """
+
+    parents: tuple[str, ...]
+    children: tuple[str, ...]
+    translation: Array
+    rotation: Array
+
+    def __post_init__(self) -> None:
+        k = len(self.children)
+        n = self.translation.shape[0] if self.translation.ndim == 3 else -1
+        if len(self.parents) != k or self.translation.shape != (n, k, 3) or self.rotation.shape != (n, k, 4):
+            raise ValueError(
+                f"inconsistent transforms: {len(self.parents)} parents, {k} children, "
+                f"translation {self.translation.shape}, rotation {self.rotation.shape}"
+            )
+
+    def __len__(self) -> int:
+        """N, the number of instants."""
+        return int(self.translation.shape[0])
+
+    @classmethod
+    def from_poses(cls, poses: Mapping[tuple[str, str], tuple[Array, Array]]) -> Transforms:
+        """Transforms at one instant (N = 1) of frame pairs, (parent, child) → (translation (3,), rotation (4,))."""
+        k = len(poses)
+        return cls(
+            tuple(parent for parent, _ in poses),
+            tuple(child for _, child in poses),
+            np.array([t for t, _ in poses.values()], dtype=np.float64).reshape(1, k, 3),
+            np.array([r for _, r in poses.values()], dtype=np.float64).reshape(1, k, 4),
+        )
+
+    def poses(self, instant: int = 0) -> dict[tuple[str, str], tuple[Array, Array]]:
+        """The transforms at one instant, (parent, child) → (translation (3,), rotation (4,)) (views).
+
+        The form a replay holds latched transforms in; :meth:`from_poses` is the inverse.
+        """
+        return {
+            (parent, child): (self.translation[instant, k], self.rotation[instant, k])
+            for k, (parent, child) in enumerate(zip(self.parents, self.children))
+        }
 
 
 @dataclass(frozen=True, slots=True)
@@ -234,3 +294,13 @@ class Recording:
         """Every namespace with robot topics, the root (``""``) first, then in name order."""
         root = [""] if self.robot_topics("") else []
         return root + sorted(name for name, topics in self.namespaces.items() if name and topics)
+
+
+def robot_name(urdf: str) -> str | None:
+    """The ``name`` of a URDF's ``<robot>`` element; None when it has none or is not XML."""
+    try:
+        for _, element in ElementTree.iterparse(io.BytesIO(urdf.encode("utf-8")), events=("start",)):
+            return element.get("name") if element.tag == "robot" else None
+    except ElementTree.ParseError:
+        return None
+    return None

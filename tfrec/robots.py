@@ -21,18 +21,16 @@ into its robots, one :class:`RecordedRobot` each:
 
 from __future__ import annotations
 
-import io
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
-from xml.etree import ElementTree
 
 import numpy as np
 from numpy.typing import NDArray
 
 from tfrec.errors import DescriptionError
 from tfrec.model import Robot
-from tfrec.recording import FrameSeries, JointStates, Recording, RobotTopics
+from tfrec.recording import FrameSeries, JointStates, Recording, RobotTopics, robot_name
 
 __all__ = [
     "OTHER_FRAMES",
@@ -111,16 +109,6 @@ class RecordedRobot:
             seen.setdefault(parent)
             seen.setdefault(child)
         return list(seen)
-
-
-def robot_name(urdf: str) -> str | None:
-    """The ``name`` of a URDF's ``<robot>`` element; None when it has none or is not XML."""
-    try:
-        for _, element in ElementTree.iterparse(io.BytesIO(urdf.encode("utf-8")), events=("start",)):
-            return element.get("name") if element.tag == "robot" else None
-    except ElementTree.ParseError:
-        return None
-    return None
 
 
 def pair_robots(a: Sequence[RecordedRobot],

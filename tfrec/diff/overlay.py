@@ -25,7 +25,7 @@ from tfrec.errors import printable
 from tfrec.formats.kinds import RRD
 from tfrec.formats.rrd.overlay import OverlayErrors, OverlayRobot
 from tfrec.formats.rrd.overlay import write_overlay as write_rrd
-from tfrec.kinematics.fk import Transforms
+from tfrec.recording import Transforms
 from tfrec.resample import data_start_ns
 
 __all__ = ["write_overlay"]

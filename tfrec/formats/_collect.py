@@ -34,8 +34,7 @@ from tfrec.errors import ReadError, TfrecWarning
 from tfrec.formats.ros.decode import JointStateAccumulator, TFAccumulator, transforms_of
 from tfrec.formats.ros.definitions import foreign_layout
 from tfrec.formats.ros.joint_names import repeated_joints
-from tfrec.recording import FrameSeries, JointStates, Recording, RobotTopics, TopicStats
-from tfrec.robots import robot_name
+from tfrec.recording import FrameSeries, JointStates, Recording, RobotTopics, TopicStats, robot_name
 
 __all__ = [
     "DECODED_TOPICS",

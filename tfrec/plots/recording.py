@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from tfrec.errors import DescriptionError, TfrecWarning, display_path
 from tfrec.frames import FrameTree, frame_tree, graph_problems
-from tfrec.kinematics.fk import Transforms, root_from_link
+from tfrec.kinematics.fk import root_from_link
 from tfrec.model import JointType, Robot
 from tfrec.plots._figure import (
     MAX_POINTS,
@@ -31,7 +31,7 @@ from tfrec.plots._figure import (
     plot_format,
     refuse_existing,
 )
-from tfrec.recording import JointStates, Recording
+from tfrec.recording import JointStates, Recording, Transforms
 from tfrec.resample import align, data_start_ns
 
 if TYPE_CHECKING:

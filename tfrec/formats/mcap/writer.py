@@ -22,7 +22,7 @@ import struct
 import zlib
 from collections.abc import Callable, Sequence
 from functools import cache
-from typing import IO, TYPE_CHECKING, Any
+from typing import IO, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -57,9 +57,7 @@ from tfrec.formats.mcap.records import (
 from tfrec.formats.ros.encode import JointStateEncoder, TFMessageEncoder, encode_string
 from tfrec.formats.ros.types import typestore
 from tfrec.formats.rosbag2.metadata import QOS_LATCHED, QOS_VOLATILE, bag_info, bag_metadata_yaml, qos_yaml
-
-if TYPE_CHECKING:
-    from tfrec.kinematics.fk import Transforms
+from tfrec.recording import Transforms
 
 __all__ = [
     "DEFAULT_CHUNK_BYTES",

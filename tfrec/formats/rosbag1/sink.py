@@ -17,7 +17,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,9 +25,7 @@ from tfrec.conventions import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC
 from tfrec.formats.ros.encode import JointStateEncoder, TFMessageEncoder, check_ros1_times, encode_string
 from tfrec.formats.ros.types import ros1_message_definition
 from tfrec.formats.rosbag1.writer import CALLERID, DEFAULT_CHUNK_BYTES, Ros1BagWriter
-
-if TYPE_CHECKING:
-    from tfrec.kinematics.fk import Transforms
+from tfrec.recording import Transforms
 
 __all__ = ["TOPICS", "Ros1BagSink"]
 

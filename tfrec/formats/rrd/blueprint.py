@@ -35,9 +35,9 @@ from tfrec.formats.rrd.paths import (
     velocity_entity,
 )
 from tfrec.frames import frame_tree
-from tfrec.kinematics.fk import Transforms
 from tfrec.kinematics.rotations import quaternion_rotate
 from tfrec.model import JointType, Robot
+from tfrec.recording import Transforms
 
 __all__ = [
     "EYE_PITCH_DEG",

@@ -40,8 +40,8 @@ from tfrec.formats.rrd.columns import time_column
 from tfrec.formats.rrd.geometry import colour_archetype
 from tfrec.formats.rrd.paths import TIMELINE, visual_entity
 from tfrec.formats.rrd.sink import RerunSink
-from tfrec.kinematics.fk import Transforms
 from tfrec.model import Robot
+from tfrec.recording import Transforms
 
 __all__ = [
     "DIFF_ROOT",

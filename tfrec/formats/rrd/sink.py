@@ -45,8 +45,9 @@ from tfrec.formats.rrd.paths import (
     velocity_entity,
     visual_entity,
 )
-from tfrec.kinematics.fk import Transforms, root_from_link
+from tfrec.kinematics.fk import root_from_link
 from tfrec.model import Mesh, Robot
+from tfrec.recording import Transforms
 
 __all__ = ["RerunSink"]
 

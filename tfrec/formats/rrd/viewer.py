@@ -38,8 +38,8 @@ from tfrec.errors import WriteError
 from tfrec.formats.rrd.blueprint import blueprint_of
 from tfrec.formats.rrd.paths import APPLICATION_ID
 from tfrec.formats.rrd.sink import RerunSink
-from tfrec.kinematics.fk import Transforms
 from tfrec.model import Robot
+from tfrec.recording import Transforms
 
 __all__ = ["RerunReplaySink", "check_can_connect", "check_can_spawn", "open_rerun_sink"]
 
