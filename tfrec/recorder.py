@@ -236,7 +236,7 @@ def record(
 
                 sinks.append(Ros1BagSink(outputs.path(plan.ros1_bag, kind=ROS1_BAG), compression=compression or "none"))
             if plan.rrd is not None:
-                from tfrec.formats.rrd.sink import RerunSink
+                from tfrec.viewer.sink import RerunSink
 
                 sinks.append(RerunSink(
                     outputs.path(plan.rrd, kind=RRD), robot=robot, package_paths=package_paths, frame_prefix=frame_prefix,

@@ -9,7 +9,8 @@ format each:
 - :mod:`~tfrec.formats.mcap`: MCAP records, summary section, reader and writer;
 - :mod:`~tfrec.formats.rosbag1`: ROS 1 bags;
 - :mod:`~tfrec.formats.rosbag2`: rosbag2 folders (``metadata.yaml``, QoS, sqlite3);
-- :mod:`~tfrec.formats.rrd`: Rerun recordings: entity paths, geometry, the sink, the reader, the viewer.
+- :mod:`~tfrec.formats.rrd`: Rerun recordings read back: entity paths, the reader (the writing side is
+  :mod:`tfrec.viewer`).
 
 For ``tfrec convert``, :mod:`~tfrec.formats.messages` opens any recording's messages raw, chunk by chunk,
 :mod:`~tfrec.formats.translate` carries them between ROS 1 and ROS 2, and :mod:`~tfrec.formats.output`

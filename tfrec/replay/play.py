@@ -36,7 +36,7 @@ Pair = tuple[str, str]
 
 
 class ReplaySink(Protocol):
-    """Where a replay goes (:class:`tfrec.formats.rrd.viewer.RerunReplaySink`, or a test double).
+    """Where a replay goes (:class:`tfrec.viewer.spawn.RerunReplaySink`, or a test double).
 
     ``begin`` is called once per robot of the replay (``robot``: its index, in order); the samples
     of each robot go with its index.
@@ -244,7 +244,7 @@ def check_play_options(
         raise ReplayError("`save` and `connect` exclude each other")
     _check_loop(loop, live=save is None)
     if save is None:
-        from tfrec.formats.rrd.viewer import check_can_connect, check_can_spawn
+        from tfrec.viewer.spawn import check_can_connect, check_can_spawn
 
         if connect is None:
             check_can_spawn()
@@ -287,7 +287,7 @@ def replay_to_rerun(
         ReplayError: bad options, an output that exists, no viewer to spawn or reach, or a
             file that cannot be written.
     """
-    from tfrec.formats.rrd.viewer import open_rerun_sink
+    from tfrec.viewer.spawn import open_rerun_sink
 
     if not checked:
         check_play_options(save=save, connect=connect, rate=rate, loop=loop, force=force, inputs=[replay.path])

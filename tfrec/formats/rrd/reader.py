@@ -37,7 +37,7 @@ RRD_MAGIC = b"RRF2"
 
 
 def read_rrd(path: Path, options: ReadOptions) -> Recording:
-    """Read an ``.rrd`` written by :class:`tfrec.formats.rrd.sink.RerunSink`, decoding the kinds of
+    """Read an ``.rrd`` written by :class:`tfrec.viewer.sink.RerunSink`, decoding the kinds of
     topics ``options`` select (an ``.rrd`` has no topic names: remapping and namespaces do not apply).
 
     Raises:

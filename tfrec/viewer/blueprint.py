@@ -10,7 +10,7 @@
 - the TF tree (what ROS's ``view_frames`` draws) is a graph of frames, parent above child
   (:func:`tf_tree_layout`), in a panel of its own.
 
-Only builds Rerun objects; :mod:`tfrec.formats.rrd.sink` logs and sends them.
+Only builds Rerun objects; :mod:`tfrec.viewer.sink` logs and sends them.
 """
 
 from __future__ import annotations
