@@ -33,10 +33,10 @@ from tfrec.convert.joints import plan_derivations
 from tfrec.convert.stream import Copier, CopyReport
 from tfrec.errors import ConvertError, TfrecWarning
 from tfrec.formats.kinds import MCAP, ROS1_BAG, ROSBAG2, RRD
-from tfrec.formats.messages import listed_extras, open_messages
 from tfrec.formats.output import open_output
 from tfrec.formats.reader import identify_recording, read_recording
 from tfrec.formats.ros.joint_names import repeated_joints
+from tfrec.formats.source import listed_extras, open_messages
 from tfrec.model import Robot
 from tfrec.recording import Recording
 from tfrec.resample import log_start_ns

@@ -21,7 +21,7 @@ from typing import final
 from tfrec._outputs import FileKind, NotOurs, read_head
 from tfrec.errors import ReadError
 from tfrec.formats.mcap.records import MCAP_MAGIC
-from tfrec.formats.rosbag1._records import ROS1_MAGIC
+from tfrec.formats.rosbag1.records import ROS1_MAGIC
 from tfrec.formats.rosbag2.metadata import bag_storage_name, read_bag_metadata
 from tfrec.formats.rrd.reader import RRD_MAGIC
 
