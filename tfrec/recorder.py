@@ -23,7 +23,8 @@ from tfrec._outputs import OutputKind, check_outputs
 from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.errors import WriteError
 from tfrec.formats.kinds import MCAP, ROS1_BAG, ROSBAG2, RRD
-from tfrec.formats.mcap.writer import McapSink, check_time_range
+from tfrec.formats.mcap.sink import McapSink
+from tfrec.formats.mcap.writer import check_time_range
 from tfrec.formats.rosbag2.metadata import bag_storage_name, write_bag_metadata
 from tfrec.kinematics.fk import DEFAULT_CHUNK_SAMPLES, iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot

@@ -18,7 +18,7 @@ import pytest
 from tfrec import cli
 from tfrec.description import load_description, parse_urdf
 from tfrec.errors import ReadError, ReplayError
-from tfrec.formats.mcap.writer import McapSink
+from tfrec.formats.mcap.sink import McapSink
 from tfrec.formats.rrd.paths import joint_entity, link_entity, pair_entity, tf_entity, tf_static_entity
 from tfrec.kinematics.fk import Transforms, dynamic_transforms, iter_dynamic_chunks, static_transforms
 from tfrec.kinematics.joints import all_joint_states

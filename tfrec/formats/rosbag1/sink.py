@@ -9,8 +9,9 @@ Connections, in id order, all published by :data:`~tfrec.formats.rosbag1.writer.
    a robot without moving joints).
 3. ``/tf``, ``tf2_msgs/TFMessage``: one per sample; none for a robot without moving joints.
 
-Every message's bag time is its header stamp. The sink has :class:`tfrec.mcap_io.McapSink`'s
-interface, so the record pipeline drives both the same way.
+Every message's bag time is its header stamp. A thin layer over the one ROS 1 writer
+(:class:`~tfrec.formats.rosbag1.writer.Ros1BagWriter`), behind the :class:`~tfrec.formats.sink.RecordSink`
+protocol, so the record pipeline drives it as it drives the MCAP and Rerun sinks.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 A rosbag2 bag is a folder ``<name>/`` holding ``metadata.yaml`` and ``<name>_0.mcap``. The
 metadata is rosbag2's BagMetadata as yaml-cpp encodes it (Jazzy and later: metadata version 9,
 offered QoS profiles as a YAML list with string enums); the same text, less the file list, is embedded
-in the MCAP as its ``rosbag2`` metadata record (:class:`tfrec.formats.mcap.writer.McapSink`, which
+in the MCAP as its ``rosbag2`` metadata record (:class:`tfrec.formats.mcap.sink.McapSink`, which
 builds it with :func:`bag_info` and keeps it for :func:`write_bag_metadata`). Only ``metadata.yaml``
 names the bag's files: an MCAP's bytes do not depend on the name it is written under (the same
 recording as ``out.mcap`` and as ``bag/bag_0.mcap`` is the same bytes). The offered QoS profiles are defined
@@ -107,7 +107,7 @@ def write_bag_metadata(bag_dir: str | Path, info: Mapping[str, Any], *, file_nam
 
     Args:
         bag_dir: the bag folder (it exists).
-        info: the bag's BagMetadata, from :func:`bag_info` (:attr:`tfrec.formats.mcap.writer.McapSink.bag_info`
+        info: the bag's BagMetadata, from :func:`bag_info` (:attr:`tfrec.formats.mcap.sink.McapSink.bag_info`
             of its MCAP).
         file_name: the storage file in the folder (rosbag2's ``<folder>_0.mcap``), listed in
             ``relative_file_paths`` and ``files``.
