@@ -26,6 +26,7 @@ from tfrec.formats.kinds import MCAP, ROS1_BAG, ROSBAG2, RRD
 from tfrec.formats.mcap.sink import McapSink
 from tfrec.formats.mcap.writer import check_time_range
 from tfrec.formats.rosbag2.metadata import bag_storage_name, write_bag_metadata
+from tfrec.formats.sink import RecordSink
 from tfrec.kinematics.fk import DEFAULT_CHUNK_SAMPLES, iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
 from tfrec.trajectory.types import JointTrajectory, TrajectoryKind
@@ -168,12 +169,10 @@ class RecordResult:
     end_time_ns: int
 
 
-def _abort_sinks(sinks: Sequence[Any]) -> None:
-    """Close sinks that hold files open (Rerun's writer) before their temporary files are removed."""
+def _abort_sinks(sinks: Sequence[RecordSink]) -> None:
+    """Give the outputs up (Rerun's writer holds its file open) before their temporary files are removed."""
     for sink in sinks:
-        abort = getattr(sink, "abort", None)
-        if abort is not None:
-            abort()
+        sink.abort()
 
 
 def record(
@@ -217,7 +216,7 @@ def record(
         check_rerun_robot(robot, os.fspath(plan.rrd), hint="record without it (`no_rrd`)")
     static = static_transforms(robot, frame_prefix=frame_prefix)
     streams = []
-    sinks: list[Any] = []
+    sinks: list[RecordSink] = []
     with AtomicOutputs(replace=plan.force) as outputs:
         try:
             mcap_sink: McapSink | None = None
