@@ -74,9 +74,9 @@ if TYPE_CHECKING:
     from tfrec.diff import assert_descriptions_match, assert_recordings_match, compare, compare_descriptions
     from tfrec.formats import read_recording
     from tfrec.recorder import plan_outputs, record
-    from tfrec.recording import Recording, Transforms
+    from tfrec.recording import RecordedRobot, Recording, Transforms
     from tfrec.replay import check_replay, load_replay
-    from tfrec.robots import RecordedRobot, find_robots
+    from tfrec.robots import find_robots
     from tfrec.trajectory import JointTrajectory, make_trajectory
 
 _LAZY = {
@@ -96,7 +96,7 @@ _LAZY = {
     "load_replay": "tfrec.replay",
     "check_replay": "tfrec.replay",
     "find_robots": "tfrec.robots",
-    "RecordedRobot": "tfrec.robots",
+    "RecordedRobot": "tfrec.recording",
 }
 """Each lazily exported name and the module it comes from (docs/api.md)."""
 

@@ -34,7 +34,7 @@ from tfrec.formats.ros.decode import JointStateAccumulator, RawMessages, TFAccum
 from tfrec.formats.ros.definitions import foreign_layout
 from tfrec.formats.ros.joint_names import repeated_joints
 from tfrec.formats.ros.types import known_ros1_typestore, topic_deserializer
-from tfrec.recording import FrameSeries, JointStates, Recording, RobotTopics, TopicStats, robot_name
+from tfrec.recording import FrameSeries, JointStates, RecordedRobot, Recording, TopicStats, robot_name
 
 __all__ = [
     "DECODED_TOPICS",
@@ -336,8 +336,8 @@ class Collector:
                 part["tf"] = tf = _frames(decoded.accumulator)
                 self._warn_zero_stamps(topic, np.concatenate([s.time_ns for s in tf.values()] or [np.zeros(0, np.int64)]))
         for namespace, part in parts.items():
-            topics = RobotTopics(tuple(part.get("descriptions", ())), part.get("joint_states"),
-                                 part.get("tf", {}), part.get("tf_static", {}))
+            topics = RecordedRobot(namespace, tuple(part.get("descriptions", ())), part.get("joint_states"),
+                                   part.get("tf", {}), part.get("tf_static", {}))
             if namespace:
                 rec.namespaces[namespace] = topics
                 continue

@@ -258,7 +258,7 @@ def one_robot(recording: Recording, namespace: str | None = None) -> Recording:
                         + (" (they share one namespace: plot one of them with --frames)" if namespace is not None
                            else ""))
     found_robot = robots[0]
-    return dataclasses.replace(recording, robot_description=found_robot.description, robot_descriptions=(),
+    return dataclasses.replace(recording, robot_description=found_robot.robot_description, robot_descriptions=(),
                                joint_states=found_robot.joint_states, tf=dict(found_robot.tf),
                                tf_static=dict(found_robot.tf_static), namespaces={})
 

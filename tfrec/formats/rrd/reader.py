@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from tfrec.conventions import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC, robot_topic_kind
 from tfrec.errors import ReadError
 from tfrec.formats._collect import DECODED_TOPICS, ReadOptions
-from tfrec.recording import FrameSeries, JointStates, Recording, RobotTopics, TopicInfo
+from tfrec.recording import FrameSeries, JointStates, RecordedRobot, Recording, TopicInfo
 
 __all__ = ["RRD_MAGIC", "read_rrd"]
 
@@ -154,7 +154,7 @@ class _Entities:
         self.display_prefix = ""  # what the replay put in front of the recorded frame ids (undone here)
 
     def robot_topics(self, namespace: str, wanted: frozenset[str],
-                     times: list[NDArray[np.int64]]) -> tuple[dict[str, TopicInfo], RobotTopics]:
+                     times: list[NDArray[np.int64]]) -> tuple[dict[str, TopicInfo], RecordedRobot]:
         """The topics these entities stand for, and their data (of the kinds ``wanted``); appends the
         stamps of their time series to ``times``."""
         topics: dict[str, TopicInfo] = {}
@@ -192,9 +192,9 @@ class _Entities:
         if self.display_prefix:  # the frame ids as recorded, not as the viewer showed them
             tf = {self._recorded(pair): series for pair, series in tf.items()}
             static = {self._recorded(pair): value for pair, value in static.items()}
-        return topics, RobotTopics((description,) if description is not None else (),
-                                   joint_states if JOINT_STATES in wanted else None,
-                                   tf if TF in wanted else {}, static if TF_STATIC in wanted else {})
+        return topics, RecordedRobot(namespace, (description,) if description is not None else (),
+                                     joint_states if JOINT_STATES in wanted else None,
+                                     tf if TF in wanted else {}, static if TF_STATIC in wanted else {})
 
     def _recorded(self, pair: tuple[str, str]) -> tuple[str, str]:
         prefix = self.display_prefix
