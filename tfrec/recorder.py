@@ -110,16 +110,7 @@ def plan_outputs(
         ros1_bag = Path(out)
     elif not no_mcap:
         mcap = Path(out) if out is not None else Path(folder) / f"{stem}.mcap"
-    rrd_path: Path | None = None
-    if not no_rrd:
-        if rrd is not None:
-            rrd_path = Path(rrd)
-        elif bag_dir is not None:
-            rrd_path = bag_dir.with_name(bag_dir.name + ".rrd")
-        elif (ros1_bag or mcap) is not None:
-            rrd_path = (ros1_bag or mcap).with_suffix(".rrd")  # type: ignore[union-attr]
-        else:
-            rrd_path = Path(folder) / f"{stem}.rrd"
+    rrd_path = None if no_rrd else _rrd_path(rrd, bag_dir, ros1_bag or mcap, folder, stem)
     targets: list[tuple[Path, OutputKind]] = []
     if bag_dir is not None:
         targets.append((bag_dir, ROSBAG2))
@@ -131,6 +122,18 @@ def plan_outputs(
         targets.append((rrd_path, RRD))
     check_outputs(targets, force=force, inputs=inputs)
     return RecordingPlan(mcap=mcap, rrd=rrd_path, bag_dir=bag_dir, force=force, ros1_bag=ros1_bag)
+
+
+def _rrd_path(rrd: str | os.PathLike[str] | None, bag_dir: Path | None, main: Path | None,
+              folder: str | os.PathLike[str], stem: str | None) -> Path:
+    """Where the ``.rrd`` goes: ``rrd``, else beside the bag folder or the main output, else the default."""
+    if rrd is not None:
+        return Path(rrd)
+    if bag_dir is not None:
+        return bag_dir.with_name(bag_dir.name + ".rrd")
+    if main is not None:
+        return main.with_suffix(".rrd")
+    return Path(folder) / f"{stem}.rrd"
 
 
 def needs_stem(*, out: str | os.PathLike[str] | None, rrd: str | os.PathLike[str] | None,

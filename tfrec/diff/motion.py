@@ -116,7 +116,7 @@ def compare_descriptions(a: Source, b: Source, **options: Any) -> DescriptionDif
     return compare_motion(a, b, **options).report
 
 
-def compare_motion(
+def compare_motion(  # noqa: PLR0913 - the keyword-only options of a diff of descriptions
     a: Source,
     b: Source,
     *,
