@@ -11,7 +11,8 @@ edited in ``metadata.yaml`` to make a bag play). A bag's MCAP storage is read by
 :class:`tfrec.formats.mcap.source.McapSource`.
 
 Nothing a database brings is run: its ``topics`` and ``messages`` must be plain tables (a view or a virtual table is
-code run by every read), and a row whose timestamp is not an integer is damaged data, skipped. A database SQLite
+code run by every read), and a row whose timestamp is not an integer or whose data is not a blob is damaged data,
+skipped. A database SQLite
 refuses (a recorder killed mid-write) is read from a copy whose page count is lowered to the pages the file holds,
 in row order up to the first missing page (:func:`open_cut_database`);
 :attr:`~tfrec.formats.ros.connection.MessageSource.read_error` says what was lost.
@@ -43,11 +44,12 @@ from tfrec.formats.ros.connection import (
 from tfrec.formats.ros.definitions import MAX_DEFINITION_CHARS
 from tfrec.formats.rosbag2.metadata import qos_durability
 
-__all__ = ["INTEGER_TIME", "Sqlite3Source", "connect_read_only", "open_cut_database"]
+__all__ = ["WELL_FORMED", "Sqlite3Source", "connect_read_only", "open_cut_database"]
 
-INTEGER_TIME = "typeof(timestamp) = 'integer'"
-"""The rows read: a timestamp that is not an integer (text, a float, NULL — SQLite keeps what it is
-given) is damaged data, skipped (metadata.yaml's count then differs, with a warning)."""
+WELL_FORMED = "typeof(timestamp) = 'integer' AND typeof(data) = 'blob'"
+"""The rows read: a timestamp that is not an integer, or data that is not a blob (text, a number, NULL — SQLite
+keeps what it is given, in a table made without rosbag2's constraints), is damaged data, skipped (metadata.yaml's
+count then differs, with a warning)."""
 
 
 def connect_read_only(file: Path) -> sqlite3.Connection:
@@ -262,7 +264,7 @@ class Sqlite3Source(MessageSource):
         until = "" if self.until_ns is None else f" AND timestamp <= {int(self.until_ns)}"
         needed = [topic_id for topic_id, conn in ids.items() if self.wanted(conn)]
         cursor = db.execute(f"SELECT topic_id, timestamp, CASE WHEN topic_id IN ({', '.join(map(str, needed))}) "
-                            f"THEN data END FROM messages WHERE {INTEGER_TIME}{until}"
+                            f"THEN data END FROM messages WHERE {WELL_FORMED}{until}"
                             f"{' ORDER BY timestamp, rowid' if ordered else ''}")
         known = np.array(sorted(ids), dtype=np.int64)
         ties = _Ties()
@@ -282,7 +284,7 @@ class Sqlite3Source(MessageSource):
         yield None, self._count_rest(db, ids, f"{until} AND timestamp >= {ties.time_ns}", ties.counts)
         needed = [topic_id for topic_id, conn in ids.items() if self.wanted(conn)]
         if needed:
-            cursor = db.execute(f"SELECT topic_id, timestamp, data FROM messages WHERE {INTEGER_TIME}{until} AND "
+            cursor = db.execute(f"SELECT topic_id, timestamp, data FROM messages WHERE {WELL_FORMED}{until} AND "
                                 f"timestamp >= {ties.time_ns} AND topic_id IN ({', '.join(map(str, needed))}) "
                                 "ORDER BY timestamp, rowid")
             skip = sum(ties.counts.get(topic_id, 0) for topic_id in needed)  # those read already
@@ -296,7 +298,7 @@ class Sqlite3Source(MessageSource):
         already; returns how many."""
         total = 0
         for topic_id, count, first, last in db.execute(
-                f"SELECT topic_id, COUNT(*), MIN(timestamp), MAX(timestamp) FROM messages WHERE {INTEGER_TIME}{where} "
+                f"SELECT topic_id, COUNT(*), MIN(timestamp), MAX(timestamp) FROM messages WHERE {WELL_FORMED}{where} "
                 "GROUP BY topic_id"):
             if topic_id in ids:
                 stats = self.stats[ids[topic_id]]
@@ -328,8 +330,6 @@ class Sqlite3Source(MessageSource):
             if not len(index):
                 return None
             data = [datas[i] for i in index.tolist()]
-        if None in data:  # a NULL in the data column: an empty message
-            data = [b"" if message is None else message for message in data]
         if self.decompress is not None:
             data = [self.decompress(bytes(message)) for message in data]
         self.messages += len(index)
