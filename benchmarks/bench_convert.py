@@ -37,7 +37,7 @@ from bench_mcap import chain
 
 from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.convert import convert
-from tfrec.formats.mcap.writer import McapSink
+from tfrec.formats.mcap.sink import McapSink
 from tfrec.kinematics.fk import iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
 from tfrec.trajectory.generators import make_trajectory

@@ -241,7 +241,7 @@ def main(argv: list[str] | None = None) -> int:
         for file in files:
             fingerprint(file)
         per_file = (time.perf_counter() - started) / len(files)
-        from tfrec.formats.report import ReportWriter
+        from tfrec.fleet.report import ReportWriter
 
         rows = [row.to_dict() for row in timing2.rows] * max(1, 20_000 // len(timing2.rows))
         started = time.perf_counter()

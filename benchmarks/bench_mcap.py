@@ -31,7 +31,8 @@ from _common import best_of, machine
 
 from tfrec.conventions import DEFAULT_START_TIME_NS, NS_PER_S
 from tfrec.description import load_description, parse_urdf
-from tfrec.formats.mcap.writer import McapSink, message_definition
+from tfrec.formats.mcap.sink import McapSink
+from tfrec.formats.mcap.writer import message_definition
 from tfrec.kinematics.fk import DynamicChunk, iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
 from tfrec.recorder import plan_outputs, record

@@ -29,11 +29,11 @@ from _common import machine
 
 from tfrec.description import load_description
 from tfrec.formats.rrd.paths import TIMELINE, joint_entity, tf_entity, velocity_entity
-from tfrec.formats.rrd.sink import RerunSink
 from tfrec.kinematics.fk import DynamicChunk, iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
 from tfrec.recorder import DEFAULT_START_TIME_NS
 from tfrec.trajectory.generators import make_trajectory
+from tfrec.viewer.sink import RerunSink
 
 REPO = Path(__file__).resolve().parents[1]
 TARGET_RATIO = 100.0

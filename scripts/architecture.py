@@ -16,7 +16,8 @@ from pathlib import Path
 import tomllib
 
 REPO = Path(__file__).resolve().parents[1]
-BASE = {"tfrec.errors", "tfrec.conventions", "tfrec.model", "tfrec.recording", "tfrec._atomic"}
+BASE = {"tfrec.errors", "tfrec.conventions", "tfrec.model", "tfrec.frames", "tfrec.recording", "tfrec._atomic",
+        "tfrec._yaml", "tfrec._outputs"}
 BASE_EVERYONE = {"tfrec.errors", "tfrec.conventions", "tfrec.model"}
 """Imported by nearly every stage: their arrows are left out of the picture."""
 NOTES = {
@@ -28,14 +29,18 @@ NOTES = {
     "tfrec.replay": "play back, pace,\nre-simulate (--check)",
     "tfrec.recorder": "the record pipeline",
     "tfrec.info": "summaries",
-    "tfrec.formats": "MCAP · rosbag2 · ROS 1 · .rrd\nread_recording(): one door",
+    "tfrec.viewer": "Rerun output: sink, blueprint,\ngeometry, overlay, viewers",
+    "tfrec.formats": "MCAP · rosbag2 · ROS 1 · .rrd: one\nsource, one writer per format",
     "tfrec.resample": "alignment, interpolation",
     "tfrec.robots": "robots by namespace\nand description",
     "tfrec.kinematics": "rotations, mimic joints,\nbatched FK",
     "tfrec.trajectory": "center · random · sine ·\nsweep · CSV",
     "tfrec.description": "packages, xacro (sandboxed),\nURDF → Robot, launch files",
-    "tfrec.recording": "Recording (what a\nrecording holds)",
+    "tfrec.recording": "Recording, RecordedRobot,\nTransforms, FrameSeries",
     "tfrec._atomic": "atomic outputs",
+    "tfrec._yaml": "the one YAML loader\n(bounded) and dumper",
+    "tfrec._outputs": "outputs checked\nbefore anything is read",
+    "tfrec.frames": "the one walk of\na frame graph",
     "tfrec.model": "Robot, Joint, Link",
     "tfrec.conventions": "topics, time base,\ntolerances",
     "tfrec.errors": "TfrecError and one\nclass per layer",
@@ -109,34 +114,36 @@ def main() -> int:
     ax.set_xlim(0, width)
     ax.set_ylim(-0.4, row_h * len(rows) + 0.4)
     ax.axis("off")
-    box_w, box_h = 3.0, 0.85
+    box_h = 0.85
     centre: dict[str, tuple[float, float]] = {}
+    box_w: dict[str, float] = {}
     for r, row in enumerate(rows):
         y = row_h * (len(rows) - 1 - r) + 0.4
         for i, name in enumerate(row):
             x = width * (i + 1) / (len(row) + 1)
             centre[name] = (x, y)
+            box_w[name] = min(3.0, width / (len(row) + 1) - 0.25)
     for a, b in sorted(shown):
         (xa, ya), (xb, yb) = centre[a], centre[b]
         ax.add_patch(FancyArrowPatch((xa, ya - box_h / 2), (xb, yb + box_h / 2), arrowstyle="-|>",
                                      mutation_scale=9, color="#9aa5b1", lw=0.7,
                                      connectionstyle="arc3,rad=0.0", zorder=1))
-    palette = {"tfrec.formats": "#fde2c0", "tfrec.cli": "#d7e3fc"}
+    palette = {"tfrec.formats": "#fde2c0", "tfrec.viewer": "#fde2c0", "tfrec.cli": "#d7e3fc"}
     for name, (x, y) in centre.items():
         colour = palette.get(name, "#e8f5e9" if name not in BASE else "#eeeeee")
-        ax.add_patch(FancyBboxPatch((x - box_w / 2, y - box_h / 2), box_w, box_h,
+        ax.add_patch(FancyBboxPatch((x - box_w[name] / 2, y - box_h / 2), box_w[name], box_h,
                                     boxstyle="round,pad=0.02,rounding_size=0.08", fc=colour, ec="#52606d",
                                     lw=1.0, zorder=2))
-        ax.text(x, y + 0.18, name.removeprefix("tfrec.").rstrip("_") if name != "tfrec._atomic" else "_atomic",
+        ax.text(x, y + 0.18, name.removeprefix("tfrec."),
                 ha="center", va="center", fontsize=11, fontweight="bold", zorder=3)
         ax.text(x, y - 0.14, NOTES.get(name, ""), ha="center", va="center", fontsize=7.5, color="#323f4b",
                 zorder=3, linespacing=1.0)
+    ax.text(0.2, -0.2, "A → B: A imports B (arrows implied by others, and those to errors, conventions and model,"
+            " which every stage uses, are left out)", fontsize=8, color="#52606d")
     out = REPO / "docs" / "images"
     out.mkdir(parents=True, exist_ok=True)
     fig.savefig(out / "architecture.svg", metadata={"Date": None, "Creator": None})
     fig.savefig(out / "architecture.png", metadata={"Software": None})
-    ax.text(0.2, -0.2, "A → B: A imports B (arrows implied by others, and those to errors, conventions and model,"
-            " which every stage uses, are left out)", fontsize=8, color="#52606d")
     print(f"wrote {out / 'architecture.svg'} and .png: {len(stages)} stages, {len(edges)} imports between them")
     return 0
 

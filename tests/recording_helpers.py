@@ -11,7 +11,8 @@ from typing import Any
 import numpy as np
 
 from tfrec.description import load_description
-from tfrec.formats.mcap.writer import DEFAULT_START_TIME_NS, McapSink
+from tfrec.formats.mcap.sink import McapSink
+from tfrec.formats.mcap.writer import DEFAULT_START_TIME_NS
 from tfrec.kinematics.fk import Transforms, iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
 from tfrec.recording import Recording

@@ -9,9 +9,9 @@ from tests.conftest import REPO
 PACKAGE = REPO / "tfrec"
 
 
-def test_at_most_14_modules_at_the_top() -> None:
+def test_at_most_16_modules_at_the_top() -> None:
     modules = sorted(path.name for path in PACKAGE.glob("*.py"))
-    assert len(modules) <= 14, modules
+    assert len(modules) <= 16, modules
 
 
 def test_every_subpackage_has_a_docstring_and_all() -> None:
@@ -25,7 +25,7 @@ def test_every_subpackage_has_a_docstring_and_all() -> None:
 
 def test_format_libraries_only_in_formats_and_xacro_only_in_description() -> None:
     """What ruff's banned-api enforces in `make lint`, checked here too (also lazy imports in functions)."""
-    formats_only = {"mcap", "mcap_ros2", "rosbags", "rerun", "pyarrow", "yaml", "zstandard", "lz4"}
+    formats_only = {"mcap", "mcap_ros2", "rosbags", "rerun", "pyarrow", "zstandard", "lz4"}
     for path in PACKAGE.rglob("*.py"):
         inside = path.relative_to(PACKAGE).parts[0]
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
@@ -33,7 +33,9 @@ def test_format_libraries_only_in_formats_and_xacro_only_in_description() -> Non
                      else [node.module or ""] if isinstance(node, ast.ImportFrom) and node.level == 0 else [])
             for name in names:
                 top = name.split(".")[0]
-                assert top not in formats_only or inside == "formats", f"{path} imports {name}"
+                assert top not in formats_only or inside == "formats" or (top in ("rerun", "pyarrow") and inside == "viewer") or (
+                    top == "pyarrow" and path == PACKAGE / "fleet" / "report.py"), f"{path} imports {name}"
+                assert top != "yaml" or inside == "_yaml.py", f"{path} imports {name}"
                 assert top != "xacro" or inside == "description", f"{path} imports {name}"
                 assert top != "matplotlib" or inside == "plots", f"{path} imports {name}"
                 assert top != "ray" or inside == "fleet", f"{path} imports {name}"

@@ -261,7 +261,7 @@ def test_mbot_record_and_info_json(tmp_path: Path, capsys: pytest.CaptureFixture
 def test_sink_streams_chunk_by_chunk() -> None:
     """Bytes reach the stream as chunks complete, not all at the end (the one-hour peak-memory figure
     is measured by benchmarks/bench_mcap.py)."""
-    from tfrec.formats.mcap.writer import McapSink
+    from tfrec.formats.mcap.sink import McapSink
     from tfrec.kinematics.fk import iter_dynamic_chunks, static_transforms
 
     robot = load_robot("marm")

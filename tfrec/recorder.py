@@ -23,8 +23,10 @@ from tfrec._outputs import OutputKind, check_outputs
 from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.errors import WriteError
 from tfrec.formats.kinds import MCAP, ROS1_BAG, ROSBAG2, RRD
-from tfrec.formats.mcap.writer import McapSink, check_time_range
+from tfrec.formats.mcap.sink import McapSink
+from tfrec.formats.mcap.writer import check_time_range
 from tfrec.formats.rosbag2.metadata import bag_storage_name, write_bag_metadata
+from tfrec.formats.sink import RecordSink
 from tfrec.kinematics.fk import DEFAULT_CHUNK_SAMPLES, iter_dynamic_chunks, static_transforms
 from tfrec.model import Robot
 from tfrec.trajectory.types import JointTrajectory, TrajectoryKind
@@ -108,16 +110,7 @@ def plan_outputs(
         ros1_bag = Path(out)
     elif not no_mcap:
         mcap = Path(out) if out is not None else Path(folder) / f"{stem}.mcap"
-    rrd_path: Path | None = None
-    if not no_rrd:
-        if rrd is not None:
-            rrd_path = Path(rrd)
-        elif bag_dir is not None:
-            rrd_path = bag_dir.with_name(bag_dir.name + ".rrd")
-        elif (ros1_bag or mcap) is not None:
-            rrd_path = (ros1_bag or mcap).with_suffix(".rrd")  # type: ignore[union-attr]
-        else:
-            rrd_path = Path(folder) / f"{stem}.rrd"
+    rrd_path = None if no_rrd else _rrd_path(rrd, bag_dir, ros1_bag or mcap, folder, stem)
     targets: list[tuple[Path, OutputKind]] = []
     if bag_dir is not None:
         targets.append((bag_dir, ROSBAG2))
@@ -129,6 +122,18 @@ def plan_outputs(
         targets.append((rrd_path, RRD))
     check_outputs(targets, force=force, inputs=inputs)
     return RecordingPlan(mcap=mcap, rrd=rrd_path, bag_dir=bag_dir, force=force, ros1_bag=ros1_bag)
+
+
+def _rrd_path(rrd: str | os.PathLike[str] | None, bag_dir: Path | None, main: Path | None,
+              folder: str | os.PathLike[str], stem: str | None) -> Path:
+    """Where the ``.rrd`` goes: ``rrd``, else beside the bag folder or the main output, else the default."""
+    if rrd is not None:
+        return Path(rrd)
+    if bag_dir is not None:
+        return bag_dir.with_name(bag_dir.name + ".rrd")
+    if main is not None:
+        return main.with_suffix(".rrd")
+    return Path(folder) / f"{stem}.rrd"
 
 
 def needs_stem(*, out: str | os.PathLike[str] | None, rrd: str | os.PathLike[str] | None,
@@ -167,12 +172,10 @@ class RecordResult:
     end_time_ns: int
 
 
-def _abort_sinks(sinks: Sequence[Any]) -> None:
-    """Close sinks that hold files open (Rerun's writer) before their temporary files are removed."""
+def _abort_sinks(sinks: Sequence[RecordSink]) -> None:
+    """Give the outputs up (Rerun's writer holds its file open) before their temporary files are removed."""
     for sink in sinks:
-        abort = getattr(sink, "abort", None)
-        if abort is not None:
-            abort()
+        sink.abort()
 
 
 def record(
@@ -216,7 +219,7 @@ def record(
         check_rerun_robot(robot, os.fspath(plan.rrd), hint="record without it (`no_rrd`)")
     static = static_transforms(robot, frame_prefix=frame_prefix)
     streams = []
-    sinks: list[Any] = []
+    sinks: list[RecordSink] = []
     with AtomicOutputs(replace=plan.force) as outputs:
         try:
             mcap_sink: McapSink | None = None
@@ -236,7 +239,7 @@ def record(
 
                 sinks.append(Ros1BagSink(outputs.path(plan.ros1_bag, kind=ROS1_BAG), compression=compression or "none"))
             if plan.rrd is not None:
-                from tfrec.formats.rrd.sink import RerunSink
+                from tfrec.viewer.sink import RerunSink
 
                 sinks.append(RerunSink(
                     outputs.path(plan.rrd, kind=RRD), robot=robot, package_paths=package_paths, frame_prefix=frame_prefix,

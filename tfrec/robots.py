@@ -4,7 +4,7 @@ A multi-robot system records each robot under a namespace (``/robot1/robot_descr
 ``/robot1/joint_states``, ``/robot1/tf``), or several robots on shared topics with prefixed
 frames (two robot_state_publishers with ``frame_prefix`` on one /tf, each publishing its own
 description on /robot_description). :func:`find_robots` turns a :class:`~tfrec.recording.Recording`
-into its robots, one :class:`RecordedRobot` each:
+into its robots, one :class:`~tfrec.recording.RecordedRobot` each (the one type of a robot's recorded data):
 
 - every robot description of a namespace is a robot (several robots may publish on one
   /robot_description: each description is one);
@@ -21,18 +21,16 @@ into its robots, one :class:`RecordedRobot` each:
 
 from __future__ import annotations
 
-import io
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
-from xml.etree import ElementTree
 
 import numpy as np
 from numpy.typing import NDArray
 
 from tfrec.errors import DescriptionError
 from tfrec.model import Robot
-from tfrec.recording import FrameSeries, JointStates, Recording, RobotTopics
+from tfrec.recording import FrameSeries, RecordedRobot, Recording, robot_name
 
 __all__ = [
     "OTHER_FRAMES",
@@ -49,78 +47,6 @@ Pair = tuple[str, str]
 
 OTHER_FRAMES = "other_frames"
 """The key's last part for a shared TF's pairs that no robot of it claims."""
-
-
-@dataclass(frozen=True)
-class RecordedRobot:
-    """One robot of a recording.
-
-    Attributes:
-        key: unique within the recording: ``""`` for the only robot of the root namespace,
-            else its namespace (``/robot1``), or with several robots in one namespace the
-            namespace and the robot's name (``left_arm``, ``/fleet/left_arm``); also the
-            entity path under which ``replay`` shows it.
-        namespace: the namespace of its description (or of its topics, without one).
-        name: the ``<robot name>`` of its description, or None.
-        description: the URDF text, or None.
-        model: the description parsed, or None (none, or unusable: ``problem`` says why).
-        problem: why the description is not a usable robot model, or None.
-        frame_prefix: what its frame ids put in front of its link names.
-        joint_states: the joint states it reads (its namespace's, else the root's), or None.
-        joint_states_namespace: the namespace they come from.
-        tf, tf_static: its TF pairs.
-        tf_namespace: the namespace of the /tf and /tf_static they come from.
-        unclaimed: not a robot: the pairs of a TF shared by several robots that none of them
-            claims (key ``…/other_frames``).
-    """
-
-    key: str
-    namespace: str
-    name: str | None
-    description: str | None
-    model: Robot | None
-    problem: str | None
-    frame_prefix: str
-    joint_states: JointStates | None
-    joint_states_namespace: str
-    tf: dict[Pair, FrameSeries] = field(default_factory=dict)
-    tf_static: dict[Pair, tuple[Array, Array]] = field(default_factory=dict)
-    tf_namespace: str = ""
-    unclaimed: bool = False
-
-    @property
-    def label(self) -> str:
-        """``robot /robot1``, ``robot left_arm``, ``robot /`` (the root namespace's, beside
-        others); ``the robot`` for the only one."""
-        return f"robot {self.key}" if self.key else "the robot"
-
-    @property
-    def entity_root(self) -> str:
-        """Where ``replay`` logs it in Rerun: ``/robot1``; ``""`` (the top) for the root namespace's robot."""
-        return "" if self.key in ("", "/") else ("" if self.key.startswith("/") else "/") + self.key
-
-    def contents(self) -> str:
-        """``marm, 9 frame pairs``: what the robot holds, for messages."""
-        pairs = len(self.tf) + len(self.tf_static)
-        return (self.name or "no description") + (f", {pairs} frame pair{'s' if pairs != 1 else ''}" if pairs else "")
-
-    def frames(self) -> list[str]:
-        """Every frame id of its TF, in order of appearance."""
-        seen: dict[str, None] = {}
-        for parent, child in list(self.tf_static) + list(self.tf):
-            seen.setdefault(parent)
-            seen.setdefault(child)
-        return list(seen)
-
-
-def robot_name(urdf: str) -> str | None:
-    """The ``name`` of a URDF's ``<robot>`` element; None when it has none or is not XML."""
-    try:
-        for _, element in ElementTree.iterparse(io.BytesIO(urdf.encode("utf-8")), events=("start",)):
-            return element.get("name") if element.tag == "robot" else None
-    except ElementTree.ParseError:
-        return None
-    return None
 
 
 def pair_robots(a: Sequence[RecordedRobot],
@@ -252,7 +178,7 @@ def find_robots(rec: Recording, *, namespace: str | None = None) -> list[Recorde
             candidates.append(_Candidate(ns, None, None, None, None, pool=ns))
     leftovers: dict[str, _Candidate] = {}
     for pool in sorted({c.pool for c in candidates}):
-        pool_topics = topics.get(pool, RobotTopics())
+        pool_topics = topics.get(pool, RecordedRobot(pool))
         frames = [frame for pair in list(pool_topics.tf_static) + list(pool_topics.tf) for frame in pair]
         users = []
         for c, prefixes in _assign([c for c in candidates if c.pool == pool], frames):
@@ -290,7 +216,7 @@ def _assign(users: list[_Candidate], frames: Sequence[str]) -> list[tuple[_Candi
     return [(user, assigned[i]) for i, user in enumerate(users)]
 
 
-def _split_pool(pool_topics: RobotTopics, pool: str, users: list[_Candidate], leftovers: dict[str, _Candidate]) -> None:
+def _split_pool(pool_topics: RecordedRobot, pool: str, users: list[_Candidate], leftovers: dict[str, _Candidate]) -> None:
     """Share one namespace's TF among the robots that read it (their prefixes found)."""
     if len(users) == 1:
         users[0].tf, users[0].tf_static = dict(pool_topics.tf), dict(pool_topics.tf_static)
@@ -309,7 +235,7 @@ def _split_pool(pool_topics: RobotTopics, pool: str, users: list[_Candidate], le
         leftovers[pool] = rest
 
 
-def _keyed(candidates: Sequence[_Candidate], topics: dict[str, RobotTopics], has_js: set[str]) -> list[RecordedRobot]:
+def _keyed(candidates: Sequence[_Candidate], topics: dict[str, RecordedRobot], has_js: set[str]) -> list[RecordedRobot]:
     per_namespace: dict[str, int] = {}
     for c in candidates:
         per_namespace[c.namespace] = per_namespace.get(c.namespace, 0) + 1
@@ -323,6 +249,8 @@ def _keyed(candidates: Sequence[_Candidate], topics: dict[str, RobotTopics], has
             key = _joined(c.namespace, _part(c.instance or c.name, index))
         js_ns = c.namespace if c.namespace in has_js else ""
         js = None if c.leftover or js_ns not in topics else topics[js_ns].joint_states
-        robots.append(RecordedRobot(key, c.namespace, c.name, c.description, c.model, c.problem, c.prefix or "", js, js_ns,
-                                    c.tf, c.tf_static, c.pool, c.leftover))
+        robots.append(RecordedRobot(
+            namespace=c.namespace, descriptions=() if c.description is None else (c.description,), joint_states=js,
+            tf=c.tf, tf_static=c.tf_static, key=key, name=c.name, model=c.model, problem=c.problem,
+            frame_prefix=c.prefix or "", joint_states_namespace=js_ns, tf_namespace=c.pool, unclaimed=c.leftover))
     return robots

@@ -14,8 +14,8 @@ from tfrec import cli
 from tfrec.diff import compare_motion
 from tfrec.diff.overlay import write_overlay
 from tfrec.errors import WriteError
-from tfrec.formats.rrd.overlay import GHOST_COLOUR, OVERLAY_APPLICATION_ID, OverlayErrors, error_colours
 from tfrec.formats.rrd.paths import TIMELINE
+from tfrec.viewer.overlay import GHOST_COLOUR, OVERLAY_APPLICATION_ID, OverlayErrors, error_colours
 
 GREEN = (40 << 24) | (180 << 16) | (60 << 8) | 0xFF
 RED = (220 << 24) | (30 << 16) | (30 << 8) | 0xFF

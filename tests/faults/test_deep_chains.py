@@ -14,9 +14,9 @@ from mcap.reader import make_reader
 from tests.faults.guarded import guarded, warnings_of
 from tfrec.description import parse_urdf
 from tfrec.formats import read_recording
-from tfrec.formats.rrd.blueprint import tf_tree_layout
 from tfrec.formats.rrd.paths import MAX_LINKS
 from tfrec.plots.tree import MAX_DRAWN_FRAMES
+from tfrec.viewer.blueprint import tf_tree_layout
 
 
 def chain_urdf(links: int, *, mimic: bool = False) -> str:

@@ -18,7 +18,7 @@ import pytest
 
 from tests.fuzz.harness import PASSWD_LINE, contract_violations, run_tfrec
 from tfrec.cli import main
-from tfrec.formats.rrd.geometry import MESHES_LISTED, MeshLoader
+from tfrec.viewer.geometry import MESHES_LISTED, MeshLoader
 
 XMLNS = 'xmlns:xacro="http://www.ros.org/wiki/xacro"'
 STL = b"solid part\nfacet normal 0 0 1\n outer loop\n  vertex 0 0 0\n  vertex 0.05 0 0\n  vertex 0 0.05 0\n" \

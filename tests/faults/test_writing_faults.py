@@ -19,7 +19,7 @@ from tests.conftest import REPO, ROBOTS
 from tfrec._atomic import remove_stale_temporaries
 from tfrec.cli import main
 from tfrec.errors import WriteError
-from tfrec.formats.rrd import _flush
+from tfrec.viewer import _flush
 
 
 class _DeadWriter:

@@ -14,7 +14,7 @@ import pytest
 
 from tests.fleet.helpers import EXPECTED, copy_fleet
 from tfrec.fleet import FleetError, Row, find_recordings, pair_recordings
-from tfrec.formats.report import read_report
+from tfrec.fleet.report import read_report
 
 
 def _relative(paths: list[Path], folder: Path) -> list[str]:

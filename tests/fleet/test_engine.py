@@ -27,7 +27,7 @@ from tfrec.fleet import (
     run,
     tally,
 )
-from tfrec.formats.report import ReportWriter, read_report
+from tfrec.fleet.report import ReportWriter, read_report
 
 
 def _by_file(rows: list[Row], folder: Path) -> dict[str, tuple[str, set[str]]]:

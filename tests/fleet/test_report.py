@@ -16,7 +16,7 @@ from tests.fleet.helpers import EXPECTED
 from tfrec import __version__
 from tfrec.errors import TfrecError
 from tfrec.fleet import Row, check_tasks, find_recordings, run
-from tfrec.formats.report import REPORT_COLUMNS, ReportError, ReportWriter, is_report, read_report, report_problem
+from tfrec.fleet.report import REPORT_COLUMNS, ReportError, ReportWriter, is_report, read_report, report_problem
 
 _DUCKDB_TYPES = {"string": "VARCHAR", "int64": "BIGINT", "float64": "DOUBLE"}
 _PANDAS_KINDS = {"string": "O", "int64": "if", "float64": "f"}  # an int64 column with nulls reads as float

@@ -16,8 +16,8 @@ from tests.recording_helpers import load_robot, write_rosbag1, write_rosbag2
 from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.fleet import ERROR, FAIL, PASS, SUMMARY, FleetError, Row, check_recording, diff_pair, fingerprint
 from tfrec.fleet.health import rate_findings, series_findings, stamp_findings
+from tfrec.fleet.report import REPORT_COLUMNS
 from tfrec.formats import read_recording
-from tfrec.formats.report import REPORT_COLUMNS
 
 
 @pytest.mark.parametrize("name", sorted(EXPECTED))

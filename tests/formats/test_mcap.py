@@ -19,7 +19,8 @@ from tests.conftest import ROBOTS
 from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.description import load_description, parse_urdf
 from tfrec.errors import RecordingError
-from tfrec.formats.mcap.writer import LIBRARY, McapSink, check_time_range, message_definition
+from tfrec.formats.mcap.sink import McapSink
+from tfrec.formats.mcap.writer import LIBRARY, check_time_range, message_definition
 from tfrec.formats.rosbag2.metadata import QOS_LATCHED, QOS_VOLATILE, qos_yaml, write_bag_metadata
 from tfrec.info import format_summary, summarize
 from tfrec.kinematics.fk import iter_dynamic_chunks, static_transforms

@@ -19,7 +19,8 @@ from tests.recording_helpers import (
     write_rosbag2,
 )
 from tfrec.errors import RecordingError
-from tfrec.formats.mcap.writer import DEFAULT_CHUNK_BYTES, DEFAULT_START_TIME_NS, McapSink, message_definition
+from tfrec.formats.mcap.sink import McapSink
+from tfrec.formats.mcap.writer import DEFAULT_CHUNK_BYTES, DEFAULT_START_TIME_NS, message_definition
 from tfrec.formats.reader import read_recording, recording_format
 from tfrec.formats.ros.decode import JointStateAccumulator, TFAccumulator, message_layout
 from tfrec.kinematics.fk import iter_dynamic_chunks, static_transforms

@@ -19,7 +19,6 @@ from tests.conftest import CORPUS as SHARED_CORPUS
 from tests.conftest import CORPUS_ABSENT
 from tfrec.description import load_description, parse_urdf
 from tfrec.errors import RecordingError
-from tfrec.formats.rrd import sink as rerun_io
 from tfrec.formats.rrd.paths import (
     APPLICATION_ID,
     TIMELINE,
@@ -32,11 +31,12 @@ from tfrec.formats.rrd.paths import (
     velocity_entity,
     visual_entity,
 )
-from tfrec.formats.rrd.sink import RerunSink
 from tfrec.kinematics.fk import Transforms, iter_dynamic_chunks, static_transforms
 from tfrec.kinematics.rotations import matrix_from_quaternion
 from tfrec.model import Box, Cylinder, Mesh, Robot, Sphere
 from tfrec.trajectory.generators import make_trajectory
+from tfrec.viewer import sink as rerun_io
+from tfrec.viewer.sink import RerunSink
 
 REPO = Path(__file__).resolve().parents[2]
 CORPUS = SHARED_CORPUS
@@ -263,7 +263,7 @@ def test_recording_identity_properties_and_blueprint(tmp_root: str) -> None:
 
 
 def test_joint_plots_have_stable_colours_and_names_and_frame_labels_are_off(tmp_root: str) -> None:
-    from tfrec.formats.rrd.blueprint import joint_colour
+    from tfrec.viewer.blueprint import joint_colour
 
     rrd, robot = recorded("marm", tmp_root), load_robot("marm")
     for index, joint in enumerate(robot.joints):
@@ -292,9 +292,9 @@ def test_the_tf_tree_is_a_graph_of_frames(tmp_root: str) -> None:
 def test_the_camera_frames_the_robots_whole_reach(name: str, tmp_path: Path) -> None:
     """Every link origin at every sample, not only the first chunk's, is inside the 3D view's field of view,
     looked at from front-left and above, Z up; and the robot is not lost in the distance."""
-    from tfrec.formats.rrd.blueprint import FIELD_OF_VIEW_DEG
     from tfrec.kinematics.fk import link_poses
     from tfrec.kinematics.joints import all_joint_states
+    from tfrec.viewer.blueprint import FIELD_OF_VIEW_DEG
 
     robot = load_robot(name)
     path = tmp_path / f"{name}.rrd"

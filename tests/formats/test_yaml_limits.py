@@ -15,8 +15,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tests.conftest import BAGS, BAGS_ABSENT, CORPUS, CORPUS_ABSENT
+from tfrec._yaml import MAX_DEPTH, _Refused, load_yaml
 from tfrec.errors import ReadError
-from tfrec.formats._yaml import MAX_DEPTH, _Refused, load_yaml
 
 METADATA = sorted((BAGS / "rosbag2").glob("*/metadata.yaml"))
 CONFIGS = sorted(CORPUS.glob("**/*.yaml"))

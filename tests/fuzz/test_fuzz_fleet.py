@@ -26,7 +26,7 @@ from hypothesis import strategies as st
 from tests.fuzz.conftest import RecordingSeed, workdir
 from tests.fuzz.harness import check_run, fuzz_settings
 from tests.fuzz.mutate import HOSTILE_TEXT, mutated_bytes
-from tfrec.formats.report import REPORT_COLUMNS, is_report
+from tfrec.fleet.report import REPORT_COLUMNS, is_report
 
 pytestmark = pytest.mark.filterwarnings("ignore:Generating overly large repr:hypothesis.errors.HypothesisWarning")
 

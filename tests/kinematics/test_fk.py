@@ -25,6 +25,7 @@ from tfrec.kinematics.fk import (
     link_poses,
     root_from_link,
     static_transforms,
+    transform_matrices,
 )
 from tfrec.kinematics.joints import all_joint_states
 from tfrec.kinematics.rotations import matrix_from_quaternion, quaternion_from_rpy
@@ -231,7 +232,7 @@ def test_root_from_link_agrees_with_link_poses_and_chunks_with_whole() -> None:
     composed = root_from_link(static_transforms(robot, frame_prefix="p/"), whole, root="p/link0")
     poses = link_poses(robot, names, q)
     assert composed.children == tuple("p/" + link for link in poses)
-    np.testing.assert_allclose(composed.matrices(), np.stack(list(poses.values()), axis=1), atol=1e-15)
+    np.testing.assert_allclose(transform_matrices(composed), np.stack(list(poses.values()), axis=1), atol=1e-15)
 
 
 def test_long_trajectories_are_computed_in_blocks_alike() -> None:
@@ -382,7 +383,7 @@ def origin_matrix(xyz: tuple, rpy: tuple) -> np.ndarray:
 def joint_matrices(robot: Robot, q: np.ndarray) -> np.ndarray:
     """parent_from_child of each moving joint, (N, K, 4, 4)."""
     names = [j.name for j in robot.moving_joints]
-    return dynamic_transforms(robot, names, q).matrices()
+    return transform_matrices(dynamic_transforms(robot, names, q))
 
 
 property_settings = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -434,7 +435,7 @@ def test_continuous_joint_is_periodic_and_quaternion_is_canonical(axis, r, p, y,
     robot = tree_robot([("continuous", (0.1, 0.2, 0.3), (r, p, y), axis, 0.0)])
     tfs = dynamic_transforms(robot, ["j1"], [[value], [value + 2 * math.pi], [value - 4 * math.pi]])
     assert (tfs.rotation[..., 3] >= 0).all()
-    matrices = tfs.matrices()
+    matrices = transform_matrices(tfs)
     np.testing.assert_allclose(matrices[1], matrices[0], atol=1e-12)
     np.testing.assert_allclose(matrices[2], matrices[0], atol=1e-12)
     if tfs.rotation[0, 0, 3] > 1e-6:  # away from w = 0 the canonical quaternion is unique

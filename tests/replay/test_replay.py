@@ -18,7 +18,7 @@ import pytest
 from tfrec import cli
 from tfrec.description import load_description, parse_urdf
 from tfrec.errors import ReadError, ReplayError
-from tfrec.formats.mcap.writer import McapSink
+from tfrec.formats.mcap.sink import McapSink
 from tfrec.formats.rrd.paths import joint_entity, link_entity, pair_entity, tf_entity, tf_static_entity
 from tfrec.kinematics.fk import Transforms, dynamic_transforms, iter_dynamic_chunks, static_transforms
 from tfrec.kinematics.joints import all_joint_states
@@ -389,7 +389,7 @@ def test_an_unusable_description_warns_and_replays_without_a_model(tfrec_main: C
 
 def test_no_viewer_executable(tfrec_main: Callable[[list[str]], int], recorded: Path,
                               monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
-    from tfrec.formats.rrd import viewer as rerun_replay
+    from tfrec.viewer import spawn as rerun_replay
 
     monkeypatch.setenv("DISPLAY", ":0")
     monkeypatch.setattr(rerun_replay.shutil, "which", lambda name: None)
@@ -627,7 +627,7 @@ def test_connect_streams_to_a_running_server(recorded: Path, monkeypatch: pytest
 
     import rerun as rr
 
-    from tfrec.formats.rrd import viewer as rerun_replay
+    from tfrec.viewer import spawn as rerun_replay
 
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))

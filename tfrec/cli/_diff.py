@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 from tfrec.cli._common import (
@@ -160,6 +160,17 @@ def _check_outputs(ns: argparse.Namespace, inputs: list[str | None]) -> None:
                                                    if path not in TrajectoryKind._value2member_map_])
 
 
+def _refuse(options: Iterable[tuple[object, str]], why: str) -> None:
+    """Raise for the first option given (not None) that does not apply: ```flag` <why>``.
+
+    Raises:
+        DiffError: such an option.
+    """
+    for given, flag in options:
+        if given is not None:
+            raise DiffError(f"`{flag}` {why}")
+
+
 def _cmd_diff(ns: argparse.Namespace) -> int:
     from tfrec.diff.inputs import is_recording_path
 
@@ -167,28 +178,23 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
     if _folder_of_recordings(a) and _folder_of_recordings(b) and not args_a and not args_b:
         from tfrec.cli._fleet import run_diff_folders
 
-        for given, flag in ((ns.rrd, "rrd"), (ns.plot, "plot"), (ns.traj, "traj"), (ns.joints, "joints"),
-                            (ns.json or None, "json")):
-            if given is not None:
-                raise DiffError(f"`{flag}` compares two recordings; {a} and {b} are folders of recordings "
-                                "(use `report` for the results)")
+        _refuse(((ns.rrd, "rrd"), (ns.plot, "plot"), (ns.traj, "traj"), (ns.joints, "joints"),
+                 (ns.json or None, "json")), f"compares two recordings; {a} and {b} are folders of recordings "
+                "(use `report` for the results)")
         ns.a, ns.b = a, b
         return run_diff_folders(ns)
     _check_outputs(ns, [a, b, ns.joints, ns.traj])
     tolerances = {"pos_tol": ns.pos_tol, "rot_tol": ns.rot_tol, "joint_tol": ns.joint_tol}
     recordings = is_recording_path(a) and is_recording_path(b) and not args_a and not args_b
     if recordings:
-        for given, flag in ((ns.traj, "traj"), (ns.joints, "joints")):
-            if given is not None:
-                raise DiffError(f"`{flag}` drives descriptions; {a} and {b} are both recordings")
+        _refuse(((ns.traj, "traj"), (ns.joints, "joints")), f"drives descriptions; {a} and {b} are both recordings")
         from tfrec.diff.compare import compare
 
         report: Any = compare(a, b, topics=ns.topics, absolute=ns.absolute, namespace=ns.namespace, remap=ns.remap,
                               use_log_time=ns.use_log_time, **tolerances)
     else:
-        for given, flag in ((ns.topics, "topics"), (ns.absolute or None, "absolute")):
-            if given is not None:
-                raise DiffError(f"`{flag}` compares two recordings; {a} or {b} is a robot description")
+        _refuse(((ns.topics, "topics"), (ns.absolute or None, "absolute")),
+                f"compares two recordings; {a} or {b} is a robot description")
     comparison = None
     if not recordings or ns.rrd is not None:
         from tfrec.diff.motion import compare_motion

@@ -104,7 +104,7 @@ def _check_report(ns: argparse.Namespace, inputs: Sequence[Any]) -> None:
     from pathlib import Path
 
     from tfrec._outputs import check_target
-    from tfrec.formats.report import check_report, report_kind
+    from tfrec.fleet.report import check_report, report_kind
 
     if ns.resume and os.path.lexists(ns.report):
         check_report(ns.report)  # the report --resume reads: one line when it is not a tfrec report, not replaced
@@ -120,7 +120,7 @@ def _run(ns: argparse.Namespace, tasks: Sequence[Any], *, what: str) -> int:
     if ns.resume:
         if ns.report is None:
             raise FleetError("`resume` needs `report`: the report of the run it resumes")
-        from tfrec.formats.report import read_report
+        from tfrec.fleet.report import read_report
 
         tasks, kept = resume(tasks, read_report(ns.report, missing_ok=True))
     before = tally(kept)
@@ -144,7 +144,7 @@ def _run(ns: argparse.Namespace, tasks: Sequence[Any], *, what: str) -> int:
               "ray_timeout_s": DEFAULT_RAY_TIMEOUT_S if ns.ray_timeout is None else ns.ray_timeout}
     try:
         if ns.report is not None:
-            from tfrec.formats.report import ReportWriter
+            from tfrec.fleet.report import ReportWriter
 
             with ReportWriter(ns.report, force=ns.force or ns.resume) as writer:
                 writer.write(kept)

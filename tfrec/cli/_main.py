@@ -17,7 +17,7 @@ import warnings
 from collections.abc import Iterator, Sequence
 from typing import TextIO
 
-from tfrec import __version__
+from tfrec._version import __version__
 from tfrec.cli._common import (
     PROG,
     Parser,
@@ -141,7 +141,7 @@ def main_exit() -> None:
     When Rerun's file writer died (a full disk), Rerun's own exit handler would wait for it forever:
     the process then ends at once, its output flushed, without the exit handlers."""
     code = main()
-    writer = sys.modules.get("tfrec.formats.rrd._flush")
+    writer = sys.modules.get("tfrec.viewer._flush")
     if writer is not None and getattr(writer, "STUCK", False):
         sys.stdout.flush()
         sys.stderr.flush()

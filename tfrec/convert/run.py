@@ -33,10 +33,10 @@ from tfrec.convert.joints import plan_derivations
 from tfrec.convert.stream import Copier, CopyReport
 from tfrec.errors import ConvertError, TfrecWarning
 from tfrec.formats.kinds import MCAP, ROS1_BAG, ROSBAG2, RRD
-from tfrec.formats.messages import listed_extras, open_messages
 from tfrec.formats.output import open_output
 from tfrec.formats.reader import identify_recording, read_recording
 from tfrec.formats.ros.joint_names import repeated_joints
+from tfrec.formats.source import listed_extras, open_messages
 from tfrec.model import Robot
 from tfrec.recording import Recording
 from tfrec.resample import log_start_ns
@@ -121,7 +121,7 @@ def _check_window(start_s: float | None, end_s: float | None) -> None:
         raise ConvertError(f"`end_s` {end_s:g} is before `start_s` {start_s:g}")
 
 
-def convert(
+def convert(  # noqa: PLR0913 - the keyword-only options of tfrec convert
     source: str | os.PathLike[str],
     target: str | os.PathLike[str] | None = None,
     *,
@@ -278,10 +278,11 @@ def _warn(report: CopyReport, where: str) -> None:
         warnings.warn(f"{report.read_error}; converted up to there", TfrecWarning, stacklevel=3)
 
 
-def _to_rerun(source: str | os.PathLike[str], target: Path, *, start_s: float | None, end_s: float | None,
-              topics: Collection[str] | None, exclude: Collection[str], namespace: str | None,
-              remap: Iterable[str] | Mapping[str, str] | None, tf_from_joints: bool | None, robot: Robot | None,
-              compression: str | None, force: bool, package_paths: Sequence[str | os.PathLike[str]]) -> ConvertResult:
+def _to_rerun(  # noqa: PLR0913 - convert's options, for an .rrd
+        source: str | os.PathLike[str], target: Path, *, start_s: float | None, end_s: float | None,
+        topics: Collection[str] | None, exclude: Collection[str], namespace: str | None,
+        remap: Iterable[str] | Mapping[str, str] | None, tf_from_joints: bool | None, robot: Robot | None,
+        compression: str | None, force: bool, package_paths: Sequence[str | os.PathLike[str]]) -> ConvertResult:
     """An ``.rrd``, as ``tfrec replay --save`` writes it."""
     from tfrec.replay.load import load_replay
     from tfrec.replay.play import check_play_options, replay_to_rerun

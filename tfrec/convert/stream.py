@@ -121,7 +121,6 @@ class Copier:
         self._latched: dict[int, tuple[int, bytes]] = {}  # conn → (log time, message)
         self._begun = False
         self._ros1 = writer.encoding == "ros1"
-        source.until_ns = hi  # chunks wholly after the cut need not be read
 
     def run(self) -> CopyReport:
         """Copy every batch, then report.
@@ -131,7 +130,8 @@ class Copier:
             WriteError: the output cannot be written.
             ConvertError: joint states that cannot be decoded for computing TF.
         """
-        for batch in self.source.batches():
+        # chunks wholly after the cut need not be read; an MCAP's publish times, attachments and metadata are copied
+        for batch in self.source.batches(until_ns=self.hi, publish_time=True, extras=True):
             self._batch(batch)
         for conn in list(self.source.connections):  # topics without messages are listed too, as rosbag2 lists them
             self._plan(conn)

@@ -155,13 +155,7 @@ def description_from_command(command: str, at: str, deferred: DeferredValues) ->
         raise DescriptionError(f"{at}: cannot split command '{shown}': {err}") from None
     if not words:
         raise DescriptionError(f"{at}: robot_description runs an empty command")
-    # wrappers: rosrun xacro xacro, ros2 run xacro xacro, python[3] .../xacro.py
-    if len(words) >= 3 and _exe_name(words[0]) == "rosrun" and words[1] == "xacro":
-        words = words[2:]
-    elif len(words) >= 4 and _exe_name(words[0]) == "ros2" and words[1:3] == ["run", "xacro"]:
-        words = words[3:]
-    elif len(words) >= 2 and re.fullmatch(r"python[0-9.]*", _exe_name(words[0])):
-        words = words[1:]
+    words = _unwrapped(words)
     exe = _exe_name(words[0])
     if exe == "cat":
         if len(words) != 2 or words[1].startswith("-"):
@@ -170,10 +164,35 @@ def description_from_command(command: str, at: str, deferred: DeferredValues) ->
     if exe not in _XACRO_EXES:
         raise DescriptionError(f"{at}: robot_description runs '{shown}', which is not xacro; tfrec does not run "
                                "commands: pass the description file instead")
+    files, args, flags = _xacro_words(words[1:], shown, at, deferred)
+    if len(files) != 1:
+        raise DescriptionError(f"{at}: '{shown}' names {len(files)} input files; xacro takes one")
+    return DescriptionSource(DescriptionKind.XACRO, file=Path(deferred.plain(files[0], at)),
+                             xacro_args=args, xacro_flags=tuple(flags))
+
+
+def _unwrapped(words: list[str]) -> list[str]:
+    """A command without its wrapper: ``rosrun xacro xacro``, ``ros2 run xacro xacro``, ``python[3] .../xacro.py``."""
+    if len(words) >= 3 and _exe_name(words[0]) == "rosrun" and words[1] == "xacro":
+        return words[2:]
+    if len(words) >= 4 and _exe_name(words[0]) == "ros2" and words[1:3] == ["run", "xacro"]:
+        return words[3:]
+    if len(words) >= 2 and re.fullmatch(r"python[0-9.]*", _exe_name(words[0])):
+        return words[1:]
+    return words
+
+
+def _xacro_words(words: list[str], shown: str, at: str,
+                 deferred: DeferredValues) -> tuple[list[str], dict[str, str], list[str]]:
+    """A xacro command's words after the executable: (input files, ``name:=value`` arguments, flags).
+
+    Raises:
+        DescriptionError: an argument without a name, an unsupported flag.
+    """
     files: list[str] = []
     args: dict[str, str] = {}
     flags: list[str] = []
-    rest = iter(words[1:])
+    rest = iter(words)
     for word in rest:
         if ":=" in word:
             name, _, value = word.partition(":=")
@@ -190,10 +209,7 @@ def description_from_command(command: str, at: str, deferred: DeferredValues) ->
                                    "(supported: --inorder, --check-order, -q, --verbosity, --xacro-ns)")
         else:
             files.append(word)
-    if len(files) != 1:
-        raise DescriptionError(f"{at}: '{shown}' names {len(files)} input files; xacro takes one")
-    return DescriptionSource(DescriptionKind.XACRO, file=Path(deferred.plain(files[0], at)),
-                             xacro_args=args, xacro_flags=tuple(flags))
+    return files, args, flags
 
 
 def description_from_text(text: str, at: str) -> DescriptionSource:

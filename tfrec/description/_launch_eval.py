@@ -28,7 +28,8 @@ EVAL_SUBSET = ("names, literals, ==, !=, <, >, in, and/or/not, +, -, *, /, "
                "'a if c else b' and calls of arg/env/optenv/find/dirname")
 
 
-def safe_eval(expr: str, names: Callable[[str], object], functions: Mapping[str, Callable[..., object]]) -> object:
+def safe_eval(  # noqa: C901 - one evaluator of the expressions launch files use
+        expr: str, names: Callable[[str], object], functions: Mapping[str, Callable[..., object]]) -> object:
     """Evaluate the small, side-effect-free subset of Python that launch files use in ``$(eval)``.
 
     Raises:
@@ -45,7 +46,7 @@ def safe_eval(expr: str, names: Callable[[str], object], functions: Mapping[str,
     except (RecursionError, MemoryError):
         raise EvalRefused("nested too deeply") from None
 
-    def ev(node: ast.AST) -> object:
+    def ev(node: ast.AST) -> object:  # noqa: C901, PLR0912 - a branch per kind of node it evaluates
         if isinstance(node, ast.Constant) and (node.value is None or isinstance(node.value, (str, int, float))):
             return node.value
         if isinstance(node, ast.Name):

@@ -226,7 +226,7 @@ class Ros2Reader(ElementReader):
     def _join(self, frags: tuple[_Frag, ...] | list[_Frag], scope: _Scope, at: str) -> str:
         return "".join(f if isinstance(f, str) else self._perform(f, scope, at) for f in frags)
 
-    def _perform(self, sub: _Sub, scope: _Scope, at: str) -> str:
+    def _perform(self, sub: _Sub, scope: _Scope, at: str) -> str:  # noqa: C901, PLR0912, PLR0915 - a branch per substitution
         name, n = sub.name, len(sub.args)
 
         def arg(i: int) -> str:

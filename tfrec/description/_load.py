@@ -196,8 +196,8 @@ def load_launch(
 
 
 def _yaml_loader() -> Callable[[str, str], Any]:
-    """YAML for launch files (``<rosparam>``, ROS 2 YAML launch): :func:`tfrec.description._yaml.load_yaml`."""
-    from tfrec.description._yaml import load_yaml
+    """YAML for launch files (``<rosparam>``, ROS 2 YAML launch): :func:`tfrec._yaml.load_yaml`."""
+    from tfrec._yaml import load_yaml
 
     def loader(text: str, source: str) -> Any:
         return load_yaml(text, where=source, error=DescriptionError)

@@ -11,7 +11,7 @@ exponentially. :func:`xacro_sandbox` patches xacro for the duration of one expan
 * ``xacro.parse`` (the input and every include) and ``xacro.load_yaml`` read only what
   :class:`~tfrec.description._confine.ReadRoots` allows, at most ``max_file_bytes`` a file,
   as bytes: XML in UTF-16 or latin-1 with a correct declaration loads (stock xacro reads text
-  as UTF-8); YAML goes through :func:`tfrec.description._yaml.load_yaml` (alias bombs, depth);
+  as UTF-8); YAML goes through :func:`tfrec._yaml.load_yaml` (alias bombs, depth);
 * elements nested deeper than ``max_xml_depth`` are refused when parsed ("XML nested too
   deeply"), not left to end in a ``RecursionError``;
 * element copies made by macro calls and ``<xacro:insert_block>`` (``max_element_copies``), the
@@ -34,10 +34,10 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from tfrec._yaml import load_yaml
 from tfrec.description._confine import ReadRoots, read_capped
 from tfrec.description._safe_eval import SAFE_BUILTINS, ExpressionRefused, check_size, evaluate, refused_function
 from tfrec.description._xml_bytes import decode_xml, parse_xml
-from tfrec.description._yaml import load_yaml
 from tfrec.description.packages import PackageFinder
 from tfrec.errors import DescriptionError, display_path, one_line
 

@@ -148,7 +148,7 @@ class _Comparison:
                 self.who = ""
                 self.diff("robot", robot.label, f"{robot.label} only in {side} ({robot.contents()})")
                 continue
-            self.description(ra.description, rb.description)
+            self.description(ra.robot_description, rb.robot_description)
             self.transforms(ra, rb)
             if (ra.joint_states_namespace, rb.joint_states_namespace) not in joint_states:
                 joint_states.add((ra.joint_states_namespace, rb.joint_states_namespace))

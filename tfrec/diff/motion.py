@@ -39,11 +39,11 @@ from tfrec.diff.urdf import diff_robots
 from tfrec.errors import DiffError, TfrecWarning
 from tfrec.formats.reader import read_recording
 from tfrec.frames import frame_tree, graph_problems
-from tfrec.kinematics.fk import Transforms, dynamic_transforms, root_from_link, static_transforms
+from tfrec.kinematics.fk import dynamic_transforms, root_from_link, static_transforms
 from tfrec.kinematics.joints import all_joint_states
 from tfrec.kinematics.rotations import rotation_error
 from tfrec.model import Robot
-from tfrec.recording import Recording
+from tfrec.recording import Recording, Transforms
 from tfrec.resample import align, data_start_ns
 from tfrec.trajectory.generators import make_trajectory
 from tfrec.trajectory.types import JointTrajectory
@@ -116,7 +116,7 @@ def compare_descriptions(a: Source, b: Source, **options: Any) -> DescriptionDif
     return compare_motion(a, b, **options).report
 
 
-def compare_motion(
+def compare_motion(  # noqa: PLR0913 - the keyword-only options of a diff of descriptions
     a: Source,
     b: Source,
     *,

@@ -2,7 +2,7 @@
 
 :func:`write_overlay` hands what :func:`tfrec.diff.motion.compare_motion` computed — each side's
 transforms at the compared instants and each link's errors — to
-:func:`tfrec.formats.rrd.overlay.write_overlay`, atomically (a temporary file beside the target,
+:func:`tfrec.viewer.overlay.write_overlay`, atomically (a temporary file beside the target,
 renamed when complete). The recording id is derived from the inputs, so the same diff gives the
 same recording.
 """
@@ -23,10 +23,10 @@ from tfrec.conventions import DEFAULT_START_TIME_NS
 from tfrec.diff.motion import MotionComparison, Posed
 from tfrec.errors import printable
 from tfrec.formats.kinds import RRD
-from tfrec.formats.rrd.overlay import OverlayErrors, OverlayRobot
-from tfrec.formats.rrd.overlay import write_overlay as write_rrd
-from tfrec.kinematics.fk import Transforms
+from tfrec.recording import Transforms
 from tfrec.resample import data_start_ns
+from tfrec.viewer.overlay import OverlayErrors, OverlayRobot
+from tfrec.viewer.overlay import write_overlay as write_rrd
 
 __all__ = ["write_overlay"]
 

@@ -5,7 +5,7 @@ work is a file: :func:`find_recordings` / :func:`pair_recordings` find them, :fu
 :func:`diff_tasks` make one :class:`Task` each (a per-file function of :mod:`tfrec.fleet.tasks`
 and its options), :func:`resume` drops those a previous report already holds, and :func:`run`
 runs the rest on a local process pool or a Ray cluster, handing each task's :class:`Row`\\ s to a
-callback as it finishes (the CLI writes them with :class:`tfrec.formats.report.ReportWriter`).
+callback as it finishes (the CLI writes them with :class:`tfrec.fleet.report.ReportWriter`).
 """
 
 from __future__ import annotations

@@ -399,22 +399,29 @@ def _run_pool(tasks: Sequence[Task], *, jobs: int, retries: int, emit: Callable[
                 else:
                     emit(_with_deaths(future.result(), deaths.get(number)))
             charged, how = pool.deaths()
-            if charged is not None and not charged.keys() & set(lost):
-                charged = None  # a worker died between tasks: charge every lost task, so that the run ends
             pool = _Pool(context, jobs)
-            for number in sorted(lost, reverse=True):
-                if charged is not None and number not in charged:
-                    waiting.appendleft(number)  # lost with the pool, not its cause: runs again, uncharged
-                    continue
-                deaths.setdefault(number, []).append(how if charged is None else charged[number])
-                if len(deaths[number]) > retries:
-                    emit([_error_row(tasks[number], _died_detail(deaths[number]))])
-                else:
-                    waiting.appendleft(number)
+            _charge(lost, charged, how, deaths=deaths, waiting=waiting, tasks=tasks, retries=retries, emit=emit)
     except BaseException:
         pool.terminate()
         raise
     pool.close()
+
+
+def _charge(lost: list[int], charged: dict[int, str] | None, how: str, *, deaths: dict[int, list[str]],
+            waiting: deque[int], tasks: Sequence[Task], retries: int, emit: Callable[[list[Row]], None]) -> None:
+    """The tasks ``lost`` with a broken pool: those whose worker died (``charged``: task → how; None: unknown, every
+    one) are charged the death, and run again or given up past ``retries``; the others run again, uncharged."""
+    if charged is not None and not charged.keys() & set(lost):
+        charged = None  # a worker died between tasks: charge every lost task, so that the run ends
+    for number in sorted(lost, reverse=True):
+        if charged is not None and number not in charged:
+            waiting.appendleft(number)  # lost with the pool, not its cause: runs again, uncharged
+            continue
+        deaths.setdefault(number, []).append(how if charged is None else charged[number])
+        if len(deaths[number]) > retries:
+            emit([_error_row(tasks[number], _died_detail(deaths[number]))])
+        else:
+            waiting.appendleft(number)
 
 
 def _died_detail(deaths: list[str]) -> str:

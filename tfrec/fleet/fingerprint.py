@@ -25,7 +25,7 @@ from tfrec.errors import FleetError, TfrecError
 from tfrec.formats.mcap.records import MCAP_MAGIC
 from tfrec.formats.mcap.summary import read_summary_section
 from tfrec.formats.reader import recording_format
-from tfrec.formats.rosbag1.reader import ROS1_MAGIC
+from tfrec.formats.rosbag1.records import ROS1_MAGIC
 
 __all__ = ["EDGE_BYTES", "INDEX_LIMIT", "Fingerprint", "fingerprint"]
 

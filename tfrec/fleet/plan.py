@@ -21,7 +21,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from tfrec import __version__
+from tfrec._version import __version__
 from tfrec.conventions import CHECK_POS_TOL, CHECK_ROT_TOL, DIFF_JOINT_TOL, DIFF_POS_TOL, DIFF_ROT_TOL
 from tfrec.errors import FleetError
 from tfrec.fleet.discover import Pair
@@ -177,7 +177,7 @@ def resume(tasks: Sequence[Task], previous: Sequence[Mapping[str, Any]]) -> tupl
 
     Args:
         tasks: from :func:`check_tasks` or :func:`diff_tasks`.
-        previous: the rows of the previous report (:func:`tfrec.formats.report.read_report`).
+        previous: the rows of the previous report (:func:`tfrec.fleet.report.read_report`).
 
     Returns:
         (tasks to run, in their order; rows to keep, grouped by task in the same order).

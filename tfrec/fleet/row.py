@@ -1,7 +1,7 @@
 """One row of a fleet report (:class:`Row`): a recording's (or a pair's) summary, or one finding.
 
 Every per-file function of :mod:`tfrec.fleet.tasks` returns a list of rows whose first row is the
-summary (``check == "summary"``) and whose other rows are the findings; :mod:`tfrec.formats.report`
+summary (``check == "summary"``) and whose other rows are the findings; :mod:`tfrec.fleet.report`
 writes them as Parquet or JSON lines, one column per field, in this order.
 """
 

@@ -1,18 +1,16 @@
-"""From raw messages to a :class:`~tfrec.recording.Recording`: what every reader feeds.
+"""From a source's messages to a :class:`~tfrec.recording.Recording`: what :func:`tfrec.formats.read_recording`
+decodes, and how.
 
-The readers (:mod:`tfrec.formats.mcap.reader`, :mod:`tfrec.formats.rosbag1`,
-:mod:`tfrec.formats.rosbag2.sqlite3`, :mod:`tfrec.formats.rrd.reader`) feed raw messages to a
-:class:`Collector`, which decodes them in bulk (:mod:`tfrec.formats.ros.decode`) and builds the
-:class:`~tfrec.recording.Recording`: every namespace's robot topics (``/robot1/tf`` is robot1's
-/tf), with topic names resolved as a player publishes them (:meth:`ReadOptions.resolve`: relative
-names are global, ``remap`` rules apply) and frame ids as tf2 sees them (no leading slash). The
-readers of damaged files say what was lost in one line (:func:`read_error_line`); counts that
-disagree with a file's own index warn, with both numbers (:func:`count_differences`).
+A :class:`Collector` is the connection filter of a source's walk (:meth:`Collector.wants`: the robot topics of
+every namespace, ``/robot1/tf`` being robot1's /tf, of the layout ROS gives them; a type tfrec reads of another
+layout is foreign data, with a warning) and takes its batches: it decodes them in bulk (:mod:`tfrec.formats.ros.decode`)
+and builds the :class:`~tfrec.recording.Recording`, with topic names resolved as a player publishes them
+(:meth:`ReadOptions.resolve`: relative names are global, ``remap`` rules apply) and frame ids as tf2 sees them (no
+leading slash). The ``.rrd`` reader takes its options (:class:`ReadOptions`).
 """
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -30,12 +28,13 @@ from tfrec.conventions import (
     namespace_name,
     robot_topic_kind,
 )
-from tfrec.errors import ReadError, TfrecWarning
-from tfrec.formats.ros.decode import JointStateAccumulator, TFAccumulator, transforms_of
+from tfrec.errors import ReadError
+from tfrec.formats.ros.connection import Connection, MessageBatch, MessageSource, warn_reading
+from tfrec.formats.ros.decode import JointStateAccumulator, RawMessages, TFAccumulator, transforms_of
 from tfrec.formats.ros.definitions import foreign_layout
 from tfrec.formats.ros.joint_names import repeated_joints
-from tfrec.recording import FrameSeries, JointStates, Recording, RobotTopics, TopicStats
-from tfrec.robots import robot_name
+from tfrec.formats.ros.types import known_ros1_typestore, topic_deserializer
+from tfrec.recording import FrameSeries, JointStates, RecordedRobot, Recording, TopicStats, robot_name
 
 __all__ = [
     "DECODED_TOPICS",
@@ -43,12 +42,8 @@ __all__ = [
     "SUMMARY_LIMITS",
     "Collector",
     "ReadOptions",
-    "ReadStopped",
-    "count_differences",
     "decodes_type",
     "parse_remap",
-    "read_error_line",
-    "with_article",
 ]
 
 Array = NDArray[np.float64]
@@ -66,40 +61,6 @@ SUMMARY_LIMITS: Mapping[str, int | None] = {ROBOT_DESCRIPTION: None, TF_STATIC: 
 """Messages of each kind decoded for a summary (``tfrec info``), per topic; None: all. Every broadcaster
 of a running system appears in the first /tf messages, and a robot's joints in its first /joint_states
 (ten: enough to tell stamps that are all 0)."""
-
-
-def count_differences(read: Mapping[str, int], indexed: Mapping[str, int], *, index: str) -> str | None:
-    """``message counts differ from <index>: /tf: 10 read, 12 in <index>``, for the topics whose
-    count read differs from what a file's own index says; None when none does."""
-    differ = [(topic, read.get(topic, 0), count) for topic, count in indexed.items() if read.get(topic, 0) != count]
-    if not differ:
-        return None
-    shown = "; ".join(f"{topic}: {got:,} read, {count:,} in {index}" for topic, got, count in differ[:3])
-    more = f"; and {len(differ) - 3} more topics" if len(differ) > 3 else ""
-    return f"message counts differ from {index}: {shown}{more}"
-
-
-class ReadStopped(Exception):
-    """Raised inside a reader: reading stopped at byte ``offset`` of a damaged file, for ``reason``."""
-
-    def __init__(self, offset: int, reason: str) -> None:
-        super().__init__(reason)
-        self.offset = offset
-        self.reason = reason
-
-    def problem(self, size: int) -> str:
-        """``reading stopped at byte 1,234 of 5,678: <reason>``, for a file of ``size`` bytes."""
-        return f"reading stopped at byte {self.offset:,} of {size:,}: {self.reason}"
-
-
-def with_article(what: str) -> str:
-    """``"chunk record"`` → ``"a chunk record"``, ``"index"`` → ``"an index"``."""
-    return f"a{'n' if what[0] in 'aeiou' else ''} {what}"
-
-
-def read_error_line(where: str, problems: Sequence[str], messages: int) -> str:
-    """:attr:`Recording.read_error`: the file, what went wrong (``problems``), and how many messages were read."""
-    return f"{where}: {'; '.join(problems)}; {messages:,} messages read"
 
 
 def _short_type(msgtype: str) -> str:
@@ -217,32 +178,51 @@ class _Decoded:
 
 
 class Collector:
-    """Receives raw messages per topic and builds the :class:`Recording`.
+    """Builds a :class:`Recording` from a :class:`~tfrec.formats.ros.connection.MessageSource`'s walk.
 
-    A reader resolves each topic name (:meth:`resolve`), asks whether it is decoded
-    (:meth:`decodes`), gives its deserializer (:meth:`set_deserializer`), counts its messages
-    (:meth:`topic`, :meth:`count`) and hands the decoded topics' messages to :meth:`add`
-    (decompressed by ``decompress`` first, for a rosbag2 bag compressed message by message).
+    :meth:`wants` is the walk's connection filter (the topics decoded: the robot topics of the layout tfrec reads),
+    :meth:`take` decodes each batch in bulk per topic (and tells the source when a summary has all it wants of a
+    topic), :meth:`count` takes the source's counts, and :meth:`finish` gives the recording.
     """
 
-    def __init__(self, recording: Recording, options: ReadOptions, *, ros1: bool,
-                 decompress: Callable[[bytes], bytes] | None = None) -> None:
+    def __init__(self, recording: Recording, options: ReadOptions, *, ros1: bool) -> None:
         self.recording = recording
         self.options = options
         self.ros1 = ros1
-        self.decompress = decompress
         self.topics: dict[str, TopicStats] = {}
         self.decoded: dict[str, _Decoded] = {}
         self._arrivals = 0
         self._foreign: set[str] = set()
+        self._store: Any = None
         if options.use_log_time:
             recording.time_base = "log"
 
     # -- topics ---------------------------------------------------------------------------
 
-    def resolve(self, topic: str) -> str:
-        """A recorded topic's name as it is played (see :meth:`ReadOptions.resolve`)."""
-        return self.options.resolve(topic)
+    def wants(self, connection: Connection) -> bool:
+        """Whether a connection's messages are decoded (else only counted); a decoded topic gets its deserializer
+        (rosbags', the fallback of the bulk decoder: the first publisher's type is kept).
+
+        Raises:
+            ReadError: a decoded topic that is not in the recording's serialization (CDR, or ROS 1's).
+        """
+        topic = connection.topic
+        if not self.decodes(topic, connection.msgtype, definition=connection.definition,
+                            definition_encoding=connection.definition_encoding, type_hash=connection.type_hash):
+            return False
+        expected = "ros1" if self.ros1 else "cdr"
+        if connection.encoding != expected:
+            raise ReadError(f"{self.recording.path}: topic {topic} is encoded as '{connection.encoding}', not "
+                            f"{expected}")
+        if topic not in self.decoded:
+            if self.ros1 and self._store is None:
+                self._store = known_ros1_typestore()
+            found = robot_topic_kind(topic)
+            assert found is not None, topic
+            deserialize = topic_deserializer(connection.msgtype, where=self.recording.path, topic=topic,
+                                             ros1=self.ros1, store=self._store)
+            self.decoded[topic] = _Decoded(found[0], found[1], deserialize, self.ros1)
+        return True
 
     def decodes(self, topic: str, msgtype: str, *, definition: str = "", definition_encoding: str = "",
                 type_hash: str = "") -> bool:
@@ -261,17 +241,9 @@ class Collector:
             kind = robot_topic_kind(topic)
             what = {JOINT_STATES: "joint states", ROBOT_DESCRIPTION: "a robot description"}.get(
                 kind[1] if kind else "", "TF")
-            warnings.warn(f"{self.recording.path}: {topic} ({msgtype}): {reason}; its messages are not read as "
-                          f"{what} (foreign data: listed, and copied as they are by convert)", TfrecWarning, stacklevel=3)
+            warn_reading(f"{self.recording.path}: {topic} ({msgtype}): {reason}; its messages are not read as "
+                          f"{what} (foreign data: listed, and copied as they are by convert)")
         return False
-
-    def set_deserializer(self, topic: str, deserialize: Callable[[bytes], Any]) -> None:
-        """Decode the messages of ``topic`` (resolved, :meth:`decodes`) with ``deserialize`` as a
-        fallback of the bulk decoder; the first deserializer given for a topic is kept."""
-        if topic not in self.decoded:
-            found = robot_topic_kind(topic)
-            assert found is not None, topic
-            self.decoded[topic] = _Decoded(found[0], found[1], deserialize, self.ros1)
 
     def remaining(self, topic: str) -> int | None:
         """How many more messages of a decoded topic are wanted: None for all, 0 for none."""
@@ -279,22 +251,36 @@ class Collector:
         decoded = self.decoded.get(topic)
         return None if limit is None else max(0, limit - (decoded.taken if decoded is not None else 0))
 
-    def topic(self, topic: str, msgtype: str, durability: str | None = None) -> TopicStats:
-        """The count of a topic's messages, for a reader that counts them one by one; the type
-        and durability are those of the topic's first channel."""
-        stats = self.topics.get(topic)
-        if stats is None:
-            stats = self.topics[topic] = TopicStats(msgtype, durability)
-        return stats
-
-    def count(self, topic: str, stats: TopicStats) -> None:
-        """Add the messages a reader counted on one channel (or connection) of ``topic``."""
-        entry = self.topics.get(topic)
-        if entry is None:
-            entry = self.topics[topic] = TopicStats(stats.type, stats.durability)
-        entry.merge(stats)
+    def count(self, source: MessageSource) -> None:
+        """Take every connection's count from the source (after its walk): topics in the order the file lists
+        them, the type and durability those of a topic's first connection."""
+        for conn, stats in source.stats.items():
+            topic = source.connections[conn].topic
+            entry = self.topics.get(topic)
+            if entry is None:
+                entry = self.topics[topic] = TopicStats(stats.type, stats.durability)
+            entry.merge(stats)
 
     # -- messages -------------------------------------------------------------------------
+
+    def take(self, batch: MessageBatch, source: MessageSource) -> None:
+        """Decode a batch's messages, topic by topic; a topic of which a summary has all it wants is done (the
+        source leaves the chunks that hold nothing else unread)."""
+        present = np.unique(batch.conn).tolist()
+        by_topic: dict[str, list[int]] = {}
+        for conn in present:
+            by_topic.setdefault(source.connections[conn].topic, []).append(conn)
+        for topic, conns in by_topic.items():
+            if len(by_topic) == 1:
+                self.add(topic, batch.data, batch.log_time)
+            else:
+                index = np.flatnonzero(batch.conn == conns[0] if len(conns) == 1 else np.isin(batch.conn, conns))
+                self.add(topic, RawMessages(batch.data.buffer, batch.data.starts[index], batch.data.stops[index]),
+                         batch.log_time[index])
+            if self.remaining(topic) == 0:
+                for conn, connection in source.connections.items():
+                    if connection.topic == topic:
+                        source.done(conn)
 
     def add(self, topic: str, datas: Sequence[bytes | memoryview],
             log_times: Sequence[int] | NDArray[np.int64] | None = None) -> None:
@@ -307,8 +293,6 @@ class Collector:
             log_times = None if log_times is None else log_times[:remaining]
         if not datas:
             return
-        if self.decompress is not None:  # a rosbag2 bag compressed message by message
-            datas = [self.decompress(bytes(data)) for data in datas]
         decoded.taken += len(datas)
         if decoded.accumulator is not None:
             times = None
@@ -321,13 +305,6 @@ class Collector:
         for time_ns, data in zip(times_list, datas):
             decoded.latched.append((int(time_ns), self._arrivals, bytes(data)))
             self._arrivals += 1
-
-    def add_in_time_order(self, topic: str, messages: list[tuple[int, bytes]]) -> None:
-        """Decode (log time, raw message) pairs of a decoded topic, sorted by log time (stably)."""
-        messages.sort(key=lambda message: message[0])
-        for at in range(0, len(messages), DECODE_BATCH):
-            batch = messages[at : at + DECODE_BATCH]
-            self.add(topic, [data for _, data in batch], [time_ns for time_ns, _ in batch])
 
     # -- the result -----------------------------------------------------------------------
 
@@ -352,15 +329,15 @@ class Collector:
                 part["joint_states"] = JointStates(time, names, positions, tuple(repeated))
                 self._warn_zero_stamps(topic, time)
                 if repeated:
-                    warnings.warn(repeated_joints(self.recording.path, topic, repeated, decoded.taken,
-                                                  first=self.options.summary), TfrecWarning, stacklevel=4)
+                    warn_reading(repeated_joints(self.recording.path, topic, repeated, decoded.taken,
+                                                  first=self.options.summary))
             elif decoded.kind == TF and decoded.accumulator is not None:
                 assert isinstance(decoded.accumulator, TFAccumulator)
                 part["tf"] = tf = _frames(decoded.accumulator)
                 self._warn_zero_stamps(topic, np.concatenate([s.time_ns for s in tf.values()] or [np.zeros(0, np.int64)]))
         for namespace, part in parts.items():
-            topics = RobotTopics(tuple(part.get("descriptions", ())), part.get("joint_states"),
-                                 part.get("tf", {}), part.get("tf_static", {}))
+            topics = RecordedRobot(namespace, tuple(part.get("descriptions", ())), part.get("joint_states"),
+                                   part.get("tf", {}), part.get("tf_static", {}))
             if namespace:
                 rec.namespaces[namespace] = topics
                 continue
@@ -380,8 +357,8 @@ class Collector:
                     "nothing for them)")
         else:
             what = "transforms are stamped 0 (tf2's \"latest\": they have no time of their own)"
-        warnings.warn(f"{self.recording.path}: {zero:,} of {len(time_ns):,} {topic} {what}; their times are "
-                      "meaningless: `use_log_time` replays by log time", TfrecWarning, stacklevel=4)
+        warn_reading(f"{self.recording.path}: {zero:,} of {len(time_ns):,} {topic} {what}; their times are "
+                      "meaningless: `use_log_time` replays by log time")
 
 
 def _descriptions(decoded: _Decoded) -> list[str]:

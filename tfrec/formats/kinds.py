@@ -8,7 +8,7 @@
   bounded YAML loader, and the storage files it lists (MCAP, SQLite or zstd-compressed), nothing else: no other
   file, no subfolder, no link. Replacing it removes exactly those entries.
 
-The reports of ``tfrec check`` have their kinds in :mod:`tfrec.formats.report`, pictures in :mod:`tfrec.plots`.
+The reports of ``tfrec check`` have their kinds in :mod:`tfrec.fleet.report`, pictures in :mod:`tfrec.plots`.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from typing import final
 from tfrec._outputs import FileKind, NotOurs, read_head
 from tfrec.errors import ReadError
 from tfrec.formats.mcap.records import MCAP_MAGIC
-from tfrec.formats.rosbag1._records import ROS1_MAGIC
+from tfrec.formats.rosbag1.records import ROS1_MAGIC
 from tfrec.formats.rosbag2.metadata import bag_storage_name, read_bag_metadata
 from tfrec.formats.rrd.reader import RRD_MAGIC
 

@@ -1,7 +1,7 @@
 """Writers of raw messages on any connections, one interface over the three outputs of ``tfrec convert``.
 
 :func:`open_output` gives a :class:`MessageWriter` of a ROS 2 MCAP file
-(:class:`~tfrec.formats.mcap.raw_writer.McapWriter`), a rosbag2 folder (that MCAP, and its
+(:class:`~tfrec.formats.mcap.writer.McapWriter`), a rosbag2 folder (that MCAP, and its
 ``metadata.yaml`` from what it embedded) or a ROS 1 bag
 (:class:`~tfrec.formats.rosbag1.writer.Ros1BagWriter`). Connections are added as
 :class:`~tfrec.formats.ros.connection.Connection` s already in the output's serialization
@@ -20,7 +20,7 @@ from typing import IO
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.formats.mcap.raw_writer import McapWriter
+from tfrec.formats.mcap.writer import McapWriter
 from tfrec.formats.ros.connection import Connection, Extra
 from tfrec.formats.ros.decode import RawMessages
 from tfrec.formats.rosbag1.writer import Ros1BagWriter

@@ -14,8 +14,7 @@ w >= 0; translations are in metres; both float64.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Iterator, Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -31,6 +30,7 @@ from tfrec.kinematics.rotations import (
     quaternion_rotate,
 )
 from tfrec.model import Joint, JointType, Robot
+from tfrec.recording import Transforms
 from tfrec.trajectory.types import JointTrajectory
 
 __all__ = [
@@ -42,6 +42,7 @@ __all__ = [
     "link_poses",
     "root_from_link",
     "static_transforms",
+    "transform_matrices",
 ]
 
 Array = NDArray[np.float64]
@@ -59,65 +60,6 @@ BLOCK = 4096
 """Samples computed together inside the functions below. Blocks keep numpy's temporaries at
 32 kB, which the C allocator recycles; temporaries of ~100 kB and more are handed back to the
 OS and page-faulted in again on every operation, three times slower on the same samples."""
-
-
-@dataclass(frozen=True, slots=True)
-class Transforms:
-    """K transforms ``parent_from_child`` at N instants.
-
-    Attributes:
-        parents: frame ids of the parent frames (frame prefix included), length K.
-        children: frame ids of the child frames, length K.
-        translation: float64 (N, K, 3), metres: the child origin in the parent frame.
-        rotation: float64 (N, K, 4), unit quaternions (x, y, z, w) with w >= 0.
-    """
-
-    parents: tuple[str, ...]
-    children: tuple[str, ...]
-    translation: Array
-    rotation: Array
-
-    def __post_init__(self) -> None:
-        k = len(self.children)
-        n = self.translation.shape[0] if self.translation.ndim == 3 else -1
-        if len(self.parents) != k or self.translation.shape != (n, k, 3) or self.rotation.shape != (n, k, 4):
-            raise ValueError(
-                f"inconsistent transforms: {len(self.parents)} parents, {k} children, "
-                f"translation {self.translation.shape}, rotation {self.rotation.shape}"
-            )
-
-    def __len__(self) -> int:
-        """N, the number of instants."""
-        return int(self.translation.shape[0])
-
-    @classmethod
-    def from_poses(cls, poses: Mapping[tuple[str, str], tuple[Array, Array]]) -> Transforms:
-        """Transforms at one instant (N = 1) of frame pairs, (parent, child) → (translation (3,), rotation (4,))."""
-        k = len(poses)
-        return cls(
-            tuple(parent for parent, _ in poses),
-            tuple(child for _, child in poses),
-            np.array([t for t, _ in poses.values()], dtype=np.float64).reshape(1, k, 3),
-            np.array([r for _, r in poses.values()], dtype=np.float64).reshape(1, k, 4),
-        )
-
-    def poses(self, instant: int = 0) -> dict[tuple[str, str], tuple[Array, Array]]:
-        """The transforms at one instant, (parent, child) → (translation (3,), rotation (4,)) (views).
-
-        The form a replay holds latched transforms in; :meth:`from_poses` is the inverse.
-        """
-        return {
-            (parent, child): (self.translation[instant, k], self.rotation[instant, k])
-            for k, (parent, child) in enumerate(zip(self.parents, self.children))
-        }
-
-    def matrices(self) -> Array:
-        """Homogeneous matrices, float64 (N, K, 4, 4)."""
-        out = np.zeros(self.translation.shape[:2] + (4, 4))
-        out[..., :3, :3] = matrix_from_quaternion(self.rotation)
-        out[..., :3, 3] = self.translation
-        out[..., 3, 3] = 1.0
-        return out
 
 
 class DynamicChunk(NamedTuple):
@@ -233,6 +175,15 @@ def root_from_link(static: Transforms, dynamic: Transforms, *, root: str) -> Tra
         translation[block] = stacked[:3].transpose(2, 1, 0)
         rotation[block] = stacked[3:].transpose(2, 1, 0)
     return Transforms((root,) * len(frames), tuple(frames), translation, rotation)
+
+
+def transform_matrices(transforms: Transforms) -> Array:
+    """Homogeneous matrices of transforms, float64 (N, K, 4, 4)."""
+    out = np.zeros(transforms.translation.shape[:2] + (4, 4))
+    out[..., :3, :3] = matrix_from_quaternion(transforms.rotation)
+    out[..., :3, 3] = transforms.translation
+    out[..., 3, 3] = 1.0
+    return out
 
 
 def link_poses(robot: Robot, names: Sequence[str], positions: ArrayLike) -> dict[str, Array]:

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from tfrec.errors import DescriptionError, TfrecWarning, display_path
 from tfrec.frames import FrameTree, frame_tree, graph_problems
-from tfrec.kinematics.fk import Transforms, root_from_link
+from tfrec.kinematics.fk import root_from_link
 from tfrec.model import JointType, Robot
 from tfrec.plots._figure import (
     MAX_POINTS,
@@ -31,7 +31,7 @@ from tfrec.plots._figure import (
     plot_format,
     refuse_existing,
 )
-from tfrec.recording import JointStates, Recording
+from tfrec.recording import JointStates, Recording, Transforms
 from tfrec.resample import align, data_start_ns
 
 if TYPE_CHECKING:
@@ -258,7 +258,7 @@ def one_robot(recording: Recording, namespace: str | None = None) -> Recording:
                         + (" (they share one namespace: plot one of them with --frames)" if namespace is not None
                            else ""))
     found_robot = robots[0]
-    return dataclasses.replace(recording, robot_description=found_robot.description, robot_descriptions=(),
+    return dataclasses.replace(recording, robot_description=found_robot.robot_description, robot_descriptions=(),
                                joint_states=found_robot.joint_states, tf=dict(found_robot.tf),
                                tf_static=dict(found_robot.tf_static), namespaces={})
 

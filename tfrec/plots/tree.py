@@ -334,7 +334,7 @@ def render_graph(graph: TreeGraph, path: str | os.PathLike[str], *, force: bool 
         save_figure(fig, path, fmt, force=force)
 
 
-def _draw(graph: TreeGraph) -> Any:
+def _draw(graph: TreeGraph) -> Any:  # noqa: PLR0915 - one figure, drawn in order: labels, edges, nodes, legend
     from matplotlib.lines import Line2D
     from matplotlib.patches import FancyArrowPatch, FancyBboxPatch
 

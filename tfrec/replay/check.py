@@ -28,9 +28,9 @@ from tfrec.errors import ReplayError, printable
 from tfrec.kinematics.fk import dynamic_transforms, static_transforms
 from tfrec.kinematics.rotations import rotation_error
 from tfrec.model import Joint, JointType
-from tfrec.recording import FrameSeries
+from tfrec.recording import FrameSeries, RecordedRobot
 from tfrec.replay.load import joint_positions
-from tfrec.replay.prepared import Replay, RobotReplay
+from tfrec.replay.prepared import Replay
 from tfrec.resample import align
 
 __all__ = [
@@ -160,12 +160,12 @@ def _largest(errors: Array, times: NDArray[np.int64] | None, replay: Replay) -> 
 
 
 class _Checker:
-    def __init__(self, part: RobotReplay, replay: Replay) -> None:
-        assert part.robot is not None
+    def __init__(self, part: RecordedRobot, replay: Replay) -> None:
+        assert part.model is not None
         self.replay = replay
         self.key = part.key
         self.joint_topic = part.namespace + "/joint_states"
-        self.robot = part.robot
+        self.robot = part.model
         self.prefix = part.frame_prefix
         self.joint_states = part.joint_states
         self.names: tuple[str, ...] = ()
@@ -247,13 +247,13 @@ class _Checker:
                         rotation_rad=r_max, rotation_time_s=r_at, errors=errors)
 
 
-def _why_unchecked(part: RobotReplay) -> str | None:
+def _why_unchecked(part: RecordedRobot) -> str | None:
     """Why a robot cannot be re-simulated (the error of a recording of one robot), or None."""
     ns = part.namespace
-    if part.robot is None:
+    if part.model is None:
         return (f"no robot description to re-simulate with (no {ns}/robot_description in the recording); "
                 "give `robot` FILE")
-    if not part.robot.moving_joints:  # only /tf_static to check
+    if not part.model.moving_joints:  # only /tf_static to check
         return None
     if part.joint_states is None or not len(part.joint_states):
         return f"no {ns}/joint_states to re-simulate"
@@ -262,13 +262,13 @@ def _why_unchecked(part: RobotReplay) -> str | None:
     return None
 
 
-def _check_robot(part: RobotReplay, replay: Replay, report: CheckReport) -> None:
+def _check_robot(part: RecordedRobot, replay: Replay, report: CheckReport) -> None:
     """Check one robot's recorded frames, in its description's order; notes name it when there are several."""
-    robot = part.robot
+    robot = part.model
     assert robot is not None
     who = f"{part.label}: " if part.key else ""
     recorded_tf = {pair: s for pair, s in part.tf.items() if pair not in part.derived_dynamic and len(s)}
-    recorded_static = {pair: v for pair, v in part.static.items() if pair not in part.derived_static}
+    recorded_static = {pair: v for pair, v in part.tf_static.items() if pair not in part.derived_static}
     checker = _Checker(part, replay)
     by_child: dict[str, list[FrameCheck]] = {}
     other: list[tuple[str, str]] = []
@@ -339,7 +339,7 @@ def check_replay(replay: Replay, *, pos_tol: float = CHECK_POS_TOL, rot_tol: flo
         _check_robot(part, replay, report)
     for part in replay.robots:
         if part.unclaimed:
-            pairs = [*part.static, *part.tf]
+            pairs = [*part.tf_static, *part.tf]
             shown = ", ".join(f"{p} → {c}" for p, c in pairs[:3]) + (" …" if len(pairs) > 3 else "")
             report.notes.append(f"{len(pairs)} frame pair{'s' if len(pairs) != 1 else ''} of no robot's "
                                 f"description ({part.key}), not checked: {shown}")

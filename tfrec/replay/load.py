@@ -31,6 +31,7 @@ import math
 import os
 import warnings
 from collections.abc import Collection, Iterable, Mapping, Sequence
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -53,15 +54,14 @@ from tfrec.frames import frame_tree, graph_problems
 from tfrec.kinematics.fk import dynamic_transforms, static_transforms
 from tfrec.kinematics.joints import apply_mimic
 from tfrec.model import Robot
-from tfrec.recording import FrameSeries, JointStates, Recording
-from tfrec.replay.prepared import Replay, RobotReplay
+from tfrec.recording import FrameSeries, JointStates, RecordedRobot, Recording
+from tfrec.replay.prepared import Replay
 from tfrec.resample import data_end_ns, data_start_ns
-from tfrec.robots import RecordedRobot, detect_frame_prefix, find_robots
+from tfrec.robots import detect_frame_prefix, find_robots
 
 __all__ = [
     "REPLAYED_TOPICS",
     "Replay",
-    "RobotReplay",
     "derive_transforms",
     "detect_frame_prefix",
     "joint_positions",
@@ -218,11 +218,11 @@ def _model_of(found: RecordedRobot, where: str, *, required: bool, only: bool) -
 
 
 def _prepare(found: RecordedRobot, model: Robot | None, override: bool, selected: Collection[str],
-             window: tuple[int, int], where: str, *, need_robot: bool, only: bool) -> RobotReplay:
+             window: tuple[int, int], where: str, *, need_robot: bool, only: bool) -> RecordedRobot:
     """One robot's replay: its data within the window, and what its model adds."""
     if not override and not found.unclaimed:
         model = _model_of(found, where, required=need_robot, only=only)
-        if found.description is None and not need_robot:
+        if found.robot_description is None and not need_robot:
             what = ("TF is replayed without robot geometry" if found.tf or found.tf_static
                     else "only the joint positions are replayed, with no robot model to move")
             who = "" if only else f"{found.label}: "
@@ -230,7 +230,7 @@ def _prepare(found: RecordedRobot, model: Robot | None, override: bool, selected
                           f"{what} (give `robot` FILE)", TfrecWarning, stacklevel=3)
     description = None
     if _selects(selected, found.namespace, ROBOT_DESCRIPTION):
-        description = model.urdf if model is not None and model.urdf else found.description
+        description = model.urdf if model is not None and model.urdf else found.robot_description
     static = dict(found.tf_static) if _selects(selected, found.tf_namespace, TF_STATIC) else {}
     recorded_tf = dict(found.tf) if _selects(selected, found.tf_namespace, TF) else {}
     joint_states = found.joint_states if _selects(selected, found.joint_states_namespace, JOINT_STATES) else None
@@ -256,25 +256,23 @@ def _prepare(found: RecordedRobot, model: Robot | None, override: bool, selected
                                                      found.joint_states_namespace + JOINT_STATES)
         static.update(latched)
         tf.update(computed)
-    return RobotReplay(found.key, found.namespace, model, description, prefix, static, tf, joint_states,
-                       frozenset(latched), frozenset(computed), found.entity_root, problem=found.problem,
-                       unclaimed=found.unclaimed)
+    return replace(found, descriptions=() if description is None else (description,), model=model,
+                   frame_prefix=prefix, tf_static=static, tf=tf, joint_states=joint_states,
+                   derived_static=frozenset(latched), derived_dynamic=frozenset(computed))
 
 
-def _display_prefixes(robots: list[RobotReplay], found: list[RecordedRobot]) -> None:
+def _display_prefixes(robots: list[RecordedRobot]) -> list[RecordedRobot]:
     """Robots of several namespaces' /tf that use the same frame ids are shown apart: each
     namespace's frames behind its name (``robot1/base_link``)."""
     frames: dict[str, set[str]] = {}
-    for robot, origin in zip(robots, found):
-        frames.setdefault(origin.tf_namespace, set()).update(robot.frames())
+    for robot in robots:
+        frames.setdefault(robot.tf_namespace, set()).update(robot.frames())
     if len(frames) < 2:
-        return
+        return robots
     shared = {frame for ns, own in frames.items() for other, theirs in frames.items() if other != ns
               for frame in own & theirs}
-    for robot, origin in zip(robots, found):
-        name = origin.tf_namespace.strip("/")
-        if shared & frames[origin.tf_namespace] and name:
-            robot.display_prefix = name + "/"
+    return [replace(robot, display_prefix=robot.tf_namespace.strip("/") + "/")
+            if shared & frames[robot.tf_namespace] and robot.tf_namespace.strip("/") else robot for robot in robots]
 
 
 def load_replay(
@@ -352,7 +350,7 @@ def load_replay(
     robots = [_prepare(r, robot if robot is not None and not r.unclaimed else r.model,
                        robot is not None and not r.unclaimed, selected, (lo, hi), where,
                        need_robot=need_robot, only=only) for r in found]
-    _display_prefixes(robots, found)
+    robots = _display_prefixes(robots)
     stamps = [s.time_ns for r in robots for s in r.tf.values() if len(s)]
     stamps += [r.joint_states.time_ns for r in robots if r.joint_states is not None and len(r.joint_states)]
     start_ns = min(int(s[0]) for s in stamps) if stamps else None

@@ -23,9 +23,9 @@ from tfrec._atomic import AtomicOutputs
 from tfrec._outputs import check_target
 from tfrec.errors import ReplayError, printable
 from tfrec.formats.kinds import RRD
-from tfrec.recording import FrameSeries, JointStates
+from tfrec.recording import FrameSeries, JointStates, RecordedRobot
 from tfrec.replay.pacing import BATCH_WALL_S, Clock, MonotonicClock, Pacer, batches
-from tfrec.replay.prepared import Replay, RobotReplay
+from tfrec.replay.prepared import Replay
 
 __all__ = ["PlayResult", "ReplaySink", "check_play_options", "play", "replay_to_rerun", "sample_poses"]
 
@@ -36,7 +36,7 @@ Pair = tuple[str, str]
 
 
 class ReplaySink(Protocol):
-    """Where a replay goes (:class:`tfrec.formats.rrd.viewer.RerunReplaySink`, or a test double).
+    """Where a replay goes (:class:`tfrec.viewer.spawn.RerunReplaySink`, or a test double).
 
     ``begin`` is called once per robot of the replay (``robot``: its index, in order); the samples
     of each robot go with its index.
@@ -107,14 +107,14 @@ def play(
         span_ns = round(BATCH_WALL_S * pacer.rate * 1e9) if pacer is not None else 1 << 62
     span_ns = max(span_ns, 1)
     robots = [robot.displayed() for robot in replay.robots]
-    named = next((robot.robot for robot in robots if robot.robot is not None), None)
+    named = next((robot.model for robot in robots if robot.model is not None), None)
     name = named.name if named is not None and len(robots) == 1 else printable(Path(replay.path).name)
     passes = sent = 0
     slept = 0.0
     try:
         for index, robot in enumerate(robots):
             sink.begin(start_time_ns=replay.start_ns if replay.start_ns is not None else replay.origin_ns,
-                       name=name, robot_description=robot.robot_description, static=robot.static,
+                       name=name, robot_description=robot.robot_description, static=robot.tf_static,
                        frames=robot.frames(), root=robot.root_frame(), robot=index,
                        poses=sample_poses(replay, robot=robot))
         streams = [_Streams(index, robot) for index, robot in enumerate(robots)]
@@ -152,7 +152,7 @@ REACH_SAMPLES = 64
 
 
 def sample_poses(replay: Replay, count: int = REACH_SAMPLES, *,
-                 robot: RobotReplay | None = None) -> dict[Pair, tuple[Array, Array]]:
+                 robot: RecordedRobot | None = None) -> dict[Pair, tuple[Array, Array]]:
     """Each /tf pair's transform (of ``robot``, default the first) at ``count`` instants spread evenly
     over the replay (its latest sample at or before each; its first before it starts): (translations
     (K, 3), rotations (K, 4))."""
@@ -177,7 +177,7 @@ def _check_loop(loop: bool, *, live: bool) -> None:
 class _Streams:
     """One robot's time series, cut into the batches of :func:`play`."""
 
-    def __init__(self, index: int, robot: RobotReplay) -> None:
+    def __init__(self, index: int, robot: RecordedRobot) -> None:
         self.robot = index
         self.series: list[tuple[Pair, FrameSeries]] = [(pair, s) for pair, s in robot.tf.items() if len(s)]
         joints = robot.joint_states
@@ -218,8 +218,8 @@ def _recording_id(replay: Replay) -> str:
         key = f"{robot.key}|" if len(replay.robots) > 1 else ""
         digest.update(f"{key}|{replay.start_ns}|{replay.end_ns}|{sorted(robot.tf)}|"
                       f"{robot.robot_description is None}".encode())
-        if robot.robot is not None:
-            digest.update(robot.robot.urdf.encode())
+        if robot.model is not None:
+            digest.update(robot.model.urdf.encode())
     return str(uuid.UUID(bytes=digest.digest()[:16], version=5))
 
 
@@ -244,7 +244,7 @@ def check_play_options(
         raise ReplayError("`save` and `connect` exclude each other")
     _check_loop(loop, live=save is None)
     if save is None:
-        from tfrec.formats.rrd.viewer import check_can_connect, check_can_spawn
+        from tfrec.viewer.spawn import check_can_connect, check_can_spawn
 
         if connect is None:
             check_can_spawn()
@@ -287,12 +287,12 @@ def replay_to_rerun(
         ReplayError: bad options, an output that exists, no viewer to spawn or reach, or a
             file that cannot be written.
     """
-    from tfrec.formats.rrd.viewer import open_rerun_sink
+    from tfrec.viewer.spawn import open_rerun_sink
 
     if not checked:
         check_play_options(save=save, connect=connect, rate=rate, loop=loop, force=force, inputs=[replay.path])
     shown = [robot.displayed() for robot in replay.robots]
-    robots = [(robot.robot, robot.frame_prefix, robot.entity_root) for robot in shown]
+    robots = [(robot.model, robot.frame_prefix, robot.entity_root) for robot in shown]
     names = [robot.key for robot in shown] if len(shown) > 1 else []
     prefixes = [robot.display_prefix for robot in replay.robots]
     if save is None:

@@ -1,4 +1,5 @@
-"""What a replay plays: a recording's robots, each with its model, latched data and TF, cut to a window.
+"""What a replay plays: a recording's robots (:class:`~tfrec.recording.RecordedRobot`), each with its model, latched
+data and TF, cut to a window.
 
 :func:`tfrec.replay.load.load_replay` builds a :class:`Replay`; :mod:`tfrec.replay.play` plays it
 and :mod:`tfrec.replay.check` re-simulates it.
@@ -7,7 +8,7 @@ and :mod:`tfrec.replay.check` re-simulates it.
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -15,90 +16,12 @@ from numpy.typing import NDArray
 from tfrec.conventions import NS_PER_S
 from tfrec.errors import TfrecWarning
 from tfrec.model import Robot
-from tfrec.recording import FrameSeries, JointStates
+from tfrec.recording import FrameSeries, JointStates, RecordedRobot
 
-__all__ = ["Replay", "RobotReplay"]
+__all__ = ["Replay"]
 
 Array = NDArray[np.float64]
 Pair = tuple[str, str]
-
-
-@dataclass
-class RobotReplay:
-    """One robot of a replay (:func:`tfrec.robots.find_robots`), prepared for playing.
-
-    Attributes:
-        key: the robot's key (``""`` for the only robot, ``/robot1``, ``left_arm``).
-        namespace: its namespace.
-        robot: the robot model, or None when there is none (transforms are replayed alone).
-        robot_description: the URDF text to log at its ``robot_description``, or None.
-        frame_prefix: what the recording's frame ids put in front of the link names.
-        static: latched transforms, (parent, child) → (translation (3,), rotation (4,)).
-        tf: (parent, child) → transforms within the cut, recorded pairs first.
-        joint_states: its joint states within the cut, or None.
-        derived_static: the pairs of ``static`` that are fixed joints of the model, not recorded.
-        derived_dynamic: the pairs of ``tf`` computed from the model and the joint states.
-        entity_root: where it is shown in Rerun (``/robot1``; ``""`` for the top).
-        display_prefix: put in front of its frame ids in the viewer, where robots of several
-            namespaces use the same frame ids (``robot1/``); ``""`` otherwise.
-        problem: why its recorded description is not a usable model, or None.
-        unclaimed: not a robot: the pairs of a shared TF that no robot claims.
-    """
-
-    key: str
-    namespace: str
-    robot: Robot | None
-    robot_description: str | None
-    frame_prefix: str
-    static: dict[Pair, tuple[Array, Array]]
-    tf: dict[Pair, FrameSeries]
-    joint_states: JointStates | None
-    derived_static: frozenset[Pair] = frozenset()
-    derived_dynamic: frozenset[Pair] = frozenset()
-    entity_root: str = ""
-    display_prefix: str = ""
-    problem: str | None = None
-    unclaimed: bool = False
-
-    @property
-    def label(self) -> str:
-        """``robot /robot1``; ``the robot`` for the only one."""
-        return f"robot {self.key}" if self.key else "the robot"
-
-    @property
-    def derived(self) -> frozenset[Pair]:
-        """Every pair that robot_state_publisher's part of the replay added (static and dynamic)."""
-        return self.derived_static | self.derived_dynamic
-
-    def frames(self) -> list[str]:
-        """Every frame id of the latched and dynamic transforms, in order of appearance."""
-        seen: dict[str, None] = {}
-        for parent, child in list(self.static) + list(self.tf):
-            seen.setdefault(parent)
-            seen.setdefault(child)
-        return list(seen)
-
-    def root_frame(self) -> str | None:
-        """The frame the 3D view is drawn in: the robot's root, else a frame that is nobody's child."""
-        if self.robot is not None:
-            return self.frame_prefix + self.robot.root
-        children = {child for _, child in list(self.static) + list(self.tf)}
-        return next((frame for frame in self.frames() if frame not in children), None)
-
-    def displayed(self) -> RobotReplay:
-        """As the viewer shows it: every frame id behind ``display_prefix``."""
-        prefix = self.display_prefix
-        if not prefix:
-            return self
-
-        def pair(p: Pair) -> Pair:
-            return prefix + p[0], prefix + p[1]
-
-        return replace(self, frame_prefix=prefix + self.frame_prefix, display_prefix="",
-                       static={pair(p): v for p, v in self.static.items()},
-                       tf={pair(p): v for p, v in self.tf.items()},
-                       derived_static=frozenset(pair(p) for p in self.derived_static),
-                       derived_dynamic=frozenset(pair(p) for p in self.derived_dynamic))
 
 
 @dataclass
@@ -108,7 +31,9 @@ class Replay:
     Attributes:
         path: the recording read.
         format: ``mcap``, ``rosbag2``, ``rosbag1`` or ``rrd``.
-        robots: one :class:`RobotReplay` per robot of the recording (:func:`tfrec.robots.find_robots`).
+        robots: each robot of the recording (:func:`tfrec.robots.find_robots`) prepared for playing: a
+            :class:`~tfrec.recording.RecordedRobot` with its model, its data within the cut and what the model adds
+            (``derived_static``, ``derived_dynamic``).
         origin_ns: the recording's start, its first /joint_states or /tf stamp: ``start_s`` and
             reported times count from it.
         start_ns, end_ns: the first and last stamp replayed (None when no sample is left).
@@ -122,7 +47,7 @@ class Replay:
 
     path: str
     format: str
-    robots: list[RobotReplay]
+    robots: list[RecordedRobot]
     origin_ns: int
     start_ns: int | None
     end_ns: int | None
@@ -132,7 +57,7 @@ class Replay:
 
     @property
     def robot(self) -> Robot | None:
-        return self.robots[0].robot
+        return self.robots[0].model
 
     @property
     def robot_description(self) -> str | None:
@@ -144,7 +69,7 @@ class Replay:
 
     @property
     def static(self) -> dict[Pair, tuple[Array, Array]]:
-        return self.robots[0].static
+        return self.robots[0].tf_static
 
     @property
     def tf(self) -> dict[Pair, FrameSeries]:

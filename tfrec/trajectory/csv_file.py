@@ -40,6 +40,30 @@ _NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _NOT_FINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
 
 
+def _joint_columns(robot: Robot, columns: list[str], overrides: Mapping[str, float],
+                   where: str) -> dict[int, tuple[int, Joint]]:
+    """The header's joint columns: CSV column → (trajectory column, joint).
+
+    Raises:
+        TrajectoryError: a column that appears twice, is not an actuated joint or is also overridden; no ``time``.
+    """
+    joints: dict[int, tuple[int, Joint]] = {}
+    seen: set[str] = set()
+    for c, column in enumerate(columns):
+        at = f"{where}: column '{column}'"
+        if column in seen:
+            raise TrajectoryError(f"{at} appears twice")
+        seen.add(column)
+        if column == "time":
+            continue
+        joints[c] = actuated_column(robot, column, at, verb="give")
+        if column in overrides:
+            raise TrajectoryError(f"{at} is also set by an override")
+    if "time" not in seen:
+        raise TrajectoryError(f"{where}: no 'time' column")
+    return joints
+
+
 def read_csv_trajectory(
     path: str | os.PathLike[str],
     robot: Robot,
@@ -71,20 +95,7 @@ def read_csv_trajectory(
     text = _read_text(path, name)
     header_line, header, body_start = _header(text, name)
     columns = [cell.strip() for cell in header]
-    joints: dict[int, tuple[int, Joint]] = {}  # CSV column → (trajectory column, joint)
-    seen: set[str] = set()
-    for c, column in enumerate(columns):
-        where = f"{name}:{header_line}: column '{column}'"
-        if column in seen:
-            raise TrajectoryError(f"{where} appears twice")
-        seen.add(column)
-        if column == "time":
-            continue
-        joints[c] = actuated_column(robot, column, where, verb="give")
-        if column in overrides:
-            raise TrajectoryError(f"{where} is also set by an override")
-    if "time" not in seen:
-        raise TrajectoryError(f"{name}:{header_line}: no 'time' column")
+    joints = _joint_columns(robot, columns, overrides, f"{name}:{header_line}")
     values = _fast_values(text, body_start, len(columns))
     lines: NDArray[np.int64] | None = None
     if values is None:  # anything unusual: read cell by cell, as strictly, naming the line of a fault

@@ -1,8 +1,8 @@
-"""MCAP files (ROS 2 profile): record layouts (:mod:`.records`), the summary section (:mod:`.summary`),
-chunks through their message indexes (:mod:`.index`), the walk over a file's records (:mod:`.walker`),
-tfrec's reader of intact and damaged files (:mod:`.reader`) and its writer (:mod:`.writer`); for ``tfrec convert``,
-every message raw, chunk by chunk (:mod:`.messages`), and a writer of any topics (:mod:`.raw_writer`)."""
+"""MCAP files (ROS 2 profile): record layouts (:mod:`.records`), the summary section (:mod:`.summary`), chunks
+through their message indexes (:mod:`.index`), the one reader — one walk of a file's records, damaged files
+included (:mod:`.source`) —, the one writer of any channels (:mod:`.writer`) and, over it, the sink of ``tfrec
+record`` (:mod:`.sink`)."""
 
 from __future__ import annotations
 
-__all__ = ["index", "messages", "raw_writer", "reader", "records", "summary", "walker", "writer"]
+__all__ = ["index", "records", "sink", "source", "summary", "writer"]

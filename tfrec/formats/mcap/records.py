@@ -77,7 +77,7 @@ def iter_records(view: memoryview, *, strict: bool = True) -> Iterator[tuple[int
     decompressed records, a summary section, or a whole data section read into memory.
 
     This is the one walk over MCAP records that the summary, ``tfrec info`` and the fallback
-    readers share. tfrec's sequential reader (:mod:`tfrec.formats.mcap.reader`) inlines the same
+    readers share. tfrec's one reader (:mod:`tfrec.formats.mcap.source`) inlines the same
     loop in its hot path (it takes a message per iteration without a generator), and is tested to
     take exactly the records this yields.
 

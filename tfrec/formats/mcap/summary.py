@@ -1,6 +1,6 @@
 """MCAP records besides messages — header, schemas, channels, chunk headers — and the summary section.
 
-Used by the sequential reader (:mod:`tfrec.formats.mcap.reader`): the records of the data section
+Used by the one reader (:mod:`tfrec.formats.mcap.source`): the records of the data section
 that are not messages, and the summary section, which tells a damaged file's schemas, channels and
 true start, and an intact file's message counts (its Statistics record), against which the
 messages read are checked.

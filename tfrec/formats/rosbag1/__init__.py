@@ -1,11 +1,11 @@
-"""ROS 1 bags (format 2.0): reading through the bag's index, only the chunks that hold messages to decode
-(:mod:`.index`), or record by record when the index cannot be used, damaged files included (:mod:`.reader`);
-and writing them chunked and indexed with vectorized ROS 1 serialization (:mod:`.writer`, :mod:`.sink`); every
-message raw, chunk by chunk, for ``tfrec convert`` (:mod:`.messages`)."""
+"""ROS 1 bags (format 2.0): their records, written and read back (:mod:`.records`), their index (:mod:`.index`),
+the one reader — through the index, or record by record when it cannot be used, damaged files included
+(:mod:`.source`) —, the one writer, chunked and indexed with vectorized ROS 1 serialization (:mod:`.writer`), and
+the sink of ``tfrec record`` over it (:mod:`.sink`)."""
 
 from __future__ import annotations
 
 from tfrec.formats.rosbag1.sink import Ros1BagSink
 from tfrec.formats.rosbag1.writer import Ros1BagWriter
 
-__all__ = ["Ros1BagSink", "Ros1BagWriter", "index", "messages", "reader", "sink", "writer"]
+__all__ = ["Ros1BagSink", "Ros1BagWriter", "index", "records", "sink", "source", "writer"]

@@ -9,15 +9,15 @@ Connections, in id order, all published by :data:`~tfrec.formats.rosbag1.writer.
    a robot without moving joints).
 3. ``/tf``, ``tf2_msgs/TFMessage``: one per sample; none for a robot without moving joints.
 
-Every message's bag time is its header stamp. The sink has :class:`tfrec.mcap_io.McapSink`'s
-interface, so the record pipeline drives both the same way.
+Every message's bag time is its header stamp. A thin layer over the one ROS 1 writer
+(:class:`~tfrec.formats.rosbag1.writer.Ros1BagWriter`), behind the :class:`~tfrec.formats.sink.RecordSink`
+protocol, so the record pipeline drives it as it drives the MCAP and Rerun sinks.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,9 +26,7 @@ from tfrec.conventions import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC
 from tfrec.formats.ros.encode import JointStateEncoder, TFMessageEncoder, check_ros1_times, encode_string
 from tfrec.formats.ros.types import ros1_message_definition
 from tfrec.formats.rosbag1.writer import CALLERID, DEFAULT_CHUNK_BYTES, Ros1BagWriter
-
-if TYPE_CHECKING:
-    from tfrec.kinematics.fk import Transforms
+from tfrec.recording import Transforms
 
 __all__ = ["TOPICS", "Ros1BagSink"]
 

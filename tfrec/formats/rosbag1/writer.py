@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 from tfrec.conventions import NS_PER_S
 from tfrec.errors import WriteError, display_path
 from tfrec.formats.ros.encode import ROS1_TIME_LIMIT_NS, ros1_times
-from tfrec.formats.rosbag1._records import (
+from tfrec.formats.rosbag1.records import (
     CONN_AT,
     LENGTH_AT,
     MESSAGE_HEAD,

@@ -3,7 +3,7 @@
 A rosbag2 bag is a folder ``<name>/`` holding ``metadata.yaml`` and ``<name>_0.mcap``. The
 metadata is rosbag2's BagMetadata as yaml-cpp encodes it (Jazzy and later: metadata version 9,
 offered QoS profiles as a YAML list with string enums); the same text, less the file list, is embedded
-in the MCAP as its ``rosbag2`` metadata record (:class:`tfrec.formats.mcap.writer.McapSink`, which
+in the MCAP as its ``rosbag2`` metadata record (:class:`tfrec.formats.mcap.sink.McapSink`, which
 builds it with :func:`bag_info` and keeps it for :func:`write_bag_metadata`). Only ``metadata.yaml``
 names the bag's files: an MCAP's bytes do not depend on the name it is written under (the same
 recording as ``out.mcap`` and as ``bag/bag_0.mcap`` is the same bytes). The offered QoS profiles are defined
@@ -22,8 +22,8 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+from tfrec._yaml import load_yaml, yaml_dump
 from tfrec.errors import ReadError, TfrecWarning
-from tfrec.formats._yaml import load_yaml
 
 __all__ = [
     "BAG_VERSION",
@@ -107,7 +107,7 @@ def write_bag_metadata(bag_dir: str | Path, info: Mapping[str, Any], *, file_nam
 
     Args:
         bag_dir: the bag folder (it exists).
-        info: the bag's BagMetadata, from :func:`bag_info` (:attr:`tfrec.formats.mcap.writer.McapSink.bag_info`
+        info: the bag's BagMetadata, from :func:`bag_info` (:attr:`tfrec.formats.mcap.sink.McapSink.bag_info`
             of its MCAP).
         file_name: the storage file in the folder (rosbag2's ``<folder>_0.mcap``), listed in
             ``relative_file_paths`` and ``files``.
@@ -216,22 +216,6 @@ def bag_metadata_yaml(info: Mapping[str, Any]) -> str:
     return "".join(parts)
 
 
-def yaml_dump(data: Any) -> str:
-    """Block-style YAML with indented sequences, ``~`` and ``""``, as yaml-cpp (rosbag2) writes it."""
-    import yaml
-
-    def indent_sequences(self: Any, flow: bool = False, indentless: bool = False) -> None:
-        yaml.SafeDumper.increase_indent(self, flow, False)
-
-    dumper: Any = type("_RosbagDumper", (yaml.SafeDumper,), {
-        "increase_indent": indent_sequences,
-        "ignore_aliases": lambda self, data: True,  # a mapping used twice is written twice, not as &id001
-    })
-    dumper.add_representer(type(None), lambda d, _: d.represent_scalar("tag:yaml.org,2002:null", "~"))
-    dumper.add_representer(str, lambda d, v: d.represent_scalar("tag:yaml.org,2002:str", v, style='"' if v == "" else None))
-    return str(yaml.dump(data, Dumper=dumper, sort_keys=False, default_flow_style=False, width=1 << 16))
-
-
 @dataclass(frozen=True, slots=True)
 class BagMetadata:
     """What tfrec needs of a rosbag2 folder's ``metadata.yaml``.
@@ -274,7 +258,7 @@ def read_bag_metadata(folder: Path) -> BagMetadata:
         text = data.decode("utf-8")
     except UnicodeDecodeError as err:
         raise ReadError(f"{meta}: not UTF-8 text (byte {err.start:,})") from err
-    # bounded: an alias bomb or 20,000-deep nesting is refused at once (tfrec.formats._yaml)
+    # bounded: an alias bomb or 20,000-deep nesting is refused at once (tfrec._yaml)
     document = load_yaml(text, where=str(meta), error=ReadError)
     info = document.get("rosbag2_bagfile_information") if isinstance(document, dict) else None
     if not isinstance(info, dict):

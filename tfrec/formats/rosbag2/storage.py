@@ -1,11 +1,10 @@
-"""A rosbag2 bag's files as the readers take them: decompressed, and checked against ``metadata.yaml``.
+"""A rosbag2 bag's files as the sources take them: decompressed.
 
 A bag compressed file by file (``compression_mode: file``, ``bag_0.mcap.zstd``) has each file
-decompressed to a temporary copy first, streamed and bounded (:func:`plain_files`, :data:`MAX_FILE_RATIO`); one compressed message by
-message has each decoded message decompressed (:func:`message_decompressor`). The messages read
-are checked against ``metadata.yaml``'s ``topics_with_message_count``: a topic whose count differs
-warns with both numbers (:func:`check_metadata_counts`) — a bag whose recorder was killed, a
-metadata file edited by hand, files added or removed.
+decompressed to a temporary copy first, streamed and bounded (:func:`plain_files`, :data:`MAX_FILE_RATIO`); one
+compressed message by message has each message decompressed (:func:`message_decompressor`). (The messages counted
+are checked against ``metadata.yaml``'s ``topics_with_message_count`` by the source:
+:attr:`tfrec.formats.ros.connection.MessageSource.expected_counts`.)
 """
 
 from __future__ import annotations
@@ -13,17 +12,14 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
-from tfrec.errors import ReadError, TfrecWarning
-from tfrec.formats._collect import ReadOptions, count_differences
+from tfrec.errors import ReadError
 from tfrec.formats._compression import MAX_CHUNK_BYTES
 from tfrec.formats.rosbag2.metadata import BagMetadata
-from tfrec.recording import Recording
 
-__all__ = ["MAX_FILE_RATIO", "check_metadata_counts", "message_decompressor", "plain_files"]
+__all__ = ["MAX_FILE_RATIO", "message_decompressor", "plain_files"]
 
 MAX_FILE_RATIO = 1000
 """A file of a bag compressed file by file inflates to at most this many times its size (or
@@ -93,19 +89,3 @@ def message_decompressor(meta: BagMetadata, where: str) -> Callable[[bytes], byt
             raise ReadError(f"{where}: a message does not decompress (zstd: {err})") from err
 
     return decompress
-
-
-def check_metadata_counts(recording: Recording, meta: BagMetadata, options: ReadOptions, where: str) -> None:
-    """Warn when the messages read per topic differ from ``metadata.yaml``'s counts."""
-    assert meta.topic_counts is not None
-    expected: dict[str, int] = {}
-    for topic, count in meta.topic_counts.items():
-        name = options.resolve(topic)
-        expected[name] = expected.get(name, 0) + count
-    read = {topic: info.count for topic, info in recording.topics.items()}
-    for topic, count in read.items():
-        if count:
-            expected.setdefault(topic, 0)  # a topic metadata.yaml does not list
-    differ = count_differences(read, expected, index="metadata.yaml")
-    if differ is not None:
-        warnings.warn(f"{where}: {differ}", TfrecWarning, stacklevel=4)

@@ -1,7 +1,7 @@
-"""Rerun recordings (``.rrd``) and viewers: entity paths and timeline (:mod:`.paths`), a robot's
-geometry (:mod:`.geometry`), the sink record and replay log through (:mod:`.sink`), the reader
-(:mod:`.reader`), and spawning or connecting to a viewer (:mod:`.viewer`)."""
+"""Rerun recordings (``.rrd``) read back: where tfrec puts things in one — entity paths and the timeline
+(:mod:`.paths`), shared with the writing side, :mod:`tfrec.viewer` — and the reader (:mod:`.reader`, Rerun's own,
+run in a child process by :mod:`._read_child`)."""
 
 from __future__ import annotations
 
-__all__ = ["columns", "geometry", "paths", "reader", "sink", "viewer"]
+__all__ = ["paths", "reader"]

@@ -1,6 +1,6 @@
 """Where tfrec puts things in a Rerun recording: the entity paths and the timeline.
 
-Shared by the writer (:mod:`tfrec.formats.rrd.sink`) and the reader (:mod:`tfrec.formats.rrd.reader`), which
+Shared by the writer (:mod:`tfrec.viewer.sink`) and the reader (:mod:`tfrec.formats.rrd.reader`), which
 parses them back with :func:`parse_entity`.
 
 Entity paths (``<link>`` and ``<joint>`` are URDF names, escaped with

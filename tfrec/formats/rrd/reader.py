@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from tfrec.conventions import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC, robot_topic_kind
 from tfrec.errors import ReadError
 from tfrec.formats._collect import DECODED_TOPICS, ReadOptions
-from tfrec.recording import FrameSeries, JointStates, Recording, RobotTopics, TopicInfo
+from tfrec.recording import FrameSeries, JointStates, RecordedRobot, Recording, TopicInfo
 
 __all__ = ["RRD_MAGIC", "read_rrd"]
 
@@ -37,22 +37,19 @@ RRD_MAGIC = b"RRF2"
 
 
 def read_rrd(path: Path, options: ReadOptions) -> Recording:
-    """Read an ``.rrd`` written by :class:`tfrec.formats.rrd.sink.RerunSink`, decoding the kinds of
+    """Read an ``.rrd`` written by :class:`tfrec.viewer.sink.RerunSink`, decoding the kinds of
     topics ``options`` select (an ``.rrd`` has no topic names: remapping and namespaces do not apply).
 
     Raises:
         ReadError: Rerun cannot read the file (damaged or not an RRD), or it was not written by
             tfrec (another application id): what it holds has no ROS meaning tfrec knows.
     """
-    import pyarrow as pa
-
     from tfrec.formats.rrd import paths as rerun_paths
 
     where = os.fspath(path)
     wanted = DECODED_TOPICS if options.topics is None else frozenset(
         kind[1] for topic in options.topics if (kind := robot_topic_kind(topic)) is not None)
     recording = Recording(path=where, format="rrd", float32=True)
-    timeline = rerun_paths.TIMELINE
     applications, chunks = _read_chunks(path)
     if applications and rerun_paths.APPLICATION_ID not in applications:
         raise ReadError(f"{where}: a Rerun recording of {', '.join(repr(a) for a in applications)}, not "
@@ -61,52 +58,10 @@ def read_rrd(path: Path, options: ReadOptions) -> Recording:
     parts: dict[str, _Entities] = {}
     for entity_path, batch in chunks:
         found = _rooted(entity_path)
-        if found is None:
-            continue
-        namespace, top, names = found
-        entities = parts.setdefault(namespace, _Entities())
-        columns = {name: batch.column(i) for i, name in enumerate(batch.schema.names)}
-        if top in (rerun_paths.DESCRIPTION_ROOT, rerun_paths.DISPLAY_PREFIX_ROOT):
-            text = columns.get("TextDocument:text")
-            if text is not None and len(text):
-                values = text.flatten()
-                if len(values):
-                    value = str(values[len(values) - 1].as_py())
-                    if top == rerun_paths.DESCRIPTION_ROOT:
-                        entities.description = value
-                    else:
-                        entities.display_prefix = value
-            continue
-        time = None
-        if timeline in columns:
-            time = np.asarray(columns[timeline].cast(pa.int64()).to_numpy(zero_copy_only=False), dtype=np.int64)
-        if top == rerun_paths.JOINTS_ROOT and not names:  # /joint_states messages that name no joint
-            if rerun_paths.JOINT_COUNT in columns and time is not None:
-                entities.no_joints.append(time)
-            continue
-        if top == rerun_paths.JOINTS_ROOT:
-            scalars = columns.get("Scalars:scalars")
-            if scalars is None or time is None:
-                continue
-            values, keep = _one_per_row(scalars, 1)
-            entities.joints.setdefault("/".join(names), []).append((time[keep], values[keep, 0]))
-            continue
-        translation = columns.get("Transform3D:translation")
-        quaternion = columns.get("Transform3D:quaternion")
-        parent = columns.get("Transform3D:parent_frame")
-        child = columns.get("Transform3D:child_frame")
-        if translation is None or quaternion is None or parent is None or child is None:
-            continue
-        t_values, t_valid = _one_per_row(translation, 3)
-        q_values, q_valid = _one_per_row(quaternion, 4)
-        keep = t_valid & q_valid
-        if not keep.any():
-            continue
-        pair = (str(parent.flatten()[0].as_py()), str(child.flatten()[0].as_py()))
-        if top == rerun_paths.TF_STATIC_ROOT or time is None:
-            entities.static[pair] = (t_values[keep][-1], q_values[keep][-1])
-        else:
-            entities.tf.setdefault(names, []).append((time[keep], t_values[keep], q_values[keep], pair))
+        if found is not None:
+            namespace, top, names = found
+            columns = {name: batch.column(i) for i, name in enumerate(batch.schema.names)}
+            parts.setdefault(namespace, _Entities()).take(top, names, columns)
     times: list[NDArray[np.int64]] = []
     for namespace, entities in sorted(parts.items()):
         topics, data = entities.robot_topics(namespace, wanted, times)
@@ -153,8 +108,77 @@ class _Entities:
         self.description: str | None = None
         self.display_prefix = ""  # what the replay put in front of the recorded frame ids (undone here)
 
+    def take(self, top: str, names: tuple[str, ...], columns: dict[str, Any]) -> None:
+        """One chunk of the entity ``top``/``names``: its columns (pyarrow arrays) by name."""
+        from tfrec.formats.rrd import paths as rerun_paths
+
+        if top in (rerun_paths.DESCRIPTION_ROOT, rerun_paths.DISPLAY_PREFIX_ROOT):
+            self._text(top, columns.get("TextDocument:text"))
+            return
+        time = None
+        if rerun_paths.TIMELINE in columns:
+            import pyarrow as pa
+
+            time = np.asarray(columns[rerun_paths.TIMELINE].cast(pa.int64()).to_numpy(zero_copy_only=False),
+                              dtype=np.int64)
+        if top == rerun_paths.JOINTS_ROOT:
+            self._joints(names, columns, time)
+        else:
+            self._transforms(top, names, columns, time)
+
+    def _text(self, top: str, text: Any) -> None:
+        """The robot description, or the display prefix a replay put in front of the frame ids: the last text."""
+        from tfrec.formats.rrd import paths as rerun_paths
+
+        if text is None or not len(text):
+            return
+        values = text.flatten()
+        if len(values):
+            value = str(values[len(values) - 1].as_py())
+            if top == rerun_paths.DESCRIPTION_ROOT:
+                self.description = value
+            else:
+                self.display_prefix = value
+
+    def _joints(self, names: tuple[str, ...], columns: dict[str, Any], time: NDArray[np.int64] | None) -> None:
+        """A joint's positions; without a joint, the stamps of /joint_states messages that name no joint."""
+        from tfrec.formats.rrd import paths as rerun_paths
+
+        if time is None:
+            return
+        if not names:
+            if rerun_paths.JOINT_COUNT in columns:
+                self.no_joints.append(time)
+            return
+        scalars = columns.get("Scalars:scalars")
+        if scalars is not None:
+            values, keep = _one_per_row(scalars, 1)
+            self.joints.setdefault("/".join(names), []).append((time[keep], values[keep, 0]))
+
+    def _transforms(self, top: str, names: tuple[str, ...], columns: dict[str, Any],
+                    time: NDArray[np.int64] | None) -> None:
+        """A frame pair's transforms: latched (``/tf_static``, or without a time) or a time series."""
+        from tfrec.formats.rrd import paths as rerun_paths
+
+        translation = columns.get("Transform3D:translation")
+        quaternion = columns.get("Transform3D:quaternion")
+        parent = columns.get("Transform3D:parent_frame")
+        child = columns.get("Transform3D:child_frame")
+        if translation is None or quaternion is None or parent is None or child is None:
+            return
+        t_values, t_valid = _one_per_row(translation, 3)
+        q_values, q_valid = _one_per_row(quaternion, 4)
+        keep = t_valid & q_valid
+        if not keep.any():
+            return
+        pair = (str(parent.flatten()[0].as_py()), str(child.flatten()[0].as_py()))
+        if top == rerun_paths.TF_STATIC_ROOT or time is None:
+            self.static[pair] = (t_values[keep][-1], q_values[keep][-1])
+        else:
+            self.tf.setdefault(names, []).append((time[keep], t_values[keep], q_values[keep], pair))
+
     def robot_topics(self, namespace: str, wanted: frozenset[str],
-                     times: list[NDArray[np.int64]]) -> tuple[dict[str, TopicInfo], RobotTopics]:
+                     times: list[NDArray[np.int64]]) -> tuple[dict[str, TopicInfo], RecordedRobot]:
         """The topics these entities stand for, and their data (of the kinds ``wanted``); appends the
         stamps of their time series to ``times``."""
         topics: dict[str, TopicInfo] = {}
@@ -192,9 +216,9 @@ class _Entities:
         if self.display_prefix:  # the frame ids as recorded, not as the viewer showed them
             tf = {self._recorded(pair): series for pair, series in tf.items()}
             static = {self._recorded(pair): value for pair, value in static.items()}
-        return topics, RobotTopics((description,) if description is not None else (),
-                                   joint_states if JOINT_STATES in wanted else None,
-                                   tf if TF in wanted else {}, static if TF_STATIC in wanted else {})
+        return topics, RecordedRobot(namespace, (description,) if description is not None else (),
+                                     joint_states if JOINT_STATES in wanted else None,
+                                     tf if TF in wanted else {}, static if TF_STATIC in wanted else {})
 
     def _recorded(self, pair: tuple[str, str]) -> tuple[str, str]:
         prefix = self.display_prefix

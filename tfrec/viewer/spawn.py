@@ -1,6 +1,6 @@
 """Replaying into Rerun: a spawned viewer, a running one (``--connect``), or an ``.rrd`` file.
 
-A replay is logged through :class:`tfrec.formats.rrd.sink.RerunSink`, the sink ``tfrec record`` writes
+A replay is logged through :class:`tfrec.viewer.sink.RerunSink`, the sink ``tfrec record`` writes
 with, so a replayed recording looks like a recorded one: the robot's geometry under
 ``/robot/<link>``, a transform pair whose child frame is a link of the robot at ``/tf/<joint>``
 (``/tf_static/<joint>`` when latched), joint positions at ``/joints/<joint>``, the same
@@ -35,11 +35,11 @@ import rerun as rr
 from numpy.typing import NDArray
 
 from tfrec.errors import WriteError
-from tfrec.formats.rrd.blueprint import blueprint_of
 from tfrec.formats.rrd.paths import APPLICATION_ID
-from tfrec.formats.rrd.sink import RerunSink
-from tfrec.kinematics.fk import Transforms
 from tfrec.model import Robot
+from tfrec.recording import Transforms
+from tfrec.viewer.blueprint import blueprint_of
+from tfrec.viewer.sink import RerunSink
 
 __all__ = ["RerunReplaySink", "check_can_connect", "check_can_spawn", "open_rerun_sink"]
 
@@ -167,7 +167,7 @@ def open_rerun_sink(
         connect: stream to the viewer (or server) at this URL, ``rerun+http://host:port/proxy``.
         recording_id: the recording id (default: a new one).
         robot, frame_prefix: the model and frame prefix of a replay of one robot, as for
-            :class:`tfrec.formats.rrd.sink.RerunSink`.
+            :class:`tfrec.viewer.sink.RerunSink`.
         robots: (model, frame prefix, entity prefix) of each robot of a replay of several, instead.
         names: each robot's name in the layout's tabs.
         package_paths: folders searched first for ``package://`` meshes.

@@ -1,6 +1,6 @@
 """Two robots of a diff as one Rerun recording: a ghost overlay that shows where they differ.
 
-Both robots move together, each logged through its own :class:`~tfrec.formats.rrd.sink.RerunSink`
+Both robots move together, each logged through its own :class:`~tfrec.viewer.sink.RerunSink`
 under its own entity prefix and frame prefix — A at ``/a`` (frames ``a/<link>``), solid, every link
 coloured by its current error (green within tolerance, through yellow, to red at the worst error of
 the whole diff); B at ``/b`` (frames ``b/<link>``), a translucent ghost. B's root frame is A's root
@@ -35,13 +35,13 @@ import rerun.blueprint as rrb
 from numpy.typing import NDArray
 
 from tfrec.errors import WriteError
-from tfrec.formats.rrd.blueprint import Reach, stable_ids
-from tfrec.formats.rrd.columns import time_column
-from tfrec.formats.rrd.geometry import colour_archetype
 from tfrec.formats.rrd.paths import TIMELINE, visual_entity
-from tfrec.formats.rrd.sink import RerunSink
-from tfrec.kinematics.fk import Transforms
 from tfrec.model import Robot
+from tfrec.recording import Transforms
+from tfrec.viewer.blueprint import Reach, stable_ids
+from tfrec.viewer.columns import time_column
+from tfrec.viewer.geometry import colour_archetype
+from tfrec.viewer.sink import RerunSink
 
 __all__ = [
     "DIFF_ROOT",

@@ -102,7 +102,7 @@ REPORT_FORMAT_VERSION = 1
 
 
 def _metadata() -> dict[bytes, bytes]:
-    from tfrec import __version__
+    from tfrec._version import __version__
 
     return {b"tfrec.report": str(REPORT_FORMAT_VERSION).encode(), b"tfrec.version": __version__.encode()}
 

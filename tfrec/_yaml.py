@@ -1,4 +1,9 @@
-"""The one YAML loader of tfrec: ``yaml.SafeLoader`` with bounds, for files tfrec did not write.
+"""YAML, in one place: the one loader of tfrec (``yaml.SafeLoader`` with bounds, for files tfrec did not write)
+and the one writer (:func:`yaml_dump`, as yaml-cpp writes rosbag2's ``metadata.yaml``).
+
+The only module that imports PyYAML (ruff's banned-api keeps it so). It sits in the base, below every stage:
+the formats stage reads ``metadata.yaml`` and QoS texts with it, the description stage ``xacro.load_yaml``
+and launch files' ``<rosparam>``.
 
 YAML that tfrec reads comes from others: a rosbag2 folder's ``metadata.yaml``, the QoS text in
 MCAP channel metadata, the configuration files a xacro description loads with
@@ -25,7 +30,7 @@ from typing import Any
 
 import yaml
 
-__all__ = ["MAX_ALIASES", "MAX_BYTES", "MAX_DEPTH", "MAX_NODES", "load_yaml"]
+__all__ = ["MAX_ALIASES", "MAX_BYTES", "MAX_DEPTH", "MAX_NODES", "load_yaml", "yaml_dump"]
 
 MAX_BYTES = 16 * 1024 * 1024
 """Largest document accepted (bytes, or characters of a ``str``): a rosbag2 ``metadata.yaml`` of a
@@ -190,3 +195,18 @@ def _scalar_constructor(construct: Callable[[str], Any]) -> Callable[[Any, Any],
 
 def _one_line(text: str) -> str:
     return " ".join(text.split())
+
+
+def yaml_dump(data: Any) -> str:
+    """Block-style YAML with indented sequences, ``~`` and ``""``, as yaml-cpp (rosbag2) writes it."""
+
+    def indent_sequences(self: Any, flow: bool = False, indentless: bool = False) -> None:
+        yaml.SafeDumper.increase_indent(self, flow, False)
+
+    dumper: Any = type("_RosbagDumper", (yaml.SafeDumper,), {
+        "increase_indent": indent_sequences,
+        "ignore_aliases": lambda self, data: True,  # a mapping used twice is written twice, not as &id001
+    })
+    dumper.add_representer(type(None), lambda d, _: d.represent_scalar("tag:yaml.org,2002:null", "~"))
+    dumper.add_representer(str, lambda d, v: d.represent_scalar("tag:yaml.org,2002:str", v, style='"' if v == "" else None))
+    return str(yaml.dump(data, Dumper=dumper, sort_keys=False, default_flow_style=False, width=1 << 16))

@@ -10,7 +10,7 @@
 - the TF tree (what ROS's ``view_frames`` draws) is a graph of frames, parent above child
   (:func:`tf_tree_layout`), in a panel of its own.
 
-Only builds Rerun objects; :mod:`tfrec.formats.rrd.sink` logs and sends them.
+Only builds Rerun objects; :mod:`tfrec.viewer.sink` logs and sends them.
 """
 
 from __future__ import annotations
@@ -35,9 +35,9 @@ from tfrec.formats.rrd.paths import (
     velocity_entity,
 )
 from tfrec.frames import frame_tree
-from tfrec.kinematics.fk import Transforms
 from tfrec.kinematics.rotations import quaternion_rotate
 from tfrec.model import JointType, Robot
+from tfrec.recording import Transforms
 
 __all__ = [
     "EYE_PITCH_DEG",

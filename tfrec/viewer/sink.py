@@ -1,12 +1,12 @@
 """The Rerun sink: a robot's TF, joint states and geometry as Rerun data, for record and replay.
 
 Opened with ``rerun OUT.rrd`` it shows what RViz shows with the RobotModel and TF displays, plus
-plots of the joint states and the TF tree (the layout: :mod:`tfrec.formats.rrd.blueprint`). It uses Rerun's named transform frames, which model ROS's tf2: every
+plots of the joint states and the TF tree (the layout: :mod:`tfrec.viewer.blueprint`). It uses Rerun's named transform frames, which model ROS's tf2: every
 link is a frame named like its TF frame (``frame_prefix`` + link name), joint transforms relate
 frame pairs, and geometry is attached to frames.
 
 ``tfrec record`` writes a ``.rrd`` file through :class:`RerunSink`; ``tfrec replay`` logs
-through the same sink (:mod:`tfrec.formats.rrd.viewer`) to a file, a spawned viewer or a running one,
+through the same sink (:mod:`tfrec.viewer.spawn`) to a file, a spawned viewer or a running one,
 so a replayed recording has the entities of a recorded one.
 Entity paths and the timeline: :mod:`tfrec.formats.rrd.paths`."""
 
@@ -24,10 +24,6 @@ import rerun.blueprint as rrb
 from numpy.typing import NDArray
 
 from tfrec.errors import TfrecWarning, WriteError
-from tfrec.formats.rrd._flush import disconnect, flush
-from tfrec.formats.rrd.blueprint import Reach, blueprint_of, joint_colour, joint_units, robot_layout, tf_tree_columns
-from tfrec.formats.rrd.columns import check_stamps, no_joint_columns, repeated_strings, time_column
-from tfrec.formats.rrd.geometry import MeshLoader, default_axis_length, missing_meshes, visual_columns, visual_radius
 from tfrec.formats.rrd.paths import (
     APPLICATION_ID,
     DESCRIPTION_ROOT,
@@ -45,8 +41,13 @@ from tfrec.formats.rrd.paths import (
     velocity_entity,
     visual_entity,
 )
-from tfrec.kinematics.fk import Transforms, root_from_link
+from tfrec.kinematics.fk import root_from_link
 from tfrec.model import Mesh, Robot
+from tfrec.recording import Transforms
+from tfrec.viewer._flush import disconnect, flush
+from tfrec.viewer.blueprint import Reach, blueprint_of, joint_colour, joint_units, robot_layout, tf_tree_columns
+from tfrec.viewer.columns import check_stamps, no_joint_columns, repeated_strings, time_column
+from tfrec.viewer.geometry import MeshLoader, default_axis_length, missing_meshes, visual_columns, visual_radius
 
 __all__ = ["RerunSink"]
 
@@ -78,7 +79,7 @@ class RerunSink:
         axis_length_m: length of the links' TF axes; default: a tenth of the robot's reach,
             between 2 cm and 25 cm.
         entity_prefix: put in front of every entity path but ``/`` and ``/__properties``
-            (``/a``: two robots in one recording, :mod:`tfrec.formats.rrd.overlay`).
+            (``/a``: two robots in one recording, :mod:`tfrec.viewer.overlay`).
         colour: one colour (0xRRGGBBAA) for every visual instead of its material's (a ghost); 0
             for none (to colour them over time: static colours would hide those).
 
@@ -391,7 +392,7 @@ class RerunSink:
         """Widen the robot's reach (the camera frames it) by the robot at (up to 64 of) the instants of ``moving``.
 
         ``moving`` is composed with :meth:`begin`'s latched transforms; the camera looks at the
-        whole reach (:class:`tfrec.formats.rrd.blueprint.Reach`). Without a robot the viewer's own camera
+        whole reach (:class:`tfrec.viewer.blueprint.Reach`). Without a robot the viewer's own camera
         is kept; frames that do not form a tree are placed as :func:`~tfrec.kinematics.root_from_link` places them.
         """
         if self._static is None or self._robot is None or self._reach is None or not len(moving):
@@ -400,7 +401,7 @@ class RerunSink:
         sampled = Transforms(moving.parents, moving.children, moving.translation[picked], moving.rotation[picked])
         self._reach.add(root_from_link(self._static, sampled, root=self._prefix + self._robot.root))
 
-    def blueprint(self) -> rrb.Blueprint:  # the layout (tfrec.formats.rrd.blueprint) of :meth:`layout`
+    def blueprint(self) -> rrb.Blueprint:  # the layout (tfrec.viewer.blueprint) of :meth:`layout`
         return blueprint_of(self.layout())
 
     def layout(self, name: str | None = None) -> rrb.Container | rrb.View:

@@ -7,7 +7,7 @@ does not read) and other formats trimesh reads are converted to GLB in memory, s
 file's ``<unit meter>`` and ignoring its up axis, as RViz does. Meshes that bring their own
 materials keep them; others get the URDF material colour (RViz's rule, too).
 
-Every column built here is static and has one row; :mod:`tfrec.formats.rrd.sink` sends them.
+Every column built here is static and has one row; :mod:`tfrec.viewer.sink` sends them.
 """
 
 from __future__ import annotations
