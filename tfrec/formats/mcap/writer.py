@@ -672,9 +672,10 @@ def _in_time_order(body: bytes, columns: dict[int, tuple[NDArray[np.int64], NDAr
     order = np.argsort(times_written, kind="stable")
     moved_lengths = lengths[order]
     destinations = np.concatenate([[0], np.cumsum(moved_lengths)[:-1]])
-    # every byte's source: its record's start in `body`, plus its place in the record (one gather, no loop)
-    source = np.arange(len(body), dtype=np.int64) + np.repeat(starts[order] - destinations, moved_lengths)
-    moved = np.frombuffer(body, dtype=np.uint8)[source].tobytes()
+    # one slice per record (a byte-wise gather needs an 8-byte index per byte: twice the CPU)
+    view = memoryview(body)
+    firsts = starts[order]
+    moved = b"".join([view[first:last] for first, last in zip(firsts.tolist(), (firsts + moved_lengths).tolist())])
     new_offsets = np.empty_like(starts)
     new_offsets[order] = destinations
     placed = np.empty_like(offsets)
