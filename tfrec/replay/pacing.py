@@ -80,10 +80,8 @@ def batches(stamps: Sequence[NDArray[np.int64]], *, start_ns: int, span_ns: int)
         return []
     window = (every - start_ns) // span_ns
     starts = np.flatnonzero(np.r_[True, window[1:] != window[:-1]])
-    return [
-        Batch(start_ns + int(window[i]) * span_ns, start_ns + (int(window[i]) + 1) * span_ns, int(every[i]))
-        for i in starts
-    ]
+    return [Batch(start_ns + w * span_ns, start_ns + (w + 1) * span_ns, first)
+            for w, first in zip(window[starts].tolist(), every[starts].tolist())]
 
 
 class Pacer:
