@@ -193,10 +193,87 @@ def bench_reorder(minutes: float, repeat: int) -> None:
               f"{now / before:.2f}x; byte-identical: {same}")
 
 
+# -- zstd -----------------------------------------------------------------------------------------
+
+
+def chunk_bodies(minutes: float) -> list[bytes]:
+    """The uncompressed chunk bodies ``tfrec record`` compresses: marm, random trajectory, 100 Hz."""
+    import io
+
+    from mcap.records import Chunk
+    from mcap.stream_reader import StreamReader
+
+    from tfrec.description import load_description
+    from tfrec.kinematics.fk import iter_dynamic_chunks, static_transforms
+    from tfrec.formats.mcap.sink import McapSink
+    from tfrec.trajectory.generators import make_trajectory
+
+    robot = load_description(REPO / "robots" / "marm.xacro")
+    trajectory = make_trajectory(robot, "random", duration_s=minutes * 60, rate_hz=100.0, seed=0)
+    stream = io.BytesIO()
+    sink = McapSink(stream, compression="none")
+    sink.begin(robot_description=robot.urdf, static=static_transforms(robot), start_time_ns=1_700_000_000 * 10**9)
+    for chunk in iter_dynamic_chunks(robot, trajectory):
+        sink.write_chunk(stamp_ns=chunk.time_ns + 1_700_000_000 * 10**9, joint_names=chunk.names,
+                         positions=chunk.positions, velocities=chunk.velocities, transforms=chunk.transforms)
+    sink.finish()
+    stream.seek(0)
+    return [bytes(r.data) for r in StreamReader(stream, skip_magic=False, emit_chunks=True).records if isinstance(r, Chunk)]
+
+
+def zstd_blocks(level: int, block: int | None) -> Callable[[bytes], bytes]:
+    """A chunk compressor: zstd at ``level``, a block ended every ``block`` bytes (None: zstd's own blocks, at most
+    128 KiB each)."""
+    import zstandard
+
+    compressor = zstandard.ZstdCompressor(level=level)
+    if block is None:
+        return compressor.compress
+
+    def compress(data: bytes) -> bytes:
+        stream = compressor.compressobj(size=len(data))
+        parts = [stream.compress(data[i:i + block]) + stream.flush(zstandard.COMPRESSOBJ_FLUSH_BLOCK)
+                 for i in range(0, len(data), block)]
+        parts.append(stream.flush())
+        return b"".join(parts)
+
+    return compress
+
+
+def worst_cut_loss(compress: Callable[[bytes], bytes], body: bytes, step: int = 512) -> int:
+    """The most uncompressed bytes a cut chunk loses before the cut: the cut moved through the compressed chunk
+    ``step`` bytes at a time, what tfrec's salvage reads of it rises block by block; the largest rise is what a
+    cut just before the end of that block loses."""
+    from tfrec.formats._compression import salvage
+
+    packed = compress(body)
+    read = [len(salvage("zstd", packed[:cut], limit=len(body))) for cut in range(0, len(packed), step)]
+    assert salvage("zstd", packed[:len(packed) // 2], limit=len(body)) == body[:read[len(packed) // 2 // step]]
+    return max(b - a for a, b in zip(read, [*read[1:], len(body)]))
+
+
+def bench_zstd(minutes: float, repeat: int) -> None:
+    bodies = chunk_bodies(minutes)
+    total = sum(len(b) for b in bodies)
+    print(f"  {len(bodies)} chunks, {total / 1e6:.1f} MB uncompressed ({minutes:g} min of marm at 100 Hz)")
+    base = None
+    for level in (1, 3):
+        for block in (16 << 10, 32 << 10, 64 << 10, None):
+            compress = zstd_blocks(level, block)
+            cpu, packed = best_cpu(repeat, lambda compress=compress: [compress(b) for b in bodies])
+            size = sum(len(p) for p in packed)
+            loss = worst_cut_loss(compress, bodies[len(bodies) // 2])
+            if base is None:
+                base = cpu
+            print(f"  level {level}, blocks of {'128 KiB (zstd)' if block is None else f'{block >> 10} KiB'}: "
+                  f"{cpu:.3f} s CPU ({total / cpu / 1e6:.0f} MB/s), {size / 1e6:.2f} MB, {cpu / base:.2f}x the "
+                  f"CPU of level 1 / 16 KiB; a cut loses at most {loss / 1024:.0f} KiB of the chunk before it")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--only", nargs="+", default=["info", "pacing", "reorder"],
-                        choices=["info", "pacing", "reorder"])
+    parser.add_argument("--only", nargs="+", default=["info", "pacing", "reorder", "zstd"],
+                        choices=["info", "pacing", "reorder", "zstd"])
     parser.add_argument("--repeat", type=int, default=5, help="runs of each (the fastest counts)")
     parser.add_argument("--minutes", type=float, default=10.0, help="length of the converted bag (reorder)")
     parser.add_argument("--baseline-tree", type=Path, help="a folder holding an older tfrec/ package (info: before)")
@@ -211,6 +288,8 @@ def main(argv: list[str] | None = None) -> int:
             bench_info(options.cache, options.repeat, options.baseline_tree)
         elif name == "pacing":
             bench_pacing(options.repeat)
+        elif name == "zstd":
+            bench_zstd(options.minutes, min(options.repeat, 3))
         else:
             bench_reorder(options.minutes, min(options.repeat, 3))
     return 0
