@@ -204,8 +204,8 @@ def chunk_bodies(minutes: float) -> list[bytes]:
     from mcap.stream_reader import StreamReader
 
     from tfrec.description import load_description
-    from tfrec.kinematics.fk import iter_dynamic_chunks, static_transforms
     from tfrec.formats.mcap.sink import McapSink
+    from tfrec.kinematics.fk import iter_dynamic_chunks, static_transforms
     from tfrec.trajectory.generators import make_trajectory
 
     robot = load_description(REPO / "robots" / "marm.xacro")
