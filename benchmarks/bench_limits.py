@@ -13,10 +13,17 @@ Sections (``--only`` picks some), each with its baseline measured in the same ru
 - ``reorder``: ``convert`` of a ROS 1 bag (tfrec's, of a 10-joint chain at 100 Hz for ``--minutes``) to MCAP, the
   chunks put in time order record by record (now) against byte by byte (before); CPU seconds of the whole
   conversion in-process, best of ``--repeat``, and the outputs compared byte for byte.
+- ``zstd``: the chunk bodies ``tfrec record`` compresses (``--minutes`` of marm at 100 Hz), compressed at zstd
+  levels 1 and 3 with a block ended every 16, 32, 64 KiB or at zstd's own 128 KiB; CPU seconds (best of
+  ``--repeat``), compressed size, and the most a cut chunk loses before the cut (tfrec's salvage of the chunk cut
+  every 512 compressed bytes). Baseline: level 3, 16 KiB blocks (before).
+- ``record``: ``tfrec record robots/marm.xacro`` for ``--hours`` in fresh processes, with and without the .rrd,
+  against ``record --no-rrd`` (and ``import rerun`` alone), also without pandas importable (a tfrec installed
+  without its test extra).
 
 Run from the repository root:
 
-    .venv/bin/python benchmarks/bench_limits.py [--only info pacing reorder] [--baseline-tree DIR]
+    .venv/bin/python benchmarks/bench_limits.py [--only info pacing reorder zstd record] [--baseline-tree DIR]
 """
 
 from __future__ import annotations
@@ -270,10 +277,44 @@ def bench_zstd(minutes: float, repeat: int) -> None:
                   f"CPU of level 1 / 16 KiB; a cut loses at most {loss / 1024:.0f} KiB of the chunk before it")
 
 
+# -- record ---------------------------------------------------------------------------------------
+
+
+def without_pandas(cache: Path) -> dict[str, str]:
+    """The environment of a tfrec installed without its test extra: pandas not importable (pyarrow, asked by Rerun
+    to convert a numpy array, imports pandas whenever it is installed: +40 MB and ~0.4 s)."""
+    stub = cache / "no-pandas" / "pandas"
+    stub.mkdir(parents=True, exist_ok=True)
+    (stub / "__init__.py").write_text('raise ImportError("pandas is not installed")\n')
+    return {**os.environ, "PYTHONPATH": os.fspath(stub.parent)}
+
+
+def bench_record(cache: Path, hours: float, repeat: int) -> None:
+    python = sys.executable
+    out = cache / "record.mcap"
+    record = [python, "-m", "tfrec", "record", "robots/marm.xacro", "--traj", "random", "--duration",
+              f"{hours * 3600:g}", "--rate", "100", "--seed", "0", "-o", str(out), "--force"]
+    plain = without_pandas(cache)
+    rows = [("python -c pass", [python, "-c", "pass"], None),
+            ("python -c 'import rerun'", [python, "-c", "import rerun"], None),
+            ("python -c 'import rerun' (no pandas)", [python, "-c", "import rerun"], plain),
+            ("record --no-rrd", [*record, "--no-rrd"], None),
+            ("record (MCAP + .rrd)", record, None),
+            ("record (MCAP + .rrd, no pandas)", record, plain),
+            ("record --no-mcap (.rrd only)", [*record, "--no-mcap"], None)]
+    figures = {label: best_process(argv, repeat, env) for label, argv, env in rows}
+    base = figures["record --no-rrd"]
+    print(f"  robots/marm.xacro, random, {hours:g} h at 100 Hz (best of {repeat}):")
+    for label, (wall, cpu, rss) in figures.items():
+        print(f"  {label}: {wall:.2f} s wall, {cpu:.2f} s CPU, peak RSS {rss:.0f} MB; {cpu / base[1]:.2f}x the CPU "
+              f"and {rss / base[2]:.2f}x the memory of record --no-rrd")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--only", nargs="+", default=["info", "pacing", "reorder", "zstd"],
-                        choices=["info", "pacing", "reorder", "zstd"])
+    parser.add_argument("--only", nargs="+", default=["info", "pacing", "reorder", "zstd", "record"],
+                        choices=["info", "pacing", "reorder", "zstd", "record"])
+    parser.add_argument("--hours", type=float, default=1.0, help="length of the recording (record)")
     parser.add_argument("--repeat", type=int, default=5, help="runs of each (the fastest counts)")
     parser.add_argument("--minutes", type=float, default=10.0, help="length of the converted bag (reorder)")
     parser.add_argument("--baseline-tree", type=Path, help="a folder holding an older tfrec/ package (info: before)")
@@ -288,6 +329,8 @@ def main(argv: list[str] | None = None) -> int:
             bench_info(options.cache, options.repeat, options.baseline_tree)
         elif name == "pacing":
             bench_pacing(options.repeat)
+        elif name == "record":
+            bench_record(options.cache, options.hours, min(options.repeat, 2))
         elif name == "zstd":
             bench_zstd(options.minutes, min(options.repeat, 3))
         else:
