@@ -48,9 +48,11 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def run_process(argv: Sequence[str], *, env: dict[str, str] | None = None) -> tuple[float, float, float]:
-    """(wall seconds, CPU seconds, peak RSS in MB) of one process, from its own rusage (os.wait4)."""
+    """(wall seconds, CPU seconds, peak RSS in MB) of one process, from its own rusage (os.wait4). With a
+    ``PYTHONPATH`` in ``env`` (an older tree) it runs there: ``python -m`` puts its working folder first."""
     start = time.perf_counter()
-    child = subprocess.Popen(list(argv), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, cwd=REPO, env=env)
+    cwd = env["PYTHONPATH"] if env is not None and "PYTHONPATH" in env else REPO
+    child = subprocess.Popen(list(argv), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, cwd=cwd, env=env)
     _, status, usage = os.wait4(child.pid, 0)
     wall = time.perf_counter() - start
     child.returncode = os.waitstatus_to_exitcode(status)
@@ -292,7 +294,7 @@ def without_pandas(cache: Path) -> dict[str, str]:
 def bench_record(cache: Path, hours: float, repeat: int) -> None:
     python = sys.executable
     out = cache / "record.mcap"
-    record = [python, "-m", "tfrec", "record", "robots/marm.xacro", "--traj", "random", "--duration",
+    record = [python, "-m", "tfrec", "record", str(REPO / "robots" / "marm.xacro"), "--traj", "random", "--duration",
               f"{hours * 3600:g}", "--rate", "100", "--seed", "0", "-o", str(out), "--force"]
     plain = without_pandas(cache)
     rows = [("python -c pass", [python, "-c", "pass"], None),
