@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 from tfrec.formats.mcap.writer import message_definition
-from tfrec.formats.ros.definitions import INTERPRETED, ROS_LAYOUTS
+from tfrec.formats.ros.definitions import INTERPRETED, ROS_LAYOUTS, foreign_layout
 from tfrec.formats.ros.types import ROS2_DEFINITIONS, ros1_message_definition, typestore
 
 _LOADED = """
@@ -61,3 +61,15 @@ def test_the_layouts_known_without_a_store_are_rosbags() -> None:
     for msgtype, (md5sum, rihs01) in ROS_LAYOUTS.items():
         assert ros1_message_definition(msgtype)[1] == md5sum
         assert store.hash_rihs01(msgtype) == rihs01
+
+
+def test_a_definition_known_by_heart_is_judged_as_when_parsed() -> None:
+    """tfrec's own ros2msg text is taken without parsing: the verdict is the one parsing gives (a comment added
+    makes the text another, parsed and compared field by field) — ROS 2's layout, and not ROS 1's (whose Header
+    has a seq)."""
+    for msgtype, text in ROS2_DEFINITIONS.items():
+        for ros1 in (False, True):
+            known = foreign_layout(msgtype, ros1=ros1, definition=text, definition_encoding="ros2msg")
+            parsed = foreign_layout(msgtype, ros1=ros1, definition=text + "# a comment\n", definition_encoding="ros2msg")
+            assert known == parsed, (msgtype, ros1)
+            assert (known is None) == (not ros1 or msgtype == "std_msgs/msg/String")

@@ -198,7 +198,8 @@ def _rihs01(reference: str) -> str:
 
 
 def _written_by_tfrec(msgtype: str, definition: str, encoding: str) -> bool:
-    """Whether a definition is the ``ros2msg`` text tfrec writes for the type (ROS's layout, without parsing)."""
+    """Whether a definition is the ``ros2msg`` text tfrec writes for the type: ROS 2's layout, known without parsing
+    (a ROS 1 connection's layout has the Header's ``seq``: it is compared field by field)."""
     return encoding == "ros2msg" and definition == ROS2_DEFINITIONS.get(msgtype)
 
 
@@ -275,7 +276,7 @@ def foreign_layout(msgtype: str, *, ros1: bool, definition: str = "", definition
         return None if type_hash == expected else f"its md5sum is {type_hash!r}, not ROS's {expected}"
     if definition.strip():
         encoding = definition_encoding or ("ros1msg" if ros1 else "ros2msg")
-        if _written_by_tfrec(_full(msgtype), definition, encoding):
+        if not ros1 and _written_by_tfrec(_full(msgtype), definition, encoding):
             return None
         try:
             found = parse_definition(_full(msgtype), definition, encoding)
