@@ -557,6 +557,24 @@ def test_batches_cover_every_stamp_once() -> None:
     assert batches([], start_ns=0, span_ns=1) == []
 
 
+def test_batches_equal_those_of_the_unique_stamps() -> None:
+    """The windows come from a stable sort of the stamps (np.unique's sort was 35x slower on an hour of them):
+    duplicates, stamps shared between series, stamps before the start and unsorted input give the windows that
+    the sorted unique stamps give."""
+    rng = np.random.default_rng(7)
+    for trial in range(40):
+        sizes = rng.integers(0, 400, size=int(rng.integers(1, 5)))
+        series = [np.sort(rng.integers(-50, 5_000, size=int(size))) for size in sizes]
+        series.append(series[0][::-1].copy())  # unsorted input, every stamp a duplicate
+        start_ns, span_ns = int(rng.integers(-60, 200)), int(rng.integers(1, 300))
+        every = np.unique(np.concatenate(series))
+        every = every[every >= start_ns]
+        window = (every - start_ns) // span_ns
+        expected = [(start_ns + int(w) * span_ns, start_ns + (int(w) + 1) * span_ns, int(every[i]))
+                    for i, w in enumerate(window) if i == 0 or window[i - 1] != w]
+        assert batches(series, start_ns=start_ns, span_ns=span_ns) == expected, trial
+
+
 def test_live_batches_are_sent_on_their_deadlines(recorded: Path) -> None:
     replay = load_replay(recorded)
     clock = FakeClock()

@@ -17,19 +17,20 @@ import warnings
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from tfrec.errors import ReadError, TfrecWarning, display_path
 from tfrec.formats._collect import ReadOptions
-from tfrec.formats.mcap import summary
 from tfrec.formats.mcap.records import MCAP_MAGIC
-from tfrec.formats.mcap.source import McapSource
 from tfrec.formats.ros.connection import Extra, MessageSource
 from tfrec.formats.rosbag1.records import ROS1_MAGIC
-from tfrec.formats.rosbag1.source import Ros1Source
-from tfrec.formats.rosbag2.metadata import BagMetadata, bag_without_metadata, read_bag_metadata
-from tfrec.formats.rosbag2.source import Sqlite3Source
-from tfrec.formats.rosbag2.storage import message_decompressor, plain_files
 from tfrec.formats.rrd.reader import RRD_MAGIC
+
+if TYPE_CHECKING:
+    from tfrec.formats.rosbag2.metadata import BagMetadata
+
+# Each format's source (and a rosbag2 folder's metadata.yaml reader, with YAML) is imported when a recording of
+# that format is opened: `tfrec info` of an MCAP file loads no code of the other formats.
 
 __all__ = ["RecordingSource", "identify_recording", "listed_extras", "open_messages", "recording_format"]
 
@@ -70,6 +71,8 @@ def recording_format(path: str | os.PathLike[str]) -> str:
     where = os.fspath(path)
     file = Path(path)
     if file.is_dir():
+        from tfrec.formats.rosbag2.metadata import bag_without_metadata
+
         if (file / "metadata.yaml").is_file() or bag_without_metadata(file) is not None:
             return "rosbag2"
         raise ReadError(f"{where}: a folder without metadata.yaml and without the split files of one bag "
@@ -106,6 +109,8 @@ def identify_recording(path: str | os.PathLike[str]) -> RecordingSource:
     file = Path(path)
     if fmt != "rosbag2":
         return RecordingSource(file, fmt)
+    from tfrec.formats.rosbag2.metadata import BagMetadata, bag_without_metadata, read_bag_metadata
+
     folder = file.parent if file.is_file() else file
     if not (folder / "metadata.yaml").is_file():
         if file.is_file():  # a .db3 given on its own
@@ -149,14 +154,32 @@ def messages_of(source: RecordingSource, resolve: Callable[[str], str]) -> Itera
     over the formats."""
     where = source.where
     if source.format == "mcap":
+        from tfrec.formats.mcap.source import McapSource
+
         yield McapSource([source.path], where=where, resolve=resolve)
         return
     if source.format == "rosbag1":
+        from tfrec.formats.rosbag1.source import Ros1Source
+
         yield Ros1Source(source.path, where=where, resolve=resolve)
         return
     if source.format != "rosbag2":
         raise ReadError(f"{where}: a Rerun recording holds no ROS messages (MCAP files, rosbag2 folders and ROS 1 "
                         "bags do)")
+    with _rosbag2_messages(source, resolve) as found:
+        yield found
+
+
+@contextlib.contextmanager
+def _rosbag2_messages(source: RecordingSource, resolve: Callable[[str], str]) -> Iterator[MessageSource]:
+    """A rosbag2 bag's source: its MCAP or sqlite3 files, decompressed to a temporary folder while read when the bag
+    is compressed file by file."""
+    from tfrec.formats.mcap.source import McapSource
+    from tfrec.formats.rosbag2.metadata import read_bag_metadata
+    from tfrec.formats.rosbag2.source import Sqlite3Source
+    from tfrec.formats.rosbag2.storage import message_decompressor, plain_files
+
+    where = source.where
     meta = source.bag if source.bag is not None else read_bag_metadata(Path(where))
     if meta.storage not in ("mcap", "sqlite3"):
         raise ReadError(f"{where}: storage '{meta.storage}' (tfrec reads mcap and sqlite3 bags)")
@@ -179,6 +202,8 @@ def listed_extras(source: RecordingSource) -> list[Extra]:
     what an output that cannot hold them leaves out."""
     files = [source.path] if source.format == "mcap" else list(source.files) if (
         source.format == "rosbag2" and source.bag is not None and source.bag.storage == "mcap") else []
+    from tfrec.formats.mcap import summary
+
     found: list[Extra] = []
     for file in files:
         try:

@@ -104,10 +104,15 @@ def check_time_range(first_ns: int, last_ns: int) -> None:
 _ZSTD_BLOCK = 16 * 1024
 """Uncompressed bytes per zstd block: the most a cut inside a zstd chunk loses."""
 
+_ZSTD_LEVEL = 1
+"""zstd's compression level of MCAP chunks."""
+
 
 def chunk_compressor(compression: str) -> tuple[str, Callable[[bytes], bytes]]:
-    """The chunk compression field and compressor of ``zstd`` (level 3, a block every 16 KiB so a
-    cut file reads up to the cut), ``lz4`` (frame format) or ``none``.
+    """The chunk compression field and compressor of ``zstd`` (level 1, a block every 16 KiB so a
+    cut file reads up to the cut), ``lz4`` (frame format) or ``none``. Level 1 compresses ~1.3x faster
+    than 3 (the mcap libraries' default) for ~3 % more bytes, at the same 16 KiB a cut may lose
+    (benchmarks/bench_limits.py --only zstd, docs/performance.md).
 
     Raises:
         WriteError: another compression.
@@ -115,7 +120,7 @@ def chunk_compressor(compression: str) -> tuple[str, Callable[[bytes], bytes]]:
     if compression == "zstd":
         import zstandard
 
-        compressor = zstandard.ZstdCompressor(level=3)
+        compressor = zstandard.ZstdCompressor(level=_ZSTD_LEVEL)
 
         def compress(data: bytes) -> bytes:
             # End a zstd block every _ZSTD_BLOCK bytes: a file cut inside a chunk (a recorder killed
@@ -672,9 +677,10 @@ def _in_time_order(body: bytes, columns: dict[int, tuple[NDArray[np.int64], NDAr
     order = np.argsort(times_written, kind="stable")
     moved_lengths = lengths[order]
     destinations = np.concatenate([[0], np.cumsum(moved_lengths)[:-1]])
-    # every byte's source: its record's start in `body`, plus its place in the record (one gather, no loop)
-    source = np.arange(len(body), dtype=np.int64) + np.repeat(starts[order] - destinations, moved_lengths)
-    moved = np.frombuffer(body, dtype=np.uint8)[source].tobytes()
+    # one slice per record (a byte-wise gather needs an 8-byte index per byte: twice the CPU)
+    view = memoryview(body)
+    firsts = starts[order]
+    moved = b"".join([view[first:last] for first, last in zip(firsts.tolist(), (firsts + moved_lengths).tolist())])
     new_offsets = np.empty_like(starts)
     new_offsets[order] = destinations
     placed = np.empty_like(offsets)

@@ -30,7 +30,7 @@ from functools import cache, lru_cache
 from typing import Any
 
 from tfrec.formats.ros.connection import Connection
-from tfrec.formats.ros.types import known_ros1_typestore, ros1_message_definition, typestore
+from tfrec.formats.ros.types import ROS2_DEFINITIONS, known_ros1_typestore, typestore
 
 __all__ = [
     "INTERPRETED",
@@ -176,14 +176,31 @@ def _reference(*, ros1: bool) -> Mapping[str, Fields]:
     return dict(store.fielddefs)
 
 
-@cache
+ROS_LAYOUTS = {
+    "tf2_msgs/msg/TFMessage": ("94810edda583a504dfda3829e70d7eec",
+                               "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087"),
+    "sensor_msgs/msg/JointState": ("3066dcd76a6cfaef579bd0f34173e9fd",
+                                   "RIHS01_a13ee3a330e346c9d87b5aa18d24e11690752bd33a0350f11c5882bc9179260e"),
+    "std_msgs/msg/String": ("992ce8a1687cec8c8bd883ec73ca41d1",
+                            "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18"),
+}
+"""Each type tfrec reads → its ROS 1 md5sum and its ROS 2 RIHS01 type hash, as rosbags' type stores compute them
+(tests compare), known without loading the stores: a ROS 1 bag's connections are checked by their md5sum, tfrec's
+own MCAP schemas by their text (:data:`~tfrec.formats.ros.types.ROS2_DEFINITIONS`), with none of rosbags' stores."""
+
+
 def _ros1_md5(reference: str) -> str:
-    return ros1_message_definition(reference)[1]
+    return ROS_LAYOUTS[reference][0]
 
 
-@cache
 def _rihs01(reference: str) -> str:
-    return str(typestore().hash_rihs01(reference))
+    return ROS_LAYOUTS[reference][1]
+
+
+def _written_by_tfrec(msgtype: str, definition: str, encoding: str) -> bool:
+    """Whether a definition is the ``ros2msg`` text tfrec writes for the type: ROS 2's layout, known without parsing
+    (a ROS 1 connection's layout has the Header's ``seq``: it is compared field by field)."""
+    return encoding == "ros2msg" and definition == ROS2_DEFINITIONS.get(msgtype)
 
 
 def _describe(desc: Any) -> str:
@@ -258,8 +275,11 @@ def foreign_layout(msgtype: str, *, ros1: bool, definition: str = "", definition
         expected = _ros1_md5(known)
         return None if type_hash == expected else f"its md5sum is {type_hash!r}, not ROS's {expected}"
     if definition.strip():
+        encoding = definition_encoding or ("ros1msg" if ros1 else "ros2msg")
+        if not ros1 and _written_by_tfrec(_full(msgtype), definition, encoding):
+            return None
         try:
-            found = parse_definition(_full(msgtype), definition, definition_encoding or ("ros1msg" if ros1 else "ros2msg"))
+            found = parse_definition(_full(msgtype), definition, encoding)
         except DefinitionError as err:
             return str(err)
         difference = _difference(found, _full(msgtype), _reference(ros1=ros1), known)

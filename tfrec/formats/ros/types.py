@@ -26,11 +26,13 @@ from typing import Any
 from tfrec.errors import ReadError, RecordingError
 
 __all__ = [
+    "ROS2_DEFINITIONS",
     "TF_MESSAGE_DEFINITION",
     "UndecodableMessage",
     "deserializer",
     "genmsg_definition",
     "known_ros1_typestore",
+    "reading_typestore",
     "ros1_definition_text",
     "ros1_message_definition",
     "topic_deserializer",
@@ -38,6 +40,62 @@ __all__ = [
 ]
 
 Deserialize = Callable[[bytes | memoryview], Any]
+
+
+ROS2_DEFINITIONS = {
+    "tf2_msgs/msg/TFMessage": (
+        'geometry_msgs/TransformStamped[] transforms\n'
+        '================================================================================\n'
+        'MSG: geometry_msgs/TransformStamped\n'
+        'std_msgs/Header header\n'
+        'string child_frame_id\n'
+        'geometry_msgs/Transform transform\n'
+        '================================================================================\n'
+        'MSG: std_msgs/Header\n'
+        'builtin_interfaces/Time stamp\n'
+        'string frame_id\n'
+        '================================================================================\n'
+        'MSG: builtin_interfaces/Time\n'
+        'int32 sec\n'
+        'uint32 nanosec\n'
+        '================================================================================\n'
+        'MSG: geometry_msgs/Transform\n'
+        'geometry_msgs/Vector3 translation\n'
+        'geometry_msgs/Quaternion rotation\n'
+        '================================================================================\n'
+        'MSG: geometry_msgs/Vector3\n'
+        'float64 x\n'
+        'float64 y\n'
+        'float64 z\n'
+        '================================================================================\n'
+        'MSG: geometry_msgs/Quaternion\n'
+        'float64 x\n'
+        'float64 y\n'
+        'float64 z\n'
+        'float64 w\n'
+    ),
+    "sensor_msgs/msg/JointState": (
+        'std_msgs/Header header\n'
+        'string[] name\n'
+        'float64[] position\n'
+        'float64[] velocity\n'
+        'float64[] effort\n'
+        '================================================================================\n'
+        'MSG: std_msgs/Header\n'
+        'builtin_interfaces/Time stamp\n'
+        'string frame_id\n'
+        '================================================================================\n'
+        'MSG: builtin_interfaces/Time\n'
+        'int32 sec\n'
+        'uint32 nanosec\n'
+    ),
+    "std_msgs/msg/String": (
+        'string data\n'
+    ),
+}
+"""The ``ros2msg`` text of each ROS 2 type tfrec reads, as rosbags' Humble store generates it and tfrec's MCAP
+files carry it (tests compare): a store of these types alone (:func:`reading_typestore`) is built in a few
+milliseconds, Humble's whole store in ~80 ms — most of ``tfrec info``'s time on a small file."""
 
 
 class UndecodableMessage(ValueError):
@@ -58,6 +116,17 @@ def typestore(*, ros1: bool = False) -> Any:
     from rosbags.typesys import Stores, get_typestore
 
     return get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+
+
+@cache
+def reading_typestore() -> Any:
+    """rosbags' type store of the ROS 2 types tfrec reads (:data:`ROS2_DEFINITIONS`) and their fields' types."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.EMPTY)
+    for msgtype, text in ROS2_DEFINITIONS.items():
+        store.register(get_types_from_msg(text, msgtype))
+    return store
 
 
 @cache
@@ -86,15 +155,18 @@ def deserializer(msgtype: str, *, ros1: bool = False, store: Any = None) -> Dese
         A function of the serialized message that returns rosbags' message object and raises
         :class:`UndecodableMessage` for bytes that are no such message.
     """
-    from rosbags.serde import SerdeError
-
-    if store is None:
-        store = typestore(ros1=ros1)
     full = msgtype if "/msg/" in msgtype else msgtype.replace("/", "/msg/", 1)
-    decode = store.deserialize_ros1 if ros1 else store.deserialize_cdr
-    errors = (SerdeError, struct.error, IndexError, KeyError, ValueError, UnicodeDecodeError)
+    loaded: list[Any] = []  # rosbags and its store, loaded at the first message: most are decoded in bulk
 
     def deserialize(raw: bytes | memoryview) -> Any:
+        if not loaded:
+            from rosbags.serde import SerdeError
+
+            chosen = store if store is not None else (
+                reading_typestore() if not ros1 and full in ROS2_DEFINITIONS else typestore(ros1=ros1))
+            loaded.extend((chosen.deserialize_ros1 if ros1 else chosen.deserialize_cdr,
+                           (SerdeError, struct.error, IndexError, KeyError, ValueError, UnicodeDecodeError)))
+        decode, errors = loaded
         try:
             return decode(raw, full)
         except errors as err:

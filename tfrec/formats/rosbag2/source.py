@@ -281,8 +281,10 @@ class Sqlite3Source(MessageSource):
                 break
         else:
             return
-        yield None, self._count_rest(db, ids, f"{until} AND timestamp >= {ties.time_ns}", ties.counts)
-        needed = [topic_id for topic_id, conn in ids.items() if self.wanted(conn)]
+        cursor.close()
+        left = self._count_rest(db, ids, f"{until} AND timestamp >= {ties.time_ns}", ties.counts)
+        yield None, sum(left.values())
+        needed = [topic_id for topic_id, conn in ids.items() if self.wanted(conn) and left.get(topic_id, 0) > 0]
         if needed:
             cursor = db.execute(f"SELECT topic_id, timestamp, data FROM messages WHERE {WELL_FORMED}{until} AND "
                                 f"timestamp >= {ties.time_ns} AND topic_id IN ({', '.join(map(str, needed))}) "
@@ -293,20 +295,23 @@ class Sqlite3Source(MessageSource):
                 if rows:
                     yield self._batch(_columns(rows), ids, count=False), 0
 
-    def _count_rest(self, db: sqlite3.Connection, ids: dict[int, int], where: str, read: dict[int, int]) -> int:
+    def _count_rest(self, db: sqlite3.Connection, ids: dict[int, int], where: str,
+                    read: dict[int, int]) -> dict[int, int]:
         """Count the rows left with SQL: those ``where`` says, but the ``read`` ones (topic id → rows) counted
-        already; returns how many."""
-        total = 0
+        already; returns how many of each topic id (a topic with none left needs no more reading). The pages are
+        read, not mapped: counting needs no row's data, and mapped pages of the whole file would count as the
+        process's memory (a one-hour bag's 436 MB)."""
+        db.execute("PRAGMA mmap_size = 0")  # takes effect as no statement is running
+        left: dict[int, int] = {}
         for topic_id, count, first, last in db.execute(
                 f"SELECT topic_id, COUNT(*), MIN(timestamp), MAX(timestamp) FROM messages WHERE {WELL_FORMED}{where} "
                 "GROUP BY topic_id"):
             if topic_id in ids:
                 stats = self.stats[ids[topic_id]]
-                rest = int(count) - read.get(topic_id, 0)
+                left[topic_id] = rest = int(count) - read.get(topic_id, 0)
                 stats.count += rest
                 stats.add_times(int(first), int(last))
-                total += rest
-        return total
+        return left
 
     def _batch(self, columns: _Columns, lut: dict[int, int], *, count: bool) -> MessageBatch | None:
         """Rows (topic ids, timestamps, data or None) counted (``count``), and those with data as a batch."""
