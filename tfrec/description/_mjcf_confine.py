@@ -107,28 +107,39 @@ def check_mjcf(path: str | os.PathLike[str], roots: ReadRoots, limits: MjcfLimit
 
 
 def _read_tree(walk: _Walk, file: Path, parent: tuple[Path, ET.Element, int] | None) -> None:
-    """Parse one file and, depth first, the files it includes."""
-    walk.files += 1
-    if walk.files > walk.limits.max_files:
-        raise DescriptionError(_place(parent, f"more than {walk.limits.max_files:,} XML files included (an include "
-                                              "cycle or bomb?)"))
+    """Parse one file and, depth first (without recursion), the files it includes; an include cycle is refused."""
+    stack: list[tuple[Path, tuple[Path, ET.Element, int] | None, tuple[Path, ...]]] = [(file, parent, ())]
+    while stack:
+        current, including, chain = stack.pop()
+        walk.files += 1
+        if walk.files > walk.limits.max_files:
+            raise DescriptionError(_place(including, f"more than {walk.limits.max_files:,} XML files included"))
+        real = current.resolve()
+        if real in chain:
+            raise DescriptionError(_place(including, f"{display_path(current)} includes itself (an include cycle)"))
+        root, lines = _parse(current, including)
+        walk.trees.append((current, root, lines))
+        children = []
+        for elem in _iter_named(root, "include", "model"):
+            name = elem.get("file")
+            if not name:
+                continue
+            targets = _resolve(walk, current, name)
+            for candidate in targets:
+                if not walk.roots.allows(candidate):
+                    raise DescriptionError(_where(current, lines, elem, f"<{elem.tag} file> refused: "
+                                                  f"{walk.roots.refusal(candidate)}"))
+            children.append((targets[0], (current, elem, lines.get(id(elem), (0, 0))[0]), (*chain, real)))
+        stack.extend(reversed(children))
+
+
+def _parse(file: Path, including: tuple[Path, ET.Element, int] | None) -> tuple[ET.Element, dict[int, tuple[int, int]]]:
     shown = display_path(file)
     try:
         data = read_capped(file, SandboxLimits().max_file_bytes)
     except OSError as err:
-        raise DescriptionError(_place(parent, f"cannot read {shown}: {err.strerror or err}")) from err
-    root, lines = parse_xml_with_lines(decode_xml(data, where=shown), shown)
-    walk.trees.append((file, root, lines))
-    for elem in _iter_named(root, "include", "model"):
-        name = elem.get("file")
-        if not name:
-            continue
-        target = _resolve(walk, file, name)
-        for candidate in target:
-            if not walk.roots.allows(candidate):
-                raise DescriptionError(_where(file, lines, elem, f"<{elem.tag} file> refused: "
-                                              f"{walk.roots.refusal(candidate)}"))
-        _read_tree(walk, target[0], (file, elem, lines.get(id(elem), (0, 0))[0]))
+        raise DescriptionError(_place(including, f"cannot read {shown}: {err.strerror or err}")) from err
+    return parse_xml_with_lines(decode_xml(data, where=shown), shown)
 
 
 def _resolve(walk: _Walk, including: Path, name: str) -> list[Path]:

@@ -53,7 +53,7 @@ from tfrec.description.urdf import parse_urdf
 from tfrec.errors import DescriptionError, display_path, one_line
 from tfrec.model import Robot
 
-__all__ = ["ball_joint_names", "is_mjcf_file", "load_mjcf", "mjcf_to_urdf"]
+__all__ = ["ball_joint_names", "is_mjcf_file", "is_mjcf_robot", "load_mjcf", "mjcf_to_urdf"]
 
 Matrix = NDArray[np.float64]
 
@@ -85,6 +85,11 @@ def is_mjcf_file(path: str | os.PathLike[str]) -> bool:
     return is_mjcf_text(head)
 
 
+def is_mjcf_robot(robot: Robot) -> bool:
+    """Whether a robot was loaded from a MuJoCo model (its source is an MJCF file)."""
+    return robot.source is not None and is_mjcf_file(robot.source)
+
+
 def ball_joint_names(name: str) -> tuple[str, str, str]:
     """The three joint names a ball joint becomes: rotations about the body's x, then y, then z axis."""
     return (f"{name}_x", f"{name}_y", f"{name}_z")
@@ -114,7 +119,7 @@ def load_mjcf(
                       allow_paths=allow_paths)
     check_mjcf(path, roots, limits)
     model = _compile(Path(path), shown)
-    text = mjcf_to_urdf(model, name=Path(path).stem)
+    text = mjcf_to_urdf(model, name=Path(path).stem, folder=Path(path).parent)
     return parse_urdf(text, source=os.fspath(path), user_lines=False)
 
 
@@ -231,12 +236,14 @@ def _name(model: Any, kind: Any, index: int, fallback: str) -> str:
     return mujoco.mj_id2name(model, kind, index) or fallback
 
 
-def mjcf_to_urdf(model: Any, *, name: str = "mujoco") -> str:
+def mjcf_to_urdf(model: Any, *, name: str = "mujoco", folder: Path | None = None) -> str:
     """The URDF text of a compiled ``mujoco.MjModel``'s kinematic tree and visual geoms.
 
     Args:
         model: a ``mujoco.MjModel``.
         name: the robot's name when the model has none (``<mujoco model>``).
+        folder: the model's folder: mesh files inside it are named relative to it (as URDF mesh paths
+            relative to the description).
     """
     import mujoco
 
@@ -249,7 +256,7 @@ def mjcf_to_urdf(model: Any, *, name: str = "mujoco") -> str:
     title = bytes(model.names[: bytes(model.names).find(b"\0")]).decode("utf-8", "replace") or name
     robot = ET.Element("robot", name=title)
     for body in range(model.nbody):
-        _link(robot, model, body, bodies[body])
+        _link(robot, model, body, bodies[body], folder)
     for body in range(1, model.nbody):
         parent = bodies[int(model.body_parentid[body])]
         _body_joints(robot, model, body, (parent, bodies[body]), joints, (links, joint_names), mimics)
@@ -343,7 +350,7 @@ def _joint(robot: ET.Element, dof: _Dof, ends: tuple[str, str], origin: Matrix,
 # ---------------------------------------------------------------------------------------------- visuals
 
 
-def _link(robot: ET.Element, model: Any, body: int, name: str) -> None:
+def _link(robot: ET.Element, model: Any, body: int, name: str, folder: Path | None) -> None:
     link = ET.SubElement(robot, "link", name=name)
     first = int(model.body_geomadr[body])
     if first < 0:
@@ -354,7 +361,7 @@ def _link(robot: ET.Element, model: Any, body: int, name: str) -> None:
         rgba = _colour(model, geom)
         if rgba[3] <= 0:
             continue
-        for index, (frame, shape) in enumerate(_shapes(model, geom)):
+        for index, (frame, shape) in enumerate(_shapes(model, geom, folder)):
             visual = ET.SubElement(link, "visual", name=f"{name}_geom{geom}" + (f"_{index}" if index else ""))
             _origin(visual, frame)
             geometry = ET.SubElement(visual, "geometry")
@@ -371,7 +378,7 @@ def _colour(model: Any, geom: int) -> tuple[float, ...]:
     return rgba
 
 
-def _shapes(model: Any, geom: int) -> Iterator[tuple[Matrix, ET.Element]]:
+def _shapes(model: Any, geom: int, folder: Path | None) -> Iterator[tuple[Matrix, ET.Element]]:
     """Each URDF shape of a geom with its pose in the body frame (a capsule gives three)."""
     frame = _pose(model.geom_pos[geom], model.geom_quat[geom])
     kind = int(model.geom_type[geom])
@@ -387,7 +394,7 @@ def _shapes(model: Any, geom: int) -> Iterator[tuple[Matrix, ET.Element]]:
                 yield frame @ _translation([0.0, 0.0, side * size[1]]), ET.Element("sphere", radius=repr(size[0]))
     elif kind == _MESH:
         mesh = int(model.geom_dataid[geom])
-        path = _mesh_path(model, mesh)
+        path = _mesh_path(model, mesh, folder)
         if path:
             # MuJoCo moved the mesh to its inertial frame: the file's frame is the geom's times that move undone
             recentred = _pose(model.mesh_pos[mesh], model.mesh_quat[mesh])
@@ -395,9 +402,15 @@ def _shapes(model: Any, geom: int) -> Iterator[tuple[Matrix, ET.Element]]:
                                                                scale=_numbers(model.mesh_scale[mesh]))
 
 
-def _mesh_path(model: Any, mesh: int) -> str:
+def _mesh_path(model: Any, mesh: int, folder: Path | None) -> str:
+    """The mesh's file, relative to the model's folder when inside it; "" for a mesh given inline."""
     start = int(model.mesh_pathadr[mesh])
     if start < 0:
         return ""
     raw = bytes(model.paths[start:])
-    return raw[: raw.find(b"\0")].decode("utf-8", "replace")
+    path = raw[: raw.find(b"\0")].decode("utf-8", "replace")
+    if folder is not None and os.path.isabs(path):
+        base = os.path.abspath(folder)
+        if os.path.commonpath([base, os.path.abspath(path)]) == base:
+            return Path(os.path.relpath(path, base)).as_posix()
+    return path
