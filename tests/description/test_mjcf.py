@@ -361,6 +361,12 @@ def test_deep_trees_many_bodies_and_bombs_are_refused_before_compiling(tmp_path:
     deep.write_text("<mujoco><worldbody>" + "<body>" * 300 + "</body>" * 300 + "</worldbody></mujoco>",
                     encoding="utf-8")
     assert "nested more than" in _refused(capsys, deep)
+    for opening, closing in (("<worldbody>", "</worldbody>"), ("<default>", "</default>")):
+        # frames and defaults classes: MuJoCo's compiler recurses on these too
+        inner = "<frame>" * 300 + "</frame>" * 300 if opening == "<worldbody>" else \
+            "".join(f'<default class="c{i}">' for i in range(300)) + "</default>" * 300
+        deep.write_text(f"<mujoco>{opening}{inner}{closing}</mujoco>", encoding="utf-8")
+        assert "nested more than" in _refused(capsys, deep)
     replicate = tmp_path / "replicate.xml"
     replicate.write_text("<mujoco><worldbody>" + '<replicate count="100">' * 4 + "<body><geom size='1'/></body>"
                          + "</replicate>" * 4 + "</worldbody></mujoco>", encoding="utf-8")

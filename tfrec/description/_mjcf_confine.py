@@ -46,7 +46,7 @@ class MjcfLimits:
     Attributes:
         max_bodies: bodies, replicated and composite ones counted. MuJoCo Menagerie's largest robots
             have under 100; a humanoid with hands ~60.
-        max_depth: body nesting. Real chains are under 40 deep.
+        max_depth: element nesting (bodies, frames, defaults classes). Real chains are under 40 bodies deep.
         max_files: XML files one model includes (each counted each time it is included).
         max_asset_bytes: the largest mesh, texture, height field or skin file.
         max_grid_cells: pixels of a generated texture (width × height × 6 faces at most) and samples of a
@@ -165,8 +165,7 @@ def _check_tree(walk: _Walk, file: Path, root: ET.Element, lines: dict[int, tupl
                 _check_asset(walk, file, lines, elem, attr)
         if elem.tag in ("texture", "hfield"):
             _check_grid(walk, file, lines, elem)
-    for elem in _iter_named(root, "worldbody"):
-        _count_bodies(walk, file, lines, elem)
+    _count_bodies(walk, file, lines, root)
 
 
 def _check_asset(walk: _Walk, file: Path, lines: dict[int, tuple[int, int]], elem: ET.Element, attr: str) -> None:
@@ -199,14 +198,15 @@ def _check_grid(walk: _Walk, file: Path, lines: dict[int, tuple[int, int]], elem
                                       f"{walk.limits.max_grid_cells:,} a model may generate"))
 
 
-def _count_bodies(walk: _Walk, file: Path, lines: dict[int, tuple[int, int]], worldbody: ET.Element) -> None:
-    """Count bodies (times the ``<replicate count>`` around them) and their depth, without recursion."""
-    stack: list[tuple[ET.Element, int, int]] = [(worldbody, 0, 1)]
+def _count_bodies(walk: _Walk, file: Path, lines: dict[int, tuple[int, int]], root: ET.Element) -> None:
+    """Count bodies (times the ``<replicate count>`` around them) and the nesting of elements (bodies, frames,
+    defaults classes: MuJoCo's compiler recurses on each), without recursion."""
+    stack: list[tuple[ET.Element, int, int]] = [(root, 0, 1)]
     limits = walk.limits
     while stack:
         elem, depth, copies = stack.pop()
         for child in elem:
-            child_depth, child_copies = depth, copies
+            child_depth, child_copies = depth + 1, copies
             if child.tag == "replicate":
                 child_copies *= max(1, _integer(file, lines, child, "count"))
             elif child.tag in _GENERATORS:
@@ -215,13 +215,12 @@ def _count_bodies(walk: _Walk, file: Path, lines: dict[int, tuple[int, int]], wo
                     made *= max(1, _integer(file, lines, child, "count", count))
                 walk.bodies += copies * made
             elif child.tag == "body":
-                child_depth += 1
                 walk.bodies += copies
             if walk.bodies > limits.max_bodies or child_copies > limits.max_bodies:
                 raise DescriptionError(_where(file, lines, child, f"more than the {limits.max_bodies:,} bodies a "
                                               "model may have (replicated and composite bodies counted)"))
             if child_depth > limits.max_depth:
-                raise DescriptionError(_where(file, lines, child, f"bodies nested more than {limits.max_depth} "
+                raise DescriptionError(_where(file, lines, child, f"elements nested more than {limits.max_depth} "
                                               "deep"))
             stack.append((child, child_depth, child_copies))
 
