@@ -18,6 +18,17 @@ def _gym_assets() -> list[Path]:
 GYM = _gym_assets()
 
 
+def _dm_control_suite() -> list[Path]:
+    """dm_control's suite models (when installed: it pins its own mujoco, so the test extra does not install it)."""
+    spec = find_spec("dm_control")
+    if spec is None or not spec.submodule_search_locations:
+        return []
+    return sorted((Path(next(iter(spec.submodule_search_locations))) / "suite").glob("*.xml"))
+
+
+DM_CONTROL = _dm_control_suite()
+
+
 FEATURES = {
     # compiler angle="degree" (the default): ref, range in degrees; joint anchors off the body origin
     "ref_degrees": """<mujoco model="ref"><worldbody>

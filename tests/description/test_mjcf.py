@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.description.mjcf_models import FEATURES, GYM, write_features, write_included
+from tests.description.mjcf_models import DM_CONTROL, FEATURES, GYM, write_features, write_included
 from tests.test_real_robots import ERD, ERD_URDFS, URDFDOM_REFUSES
 from tfrec.cli import main
 from tfrec.description import load_description
@@ -136,6 +136,13 @@ def test_gymnasium_models_match_mujoco(asset: Path) -> None:
 BROKEN_MIMICS = {"alex_description/urdf/alex_psyonic_hands.urdf"}
 """URDFs whose ``<mimic>`` names a joint that does not exist: robot_state_publisher (and tfrec) hold the joint at its
 offset, MuJoCo's URDF import drops the mimic (the joint moves freely): the diff must say so."""
+
+@pytest.mark.skipif(not DM_CONTROL, reason="dm_control is not installed (it pins its own mujoco)")
+@pytest.mark.parametrize("model", DM_CONTROL, ids=[p.name for p in DM_CONTROL])
+def test_dm_control_suite_models_match_mujoco(model: Path) -> None:
+    robot = load_description(model)  # includes ./common/*.xml; the dog's meshes
+    assert fk_error(model, robot, n=10) < TOL
+
 
 CONVERTIBLE = [p for p in ERD_URDFS if ERD is not None and str(p.relative_to(ERD)) not in URDFDOM_REFUSES]
 
