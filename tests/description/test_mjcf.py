@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from tests.description.mjcf_models import DM_CONTROL, FEATURES, GYM, write_features, write_included
+from tests.formats.test_rrd import Rrd
 from tests.test_real_robots import ERD, ERD_URDFS, URDFDOM_REFUSES
 from tfrec.cli import main
 from tfrec.description import load_description
@@ -231,6 +232,7 @@ def test_geoms_become_visuals(features: dict[str, Path]) -> None:
     assert capsule.material is not None and capsule.material.rgba == (1.0, 0.0, 0.0, 1.0)
     box = robot.link_by_name["b"].visuals[0].geometry
     assert box.size == (0.2, 0.1, 0.04)  # type: ignore[union-attr]
+    assert capsule.geometry.length == 0.4  # type: ignore[union-attr]  # twice the half-length
 
 
 def test_mesh_geoms_keep_the_file_frame_and_scale(tmp_path: Path) -> None:
@@ -245,6 +247,9 @@ def test_mesh_geoms_keep_the_file_frame_and_scale(tmp_path: Path) -> None:
                     'euler="0 0 90"/></body></worldbody></mujoco>', encoding="utf-8")
     visual = load_description(path).link_by_name["a"].visuals[0]
     assert visual.geometry.filename == "meshes/part.stl"  # type: ignore[union-attr]
+    assert main(["record", str(path), "--duration", "0.5", "-o", str(tmp_path / "m.mcap")]) == 0
+    rrd = Rrd(tmp_path / "m.rrd")  # read back by rerun: the mesh file's bytes are embedded
+    assert rrd.static["/robot/a/visual_0"]["Asset3D:blob"]
     assert visual.geometry.scale == (2.0, 1.0, 1.0)  # type: ignore[union-attr]
     np.testing.assert_allclose(visual.origin.xyz, (0.0, 0.0, 1.0), atol=1e-12)
     np.testing.assert_allclose(visual.origin.rpy, (0.0, 0.0, np.pi / 2), atol=1e-12)
@@ -261,6 +266,7 @@ def test_record_inspect_and_replay_check(features: dict[str, Path], tmp_path: Pa
     out = tmp_path / "hand.mcap"
     assert main(["record", str(model), "--traj", "sine", "--duration", "1", "-o", str(out)]) == 0
     assert main(["replay", str(out), "--check"]) == 0
+    assert load_description(model).name == "equality_hand"  # an unnamed model: its file's stem
     capsys.readouterr()
     assert main(["inspect", str(model), "--urdf"]) == 0
     urdf = capsys.readouterr().out
@@ -419,3 +425,14 @@ def test_a_plain_xml_file_is_not_taken_for_mjcf(tmp_path: Path) -> None:
     path.write_text('<?xml version="1.0"?>\n<!-- a comment -->\n<mujoco model="m"/>', encoding="utf-8")
     assert load_description(path).name == "m"
     assert os.fspath(load_description(path).source) == os.fspath(path)
+
+
+def test_a_map_of_names_b_lacks_is_one_line(features: dict[str, Path], capsys: pytest.CaptureFixture[str]) -> None:
+    model = str(features["ref_degrees"])
+    assert main(["diff", model, model, "--map", "h1:=nope"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("tfrec: error: ") and "has no link or joint 'nope'" in err and err.count("\n") == 1
+    assert main(["diff", model, model, "--map", "h1:=h2"]) == 2  # two joints 'h1' in B
+    assert "two joints named 'h1'" in capsys.readouterr().err
+    assert main(["diff", model, model, "--map", "h1"]) == 2
+    assert "'h1' is not A_NAME:=B_NAME" in capsys.readouterr().err

@@ -63,6 +63,9 @@ UNLIMITED_SLIDE_M = 1.0
 _VISIBLE_GROUPS = 3
 """Geom groups 0, 1 and 2: those MuJoCo's viewer shows by default (collision geoms usually sit in group 3)."""
 
+_UNNAMED_MODEL = "MuJoCo Model"
+"""The name MuJoCo gives a model without ``<mujoco model>``: the file's stem is taken instead (output names)."""
+
 _DEFAULT_RGBA = (0.5, 0.5, 0.5, 1.0)
 """A geom's rgba when none is given: its material's colour then shows, as in MuJoCo's renderer."""
 
@@ -253,7 +256,9 @@ def mjcf_to_urdf(model: Any, *, name: str = "mujoco", folder: Path | None = None
     links = _Names(bodies)
     joint_names = _Names([d.name for j in range(model.njnt) for d in _dofs(model, j, joints[j])])
     mimics = _mimics(model, joints)
-    title = bytes(model.names[: bytes(model.names).find(b"\0")]).decode("utf-8", "replace") or name
+    title = bytes(model.names[: bytes(model.names).find(b"\0")]).decode("utf-8", "replace")
+    if title in ("", _UNNAMED_MODEL):
+        title = name
     robot = ET.Element("robot", name=title)
     for body in range(model.nbody):
         _link(robot, model, body, bodies[body], folder)
