@@ -246,10 +246,14 @@ def test_mesh_geoms_keep_the_file_frame_and_scale(tmp_path: Path) -> None:
                     '</asset><worldbody><body name="a"><geom type="mesh" mesh="part" pos="0 0 1" '
                     'euler="0 0 90"/></body></worldbody></mujoco>', encoding="utf-8")
     visual = load_description(path).link_by_name["a"].visuals[0]
-    assert visual.geometry.filename == "meshes/part.stl"  # type: ignore[union-attr]
+    assert visual.geometry.filename == (tmp_path / "meshes" / "part.stl").as_uri()  # type: ignore[union-attr]
     assert main(["record", str(path), "--duration", "0.5", "-o", str(tmp_path / "m.mcap")]) == 0
     rrd = Rrd(tmp_path / "m.rrd")  # read back by rerun: the mesh file's bytes are embedded
     assert rrd.static["/robot/a/visual_0"]["Asset3D:blob"]
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    assert main(["replay", str(tmp_path / "m.mcap"), "--save", str(elsewhere / "replayed.rrd")]) == 0
+    assert Rrd(elsewhere / "replayed.rrd").static["/robot/a/visual_0"]["Asset3D:blob"]  # from /robot_description
     assert visual.geometry.scale == (2.0, 1.0, 1.0)  # type: ignore[union-attr]
     np.testing.assert_allclose(visual.origin.xyz, (0.0, 0.0, 1.0), atol=1e-12)
     np.testing.assert_allclose(visual.origin.rpy, (0.0, 0.0, np.pi / 2), atol=1e-12)

@@ -245,8 +245,7 @@ def mjcf_to_urdf(model: Any, *, name: str = "mujoco", folder: Path | None = None
     Args:
         model: a ``mujoco.MjModel``.
         name: the robot's name when the model has none (``<mujoco model>``).
-        folder: the model's folder: mesh files inside it are named relative to it (as URDF mesh paths
-            relative to the description).
+        folder: the model's folder, which relative mesh files are in.
     """
     import mujoco
 
@@ -408,14 +407,13 @@ def _shapes(model: Any, geom: int, folder: Path | None) -> Iterator[tuple[Matrix
 
 
 def _mesh_path(model: Any, mesh: int, folder: Path | None) -> str:
-    """The mesh's file, relative to the model's folder when inside it; "" for a mesh given inline."""
+    """The mesh's file as an absolute ``file://`` URI (a recording's /robot_description then finds it wherever the
+    recording is replayed on this machine, as RViz and Foxglove read it); "" for a mesh given inline."""
     start = int(model.mesh_pathadr[mesh])
     if start < 0:
         return ""
     raw = bytes(model.paths[start:])
-    path = raw[: raw.find(b"\0")].decode("utf-8", "replace")
-    if folder is not None and os.path.isabs(path):
-        base = os.path.abspath(folder)
-        if os.path.commonpath([base, os.path.abspath(path)]) == base:
-            return Path(os.path.relpath(path, base)).as_posix()
-    return path
+    path = Path(raw[: raw.find(b"\0")].decode("utf-8", "surrogateescape"))
+    if not path.is_absolute():
+        path = (folder or Path()) / path
+    return Path(os.path.abspath(path)).as_uri()
