@@ -87,8 +87,11 @@ class _Walk:
     trees: list[tuple[Path, ET.Element, dict[int, tuple[int, int]]]] = field(default_factory=list)
 
 
-def check_mjcf(path: str | os.PathLike[str], roots: ReadRoots, limits: MjcfLimits | None = None) -> None:
+def check_mjcf(path: str | os.PathLike[str], roots: ReadRoots, limits: MjcfLimits | None = None) -> dict[str, str]:
     """Refuse a model whose files or size MuJoCo should not be asked to compile (see the module's docstring).
+
+    Returns:
+        The model's ``<compiler>`` folders (``meshdir``, ``texturedir``, ``assetdir``) as written.
 
     Raises:
         DescriptionError: one line naming the file, line and element at fault.
@@ -104,6 +107,7 @@ def check_mjcf(path: str | os.PathLike[str], roots: ReadRoots, limits: MjcfLimit
                     _check_dir(walk, where, lines, elem, attr)
     for where, root, lines in walk.trees:
         _check_tree(walk, where, root, lines)
+    return dict(walk.dirs)
 
 
 def _read_tree(walk: _Walk, file: Path, parent: tuple[Path, ET.Element, int] | None) -> None:

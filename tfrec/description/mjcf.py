@@ -120,9 +120,10 @@ def load_mjcf(
     shown = display_path(path)
     roots = ReadRoots(path, finder=PackageFinder(package_paths, near=path), package_paths=package_paths,
                       allow_paths=allow_paths)
-    check_mjcf(path, roots, limits)
+    dirs = check_mjcf(path, roots, limits)
     model = _compile(Path(path), shown)
-    text = mjcf_to_urdf(model, name=Path(path).stem, folder=Path(path).parent)
+    mesh_dirs = [dirs[key] for key in ("meshdir", "assetdir") if key in dirs]
+    text = mjcf_to_urdf(model, name=Path(path).stem, folder=Path(path).parent, mesh_dirs=mesh_dirs)
     return parse_urdf(text, source=os.fspath(path), user_lines=False)
 
 
@@ -239,13 +240,16 @@ def _name(model: Any, kind: Any, index: int, fallback: str) -> str:
     return mujoco.mj_id2name(model, kind, index) or fallback
 
 
-def mjcf_to_urdf(model: Any, *, name: str = "mujoco", folder: Path | None = None) -> str:
+def mjcf_to_urdf(model: Any, *, name: str = "mujoco", folder: Path | None = None,
+                 mesh_dirs: Sequence[str] = ()) -> str:
     """The URDF text of a compiled ``mujoco.MjModel``'s kinematic tree and visual geoms.
 
     Args:
         model: a ``mujoco.MjModel``.
         name: the robot's name when the model has none (``<mujoco model>``).
         folder: the model's folder, which relative mesh files are in.
+        mesh_dirs: the model's ``meshdir`` and ``assetdir`` (relative to ``folder``): MuJoCo before 4.0 keeps a
+            mesh's file as written, without them.
     """
     import mujoco
 
@@ -259,8 +263,9 @@ def mjcf_to_urdf(model: Any, *, name: str = "mujoco", folder: Path | None = None
     if title in ("", _UNNAMED_MODEL):
         title = name
     robot = ET.Element("robot", name=title)
+    places = _Places(folder or Path(), tuple(mesh_dirs))
     for body in range(model.nbody):
-        _link(robot, model, body, bodies[body], folder)
+        _link(robot, model, body, bodies[body], places)
     for body in range(1, model.nbody):
         parent = bodies[int(model.body_parentid[body])]
         _body_joints(robot, model, body, (parent, bodies[body]), joints, (links, joint_names), mimics)
@@ -354,7 +359,7 @@ def _joint(robot: ET.Element, dof: _Dof, ends: tuple[str, str], origin: Matrix,
 # ---------------------------------------------------------------------------------------------- visuals
 
 
-def _link(robot: ET.Element, model: Any, body: int, name: str, folder: Path | None) -> None:
+def _link(robot: ET.Element, model: Any, body: int, name: str, places: _Places) -> None:
     link = ET.SubElement(robot, "link", name=name)
     first = int(model.body_geomadr[body])
     if first < 0:
@@ -365,7 +370,7 @@ def _link(robot: ET.Element, model: Any, body: int, name: str, folder: Path | No
         rgba = _colour(model, geom)
         if rgba[3] <= 0:
             continue
-        for index, (frame, shape) in enumerate(_shapes(model, geom, folder)):
+        for index, (frame, shape) in enumerate(_shapes(model, geom, places)):
             visual = ET.SubElement(link, "visual", name=f"{name}_geom{geom}" + (f"_{index}" if index else ""))
             _origin(visual, frame)
             geometry = ET.SubElement(visual, "geometry")
@@ -382,7 +387,7 @@ def _colour(model: Any, geom: int) -> tuple[float, ...]:
     return rgba
 
 
-def _shapes(model: Any, geom: int, folder: Path | None) -> Iterator[tuple[Matrix, ET.Element]]:
+def _shapes(model: Any, geom: int, places: _Places) -> Iterator[tuple[Matrix, ET.Element]]:
     """Each URDF shape of a geom with its pose in the body frame (a capsule gives three)."""
     frame = _pose(model.geom_pos[geom], model.geom_quat[geom])
     kind = int(model.geom_type[geom])
@@ -398,7 +403,7 @@ def _shapes(model: Any, geom: int, folder: Path | None) -> Iterator[tuple[Matrix
                 yield frame @ _translation([0.0, 0.0, side * size[1]]), ET.Element("sphere", radius=repr(size[0]))
     elif kind == _MESH:
         mesh = int(model.geom_dataid[geom])
-        path = _mesh_path(model, mesh, folder)
+        path = _mesh_path(model, mesh, places)
         if path:
             # MuJoCo moved the mesh to its inertial frame: the file's frame is the geom's times that move undone
             recentred = _pose(model.mesh_pos[mesh], model.mesh_quat[mesh])
@@ -406,7 +411,15 @@ def _shapes(model: Any, geom: int, folder: Path | None) -> Iterator[tuple[Matrix
                                                                scale=_numbers(model.mesh_scale[mesh]))
 
 
-def _mesh_path(model: Any, mesh: int, folder: Path | None) -> str:
+@dataclass(frozen=True, slots=True)
+class _Places:
+    """Where a model's relative mesh files are: its folder, and its ``meshdir``/``assetdir`` in it."""
+
+    folder: Path
+    mesh_dirs: tuple[str, ...]
+
+
+def _mesh_path(model: Any, mesh: int, places: _Places) -> str:
     """The mesh's file as an absolute ``file://`` URI (a recording's /robot_description then finds it wherever the
     recording is replayed on this machine, as RViz and Foxglove read it); "" for a mesh given inline."""
     start = int(model.mesh_pathadr[mesh])
@@ -414,6 +427,7 @@ def _mesh_path(model: Any, mesh: int, folder: Path | None) -> str:
         return ""
     raw = bytes(model.paths[start:])
     path = Path(raw[: raw.find(b"\0")].decode("utf-8", "surrogateescape"))
-    if not path.is_absolute():
-        path = (folder or Path()) / path
+    if not path.is_absolute():  # MuJoCo 4 keeps meshdir in the path, 3.x only the file as written
+        candidates = [places.folder / path, *(places.folder / folder / path for folder in places.mesh_dirs)]
+        path = next((candidate for candidate in candidates if candidate.is_file()), candidates[0])
     return Path(os.path.abspath(path)).as_uri()
