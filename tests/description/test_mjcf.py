@@ -160,6 +160,9 @@ def test_example_robot_data_as_mjcf_matches_mujoco_and_its_urdf(urdf: Path, tmp_
     capfd.readouterr()  # MuJoCo's own import warnings
     converted = load_description(xml)
     assert fk_error(xml, converted, n=20) < TOL
+    if int(mujoco.__version__.split(".")[0]) < 4:
+        pytest.skip("MuJoCo 3's URDF import drops <mimic> and keeps a continuous joint's <limit>: the conversion "
+                    "differs from the URDF there (FK checked)")
     args = ["diff", str(urdf), str(xml), "--package-path", str(ERD), "--pos-tol", "1e-5", "--rot-tol", "1e-5",
             "--joint-tol", "1e-5", "--duration", "2"]
     with warnings.catch_warnings():
