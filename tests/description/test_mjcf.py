@@ -19,7 +19,7 @@ from tfrec.cli import main
 from tfrec.description import load_description
 from tfrec.description._mjcf_confine import MjcfLimits
 from tfrec.description.mjcf import ball_joint_names, load_mjcf
-from tfrec.errors import DescriptionError
+from tfrec.errors import DescriptionError, TfrecWarning
 from tfrec.kinematics.fk import link_poses
 from tfrec.kinematics.joints import apply_mimic
 from tfrec.model import JointType, Robot
@@ -225,6 +225,15 @@ def test_the_mapping_of_joint_types(features: dict[str, Path]) -> None:
     x_limit = multi.joint_by_name["x"].limit
     assert x_limit is not None and (x_limit.lower, x_limit.upper) == (-1.0, 1.0)  # an unlimited slide: ±1 m
     assert {"body_2", "joint_4"} <= set(multi.link_by_name) | set(multi.joint_by_name)
+
+
+def test_a_nonlinear_joint_equality_warns_and_leaves_the_joints_free(tmp_path: Path) -> None:
+    path = tmp_path / "quadratic.xml"
+    path.write_text(FEATURES["equality_hand"].replace('polycoef="0 0.5 0 0 0"', 'polycoef="0 0.5 0.2 0 0"'),
+                    encoding="utf-8")
+    with pytest.warns(TfrecWarning, match=r"quadratic\.xml: the joint equality of 'f1c' and 'f1b' is not linear"):
+        robot = load_description(path)
+    assert robot.joint_by_name["f1c"].mimic is None and robot.joint_by_name["f1b"].mimic is not None
 
 
 def test_geoms_become_visuals(features: dict[str, Path]) -> None:

@@ -50,7 +50,7 @@ from tfrec.description._confine import ReadRoots
 from tfrec.description._mjcf_confine import MjcfLimits, check_mjcf, is_mjcf_text
 from tfrec.description.packages import PackageFinder
 from tfrec.description.urdf import parse_urdf
-from tfrec.errors import DescriptionError, display_path, one_line
+from tfrec.errors import DescriptionError, TfrecWarning, display_path, one_line
 from tfrec.model import Robot
 
 __all__ = ["ball_joint_names", "is_mjcf_file", "is_mjcf_robot", "load_mjcf", "mjcf_to_urdf"]
@@ -123,7 +123,7 @@ def load_mjcf(
     dirs = check_mjcf(path, roots, limits)
     model = _compile(Path(path), shown)
     mesh_dirs = [dirs[key] for key in ("meshdir", "assetdir") if key in dirs]
-    text = mjcf_to_urdf(model, name=Path(path).stem, folder=Path(path).parent, mesh_dirs=mesh_dirs)
+    text = mjcf_to_urdf(model, name=Path(path).stem, folder=Path(path).parent, mesh_dirs=mesh_dirs, where=shown)
     return parse_urdf(text, source=os.fspath(path), user_lines=False)
 
 
@@ -241,7 +241,7 @@ def _name(model: Any, kind: Any, index: int, fallback: str) -> str:
 
 
 def mjcf_to_urdf(model: Any, *, name: str = "mujoco", folder: Path | None = None,
-                 mesh_dirs: Sequence[str] = ()) -> str:
+                 mesh_dirs: Sequence[str] = (), where: str = "<mjcf>") -> str:
     """The URDF text of a compiled ``mujoco.MjModel``'s kinematic tree and visual geoms.
 
     Args:
@@ -250,6 +250,7 @@ def mjcf_to_urdf(model: Any, *, name: str = "mujoco", folder: Path | None = None
         folder: the model's folder, which relative mesh files are in.
         mesh_dirs: the model's ``meshdir`` and ``assetdir`` (relative to ``folder``): MuJoCo before 4.0 keeps a
             mesh's file as written, without them.
+        where: the model's file, for warnings.
     """
     import mujoco
 
@@ -258,7 +259,7 @@ def mjcf_to_urdf(model: Any, *, name: str = "mujoco", folder: Path | None = None
     joints = [_name(model, mujoco.mjtObj.mjOBJ_JOINT, j, f"joint_{j}") for j in range(model.njnt)]
     links = _Names(bodies)
     joint_names = _Names([d.name for j in range(model.njnt) for d in _dofs(model, j, joints[j])])
-    mimics = _mimics(model, joints)
+    mimics = _mimics(model, joints, where)
     title = bytes(model.names[: bytes(model.names).find(b"\0")]).decode("utf-8", "replace")
     if title in ("", _UNNAMED_MODEL):
         title = name
@@ -293,7 +294,7 @@ def _dofs(model: Any, joint: int, name: str) -> list[_Dof]:
     return []  # free: the body stays at its initial pose
 
 
-def _mimics(model: Any, joints: Sequence[str]) -> dict[str, tuple[str, float, float]]:
+def _mimics(model: Any, joints: Sequence[str], where: str) -> dict[str, tuple[str, float, float]]:
     """Joint equalities whose polynomial is linear: joint1 = a1 * joint2 + (a0 + ref1 - a1 * ref2)."""
     out: dict[str, tuple[str, float, float]] = {}
     for eq in range(model.neq):
@@ -304,8 +305,8 @@ def _mimics(model: Any, joints: Sequence[str]) -> dict[str, tuple[str, float, fl
             continue
         coef = [float(c) for c in model.eq_data[eq][:5]]
         if any(coef[2:]):
-            warnings.warn(f"joint equality of '{joints[one]}' and '{joints[two]}' is not linear: the two joints "
-                          "move independently", stacklevel=4)
+            warnings.warn(f"{where}: the joint equality of '{joints[one]}' and '{joints[two]}' is not linear "
+                          "(polycoef a2..a4): the two joints move independently", TfrecWarning, stacklevel=4)
             continue
         ref1 = float(model.qpos0[model.jnt_qposadr[one]])
         ref2 = float(model.qpos0[model.jnt_qposadr[two]])
