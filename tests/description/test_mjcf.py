@@ -412,6 +412,11 @@ def test_deep_trees_many_bodies_and_bombs_are_refused_before_compiling(tmp_path:
     hfield.write_text('<mujoco><asset><hfield name="h" nrow="100000" ncol="100000" size="1 1 1 1"/></asset>'
                       "</mujoco>", encoding="utf-8")
     assert "cells" in _refused(capsys, hfield)
+    for builtin, params in (("supersphere", "2000 1 1"), ("plate", "1000 1000")):  # MuJoCo takes minutes on these
+        mesh = tmp_path / f"{builtin}.xml"
+        mesh.write_text(f'<mujoco><asset><mesh name="m" builtin="{builtin}" params="{params}"/></asset>'
+                        '<worldbody><geom type="mesh" mesh="m"/></worldbody></mujoco>', encoding="utf-8")
+        assert "vertices" in _refused(capsys, mesh)
 
 
 def test_a_huge_mesh_is_refused_without_reading_it(tmp_path: Path) -> None:

@@ -11,7 +11,8 @@ parses the model and every file it includes (bounded, as description files are, 
   folders, ``--allow-path``), or a missing include;
 * more than :attr:`MjcfLimits.max_bodies` bodies (replicated and composite bodies counted), bodies nested
   deeper than :attr:`MjcfLimits.max_depth`, asset files larger than :attr:`MjcfLimits.max_asset_bytes`,
-  generated textures or height fields over :attr:`MjcfLimits.max_grid_cells` cells.
+  generated textures or height fields over :attr:`MjcfLimits.max_grid_cells` cells, generated meshes over
+  :attr:`MjcfLimits.max_mesh_vertices` vertices.
 
 Each refusal is one :class:`~tfrec.errors.DescriptionError` line naming the file, its line and the element.
 """
@@ -51,6 +52,8 @@ class MjcfLimits:
         max_asset_bytes: the largest mesh, texture, height field or skin file.
         max_grid_cells: pixels of a generated texture (width × height × 6 faces at most) and samples of a
             height field (nrow × ncol).
+        max_mesh_vertices: vertices of a mesh MuJoCo generates (``<mesh builtin>``; a resolution of 200 makes
+            40,000 in half a second, and the time grows faster than the count).
     """
 
     max_bodies: int = 10_000
@@ -58,6 +61,7 @@ class MjcfLimits:
     max_files: int = 1_000
     max_asset_bytes: int = 256 * 1024 * 1024
     max_grid_cells: int = 64 * 1024 * 1024
+    max_mesh_vertices: int = 250_000
 
 
 def is_mjcf_text(head: bytes) -> bool:
@@ -169,6 +173,8 @@ def _check_tree(walk: _Walk, file: Path, root: ET.Element, lines: dict[int, tupl
                 _check_asset(walk, file, lines, elem, attr)
         if elem.tag in ("texture", "hfield"):
             _check_grid(walk, file, lines, elem)
+        elif elem.tag == "mesh" and elem.get("builtin"):
+            _check_builtin_mesh(walk, file, lines, elem)
     _count_bodies(walk, file, lines, root)
 
 
@@ -200,6 +206,19 @@ def _check_grid(walk: _Walk, file: Path, lines: dict[int, tuple[int, int]], elem
     if cells > walk.limits.max_grid_cells:
         raise DescriptionError(_where(file, lines, elem, f"<{elem.tag}> asks for {cells:,} cells, more than the "
                                       f"{walk.limits.max_grid_cells:,} a model may generate"))
+
+
+def _check_builtin_mesh(walk: _Walk, file: Path, lines: dict[int, tuple[int, int]], elem: ET.Element) -> None:
+    """A mesh MuJoCo generates (``builtin="supersphere" params="res …"``): about res² vertices (``plate`` and
+    ``wedge``: resx × resy), then a convex hull of them — a resolution of 2,000 takes MuJoCo minutes."""
+    params = (elem.get("params") or "").split()
+    grid = 2 if elem.get("builtin") in ("plate", "wedge") else 1
+    resolution = [abs(_integer(file, lines, elem, "params", text)) for text in params[:grid]]
+    vertices = resolution[0] * (resolution[1] if grid == 2 and len(resolution) > 1 else resolution[0]) \
+        if resolution else 0
+    if vertices > walk.limits.max_mesh_vertices:
+        raise DescriptionError(_where(file, lines, elem, f"builtin mesh of about {vertices:,} vertices, more than the "
+                                      f"{walk.limits.max_mesh_vertices:,} a model may generate"))
 
 
 def _count_bodies(walk: _Walk, file: Path, lines: dict[int, tuple[int, int]], root: ET.Element) -> None:
