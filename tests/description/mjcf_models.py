@@ -38,7 +38,7 @@ FEATURES = {
         <body name="b" pos="0.3 0 0" axisangle="1 1 0 45">
           <joint name="s1" type="slide" axis="1 0 0.5" ref="0.2" range="-0.1 0.4"/>
           <geom type="box" size="0.1 0.05 0.02"/>
-          <body name="c" pos="0 0.2 0" xyaxes="0 1 0 -1 0 0"><joint name="h2" pos="0 0 0.3" ref="-45"/>
+          <body name="c" pos="0 0.2 0" xyaxes="0 1 0 -1 0 0"><joint name="h2" pos="0 0 0.3" ref="-45" springref="20" stiffness="1"/>
             <geom type="cylinder" size="0.03 0.1"/><body name="d" zaxis="1 1 1" pos="0.1 0 0"/></body>
         </body>
       </body></worldbody></mujoco>""",

@@ -33,7 +33,7 @@ def add_parser(sub: Any) -> None:
         description="Compare two recordings — MCAP, rosbag2 folder, ROS 1 bag or tfrec .rrd — by meaning: the "
                     "robot description as URDF, topics, joint positions and transforms, aligned by the time "
                     "since each recording's start (its first /joint_states or /tf stamp). A or B may also be a "
-                    "robot description (.urdf, .xacro), with its xacro arguments right after it: descriptions "
+                    "robot description (.urdf, .xacro, a MuJoCo .xml), with its xacro arguments right after it: descriptions "
                     "are driven along one motion (--traj, or --joints REC; a recording's own /joint_states) and "
                     "every link's world pose is compared. Exit 0 when identical within tolerance, 1 when "
                     "different, 2 on error.",
