@@ -173,6 +173,9 @@ def test_example_robot_data_as_mjcf_matches_mujoco_and_its_urdf(urdf: Path, tmp_
         assert code == 1 and "changed: mimic 'index_q1'" in out, out
         return
     assert code == 0, out
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert main([args[0], args[2], args[1], *args[3:]]) == 0, capfd.readouterr().out  # B's root is A's world's child
 
 
 @pytest.mark.skipif(ERD is None, reason="example-robot-data is not installed")

@@ -217,7 +217,7 @@ def compare_motion(  # noqa: PLR0913 - the keyword-only options of a diff of des
         label = kind if isinstance(kind, str) and "/" not in kind and "." not in kind else os.fspath(kind)
         motion = f"`traj` {label}" + (f" (`seed` {seed})" if label == "random" else "") + \
             f", {duration_s:g} s at {rate_hz:g} Hz, the same joint positions in A and B"
-    root = (side_a.robot or side_b.robot or _no_robot(side_a, side_b)).root
+    root = _shared_root(side_a, side_b)
     posed_a = _pose(side_a, trajectories.get("A"), time_ns, root)
     posed_b = _pose(side_b, trajectories.get("B"), time_ns, root)
     return _compare(posed_a, posed_b, time_ns, root, motion, tolerances, notes)
@@ -268,6 +268,16 @@ def _same_recording(joints: Recording | str | os.PathLike[str], side: DiffInput)
     if isinstance(joints, Recording):
         return joints is side.recording
     return os.path.abspath(os.fspath(joints)) == os.path.abspath(side.path)
+
+
+def _shared_root(a: DiffInput, b: DiffInput) -> str:
+    """The frame link poses are taken in: A's root, or B's when only B's is a link of both (a MuJoCo model's root
+    is ``world``, above the URDF's root link)."""
+    first = a.robot or b.robot or _no_robot(a, b)
+    other = b.robot if a.robot is not None else None
+    if other is not None and first.root not in other.link_by_name and other.root in first.link_by_name:
+        return other.root
+    return first.root
 
 
 def _no_robot(a: DiffInput, b: DiffInput) -> Robot:
