@@ -310,9 +310,11 @@ def test_record_inspect_and_replay_check(features: dict[str, Path], tmp_path: Pa
 @pytest.mark.parametrize("name", ["ball_free", "multi_joint"])
 def test_free_and_ball_models_record_and_check(features: dict[str, Path], name: str, tmp_path: Path) -> None:
     out = tmp_path / "r.mcap"
-    assert main(["record", str(features[name]), "--traj", "random", "--duration", "1", "--no-rrd",
-                 "-o", str(out)]) == 0
+    for target in (out, tmp_path / "again.mcap"):
+        assert main(["record", str(features[name]), "--traj", "random", "--duration", "1", "--no-rrd",
+                     "-o", str(target)]) == 0
     assert main(["replay", str(out), "--check"]) == 0
+    assert out.read_bytes() == (tmp_path / "again.mcap").read_bytes()  # the same command, the same bytes
 
 
 def test_diff_names_a_body_moved_by_a_millimetre(features: dict[str, Path], tmp_path: Path,
