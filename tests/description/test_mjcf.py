@@ -372,6 +372,17 @@ def test_a_meshdir_outside_is_refused(tmp_path: Path, capsys: pytest.CaptureFixt
     assert "meshdir" in _refused(capsys, path)
 
 
+def test_an_asset_is_checked_against_every_meshdir_of_the_model(tmp_path: Path,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    folder = tmp_path / "m"
+    (folder / "a" / "b").mkdir(parents=True)
+    (folder / "parts.xml").write_text('<mujoco><compiler meshdir="a/b"/></mujoco>', encoding="utf-8")
+    path = folder / "two.xml"  # which meshdir is in force is MuJoCo's business: "../../x" must stay inside for each
+    path.write_text('<mujoco><compiler meshdir="."/><include file="parts.xml"/><asset><mesh file="../../x.stl"/>'
+                    "</asset></mujoco>", encoding="utf-8")
+    assert "refused" in _refused(capsys, path)
+
+
 def test_a_link_out_of_the_folder_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     folder = tmp_path / "m"
     folder.mkdir()

@@ -87,7 +87,8 @@ class _Walk:
     limits: MjcfLimits
     files: int = 0
     bodies: int = 0
-    dirs: dict[str, str] = field(default_factory=dict)
+    dirs: dict[str, list[str]] = field(default_factory=dict)
+    """Every value each ``<compiler>`` folder attribute takes in the model's files (any may be the one in force)."""
     trees: list[tuple[Path, ET.Element, dict[int, tuple[int, int]]]] = field(default_factory=list)
 
 
@@ -95,7 +96,8 @@ def check_mjcf(path: str | os.PathLike[str], roots: ReadRoots, limits: MjcfLimit
     """Refuse a model whose files or size MuJoCo should not be asked to compile (see the module's docstring).
 
     Returns:
-        The model's ``<compiler>`` folders (``meshdir``, ``texturedir``, ``assetdir``) as written.
+        The model's ``<compiler>`` folders (``meshdir``, ``texturedir``, ``assetdir``) as written (the last of
+        each: an asset is checked against every one).
 
     Raises:
         DescriptionError: one line naming the file, line and element at fault.
@@ -107,11 +109,11 @@ def check_mjcf(path: str | os.PathLike[str], roots: ReadRoots, limits: MjcfLimit
         for elem in root.iter("compiler"):
             for attr in ("meshdir", "texturedir", "assetdir"):
                 if elem.get(attr) is not None:
-                    walk.dirs[attr] = elem.get(attr, "")
+                    walk.dirs.setdefault(attr, []).append(elem.get(attr, ""))
                     _check_dir(walk, where, lines, elem, attr)
     for where, root, lines in walk.trees:
         _check_tree(walk, where, root, lines)
-    return dict(walk.dirs)
+    return {attr: values[-1] for attr, values in walk.dirs.items()}
 
 
 def _read_tree(walk: _Walk, file: Path, parent: tuple[Path, ET.Element, int] | None) -> None:
@@ -182,7 +184,7 @@ def _check_asset(walk: _Walk, file: Path, lines: dict[int, tuple[int, int]], ele
     name = elem.get(attr, "")
     if elem.tag in ("include", "model"):
         return  # read and checked as XML
-    dirs = [walk.dirs[d] for d in (*_ASSET_DIRS.get(elem.tag, ()), "assetdir") if d in walk.dirs]
+    dirs = [value for d in (*_ASSET_DIRS.get(elem.tag, ()), "assetdir") for value in walk.dirs.get(d, [])]
     candidates = [Path(name)] if os.path.isabs(name) else [walk.model.parent / d / name for d in [*dirs, ""]]
     for candidate in candidates:
         if not walk.roots.allows(candidate):
