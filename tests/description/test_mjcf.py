@@ -210,6 +210,15 @@ def test_diff_across_formats_names_a_moved_body_and_maps_renamed_joints(tmp_path
     assert "panda_link3:" not in out  # the body above it did not move
 
 
+@pytest.mark.skipif(not GYM, reason="gymnasium is not installed")
+@pytest.mark.parametrize("name", ["ant", "humanoid"])  # a quadruped and a humanoid on free bases
+def test_gymnasium_robots_record_along_sine_and_check(name: str, tmp_path: Path) -> None:
+    model = next(p for p in GYM if p.stem == name)
+    out = tmp_path / f"{name}.mcap"
+    assert main(["record", str(model), "--traj", "sine", "--duration", "1", "--no-rrd", "-o", str(out)]) == 0
+    assert main(["replay", str(out), "--check"]) == 0
+
+
 def test_the_mapping_of_joint_types(features: dict[str, Path]) -> None:
     robot = load_description(features["ball_free"])
     kinds = {joint.name: joint.type for joint in robot.joints}
