@@ -7,6 +7,7 @@ from __future__ import annotations
 import os
 import warnings
 import xml.etree.ElementTree as ET
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +28,19 @@ from tfrec.model import JointType, Robot
 mujoco = pytest.importorskip("mujoco", reason="the mjcf extra is not installed (pip install 'tfrec-robotics[mjcf]')")
 
 TOL = 1e-9
+
+
+@pytest.fixture(autouse=True)
+def _mujoco_warnings_kept_here() -> Iterator[list[str]]:
+    """MuJoCo's own warnings while the tests compile models themselves (the oracle, the URDF import): by default
+    MuJoCo appends them to MUJOCO_LOG.TXT in the working folder. tfrec's loader leaves none (checked below)."""
+    seen: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(seen.append)
+    try:
+        yield seen
+    finally:
+        mujoco.set_mju_user_warning(previous)
 
 
 
@@ -454,13 +468,20 @@ def test_a_huge_mesh_is_refused_without_reading_it(tmp_path: Path) -> None:
         load_mjcf(path, limits=MjcfLimits(max_asset_bytes=1024))
 
 
-def test_mujoco_compile_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_mujoco_compile_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
     path = tmp_path / "bad.xml"
     path.write_text('<mujoco><worldbody><body><joint type="nonsense"/></body></worldbody></mujoco>',
                     encoding="utf-8")
     assert "MuJoCo cannot compile it" in _refused(capsys, path)
     path.write_text("<mujoco><worldbody><body>", encoding="utf-8")
     assert "malformed XML" in _refused(capsys, path)
+    path.write_text('<mujoco><compiler settotalmass="1"/><worldbody><body><joint/><geom size="1"/></body>'
+                    "</worldbody></mujoco>", encoding="utf-8")  # MuJoCo warns: deprecated
+    mujoco.set_mju_user_warning(None)  # MuJoCo's default: print, and append to MUJOCO_LOG.TXT
+    assert main(["inspect", str(path)]) == 0
+    assert sorted(os.listdir(tmp_path)) == ["bad.xml"]  # no MUJOCO_LOG.TXT in the working folder
 
 
 def test_a_plain_xml_file_is_not_taken_for_mjcf(tmp_path: Path) -> None:
