@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import glob
+import importlib.util
 import os
 import shutil
 import signal
@@ -100,12 +101,26 @@ def _diff(folder: Path) -> Path:
     return write_overlay(comparison, folder / "diff-overlay.rrd", force=True)
 
 
+def _mjcf(folder: Path) -> Path:
+    """gymnasium's MuJoCo humanoid (its MJCF asset; the test extra installs gymnasium) along --traj sine."""
+    spec = importlib.util.find_spec("gymnasium")
+    if spec is None or not spec.submodule_search_locations:
+        raise SystemExit("screenshots: the MJCF picture needs gymnasium's assets: pip install -e '.[test]'")
+    model = Path(next(iter(spec.submodule_search_locations))) / "envs" / "mujoco" / "assets" / "humanoid.xml"
+    robot = load_description(model)
+    rrd = folder / "mjcf-humanoid.rrd"
+    record(robot, make_trajectory(robot, "sine", duration_s=10.0, rate_hz=50.0, amplitude=0.6),
+           RecordingPlan(mcap=folder / "mjcf-humanoid.mcap", rrd=rrd))
+    return rrd
+
+
 SHOTS = (
     Shot("marm", _record("marm", "random"), at_s=3.2),
     Shot("mbot", _record("mbot", "sine", amplitude=0.8), at_s=2.5),
     Shot("simple_cube", _record("simple_cube", "center"), at_s=1.0),
     Shot("replay-marm", _replay("marm", "sine"), at_s=4.0),
     Shot("diff-overlay", _diff, at_s=3.2),
+    Shot("mjcf-humanoid", _mjcf, at_s=2.0),
 )
 
 

@@ -10,6 +10,7 @@ import json
 import math
 import time
 import warnings
+from importlib.util import find_spec
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +18,7 @@ import numpy as np
 import pytest
 
 from tests.conftest import ROBOTS
+from tests.description.mjcf_models import FEATURES, GYM
 from tests.interop.conftest import add_to_figure, max_figure, needs
 from tests.interop.ros import DEBIAN_PYTHON, JSP, RSP, Ros
 from tests.test_real_robots import ERD
@@ -74,7 +76,12 @@ ROBOT_FILES = {"marm": ROBOTS / "marm.xacro", "mbot": ROBOTS / "mbot.xacro"}
 if ERD is not None:
     ROBOT_FILES["talos"] = ERD / "talos_data" / "robots" / "talos_full_v2.urdf"
     ROBOT_FILES["tiago"] = ERD / "tiago_description" / "robots" / "tiago.urdf"
-ROBOT_NAMES = ["zoo", *ROBOT_FILES]
+MJCF_MODELS = {"mjcf-hand": "equality_hand", "mjcf-multi": "multi_joint", "mjcf-ref": "ref_degrees"}
+"""MuJoCo models (hinge and slide joints, joint equalities, ref, anchors) whose generated URDF robot_state_publisher
+reads: the /robot_description of their recordings (tests/description/test_mjcf.py)."""
+if find_spec("mujoco") is not None:
+    ROBOT_FILES.update({f"gym-{p.stem}": p for p in GYM if p.stem in ("half_cheetah", "walker2d", "reacher")})
+ROBOT_NAMES = ["zoo", *ROBOT_FILES, *(MJCF_MODELS if find_spec("mujoco") is not None else ())]
 
 
 @pytest.fixture(scope="module")
@@ -87,6 +94,10 @@ def urdfs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, Rob
         for name in ROBOT_NAMES:
             if name == "zoo":
                 text = ZOO
+            elif name in MJCF_MODELS:
+                model = folder / f"{name}.xml"
+                model.write_text(FEATURES[MJCF_MODELS[name]], encoding="utf-8")
+                text = load_description(model).urdf
             else:
                 robot = load_description(ROBOT_FILES[name], package_paths=[p for p in (ERD, ROBOTS) if p is not None])
                 text = robot.urdf

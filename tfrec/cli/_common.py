@@ -42,8 +42,9 @@ PROG = "tfrec"
 
 def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("robot", metavar="ROBOT",
-                        help="a .urdf, .xacro or .urdf.xacro file, or a launch file that loads one "
-                             "(.launch, .launch.xml, .launch.yaml), or PKG FILE.launch as for roslaunch")
+                        help="a .urdf, .xacro or .urdf.xacro file, a MuJoCo model (.xml with a <mujoco> root), or a "
+                             "launch file that loads one (.launch, .launch.xml, .launch.yaml), or PKG FILE.launch as "
+                             "for roslaunch")
     parser.add_argument("xacro_args", metavar="name:=value", nargs="*", default=[],
                         help="xacro arguments (launch arguments for a launch file), as for ROS")
     parser.add_argument(

@@ -33,7 +33,7 @@ def add_parser(sub: Any) -> None:
         description="Compare two recordings — MCAP, rosbag2 folder, ROS 1 bag or tfrec .rrd — by meaning: the "
                     "robot description as URDF, topics, joint positions and transforms, aligned by the time "
                     "since each recording's start (its first /joint_states or /tf stamp). A or B may also be a "
-                    "robot description (.urdf, .xacro), with its xacro arguments right after it: descriptions "
+                    "robot description (.urdf, .xacro, a MuJoCo .xml), with its xacro arguments right after it: descriptions "
                     "are driven along one motion (--traj, or --joints REC; a recording's own /joint_states) and "
                     "every link's world pose is compared. Exit 0 when identical within tolerance, 1 when "
                     "different, 2 on error.",
@@ -64,6 +64,9 @@ def add_parser(sub: Any) -> None:
                              "that one, the default)")
     motion.add_argument("--package-path", metavar="DIR", action="append", default=[],
                         help="a package, or a folder of packages, for $(find pkg) and package:// (repeatable)")
+    motion.add_argument("--map", metavar="A_NAME:=B_NAME", action="append", default=[], type=_mapping,
+                        help="a joint or frame named A_NAME in A is B_NAME in B (repeatable): e.g. a URDF and the "
+                             "MuJoCo model made from it with renamed joints")
     add_xacro_arguments(motion)
     out = diff.add_argument_group("output")
     out.add_argument("--rrd", metavar="OUT.rrd", default=None,
@@ -81,12 +84,21 @@ def add_parser(sub: Any) -> None:
                    "  tfrec diff before.mcap after.mcap --plot diff.png\n"
                    "  tfrec diff arm.xacro arm-v2.xacro --rrd diff.rrd\n"
                    "  tfrec diff arm.xacro arm.xacro hand:=true --traj sweep\n"
+                   "  tfrec diff robot.urdf robot.xml --pos-tol 1e-5 --rot-tol 1e-5     (a URDF and its MuJoCo model)\n"
                    "  tfrec diff robot_log.mcap arm-v2.xacro\n"
                    "  tfrec diff goldens/ tonight/ --report diff.parquet --jobs 8     (folders: pairs by relative path)")
     from tfrec.cli._fleet import add_engine_arguments
 
     add_engine_arguments(diff)
     diff.set_defaults(handler=_cmd_diff)
+
+
+def _mapping(text: str) -> tuple[str, str]:
+    """``--map a:=b`` → ``("a", "b")``."""
+    old, sep, new = text.partition(":=")
+    if not sep or not old or not new:
+        raise argparse.ArgumentTypeError(f"'{text}' is not A_NAME:=B_NAME")
+    return old, new
 
 
 def split_inputs(tokens: list[str], package_paths: Sequence[str] = ()) -> tuple[tuple[str, dict[str, str]],
@@ -201,7 +213,7 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
 
         comparison = compare_motion(a, b, args_a=args_a, args_b=args_b, traj=ns.traj, duration_s=ns.duration,
                                     rate_hz=ns.rate, seed=ns.seed, joints=ns.joints, package_paths=ns.package_path,
-                                    strict_xacro=ns.strict_xacro, **tolerances)
+                                    strict_xacro=ns.strict_xacro, names=dict(ns.map), **tolerances)
         if not recordings:
             report = comparison.report
     if ns.rrd is not None and comparison is not None:

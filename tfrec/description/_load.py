@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 from tfrec.description._confine import read_capped
 from tfrec.description._sandbox import SandboxLimits
 from tfrec.description._xml_bytes import decode_xml
+from tfrec.description.mjcf import is_mjcf_file, load_mjcf
 from tfrec.description.packages import PackageFinder
 from tfrec.description.urdf import parse_urdf
 from tfrec.description.xacro import xacro_expansion
@@ -124,8 +125,9 @@ def load_description(
     """Load and validate a robot description file.
 
     Args:
-        path: a ``.urdf``, ``.xacro`` or ``.urdf.xacro`` file, or a launch file that loads one
-            (ROS 1 ``.launch``, ROS 2 ``.launch.xml``/``.launch.yaml``; see :func:`load_launch`).
+        path: a ``.urdf``, ``.xacro`` or ``.urdf.xacro`` file, a launch file that loads one
+            (ROS 1 ``.launch``, ROS 2 ``.launch.xml``/``.launch.yaml``; see :func:`load_launch`), or a
+            MuJoCo model (``.xml`` with a ``<mujoco>`` root; :func:`tfrec.description.mjcf.load_mjcf`).
         args: xacro arguments (``name:=value``); for a launch file, its launch arguments.
         package_paths: folders searched first for ``$(find pkg)``.
         strict_xacro: expand xacro exactly as PyPI xacro (ROS 2) does: the Kinetic-era dialect is left
@@ -141,6 +143,10 @@ def load_description(
     if is_launch_file(path):
         return load_launch(path, args=args, package_paths=package_paths, strict_xacro=strict_xacro,
                            allow_paths=allow_paths)[0]
+    if is_mjcf_file(path):
+        if args:
+            raise DescriptionError(f"{display_path(path)}: xacro arguments given for a MuJoCo model")
+        return load_mjcf(path, package_paths=package_paths, allow_paths=allow_paths)
     text = _description_text(path, args=args, package_paths=package_paths, strict_xacro=strict_xacro,
                              force_xacro=False, allow_paths=allow_paths)
     return text.parse(path)

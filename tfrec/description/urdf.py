@@ -41,7 +41,7 @@ from tfrec.model import (
     mimic_levels,
 )
 
-__all__ = ["COMMON_COLOURS", "URDFDOM", "parse_urdf"]
+__all__ = ["COMMON_COLOURS", "URDFDOM", "parse_urdf", "parse_xml_with_lines"]
 
 URDFDOM = "urdfdom 3.0.1"
 """The urdfdom whose rules :func:`parse_urdf` follows: Debian's liburdfdom 3.0.1, which Debian's ROS 1
@@ -151,6 +151,12 @@ def _parse_xml(text: str, where: str) -> tuple[ET.Element, dict[int, tuple[int, 
     except (LookupError, ValueError) as err:  # an encoding declaration expat cannot read (unknown, multi-byte)
         raise DescriptionError(f"{where}:1: unsupported XML encoding: {err}") from None
     return builder.close(), lines
+
+
+def parse_xml_with_lines(text: str, where: str) -> tuple[ET.Element, dict[int, tuple[int, int]]]:
+    """An XML document as an ElementTree, with each element's line (``lines[id(element)][0]``); malformed XML is a
+    :class:`DescriptionError` naming ``where``, the line and the column."""
+    return _parse_xml(text, where)
 
 
 class _Parser:

@@ -18,7 +18,7 @@ from __future__ import annotations
 import os
 import warnings
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +41,7 @@ __all__ = [
     "is_recording_path",
     "joint_states_of",
     "load_input",
+    "renamed",
     "trajectory_from_joint_states",
 ]
 
@@ -100,6 +101,32 @@ def is_recording_path(path: str | os.PathLike[str]) -> bool:
     except ReadError:
         return Path(path).suffix.lower() in RECORDING_SUFFIXES
     return True
+
+
+def renamed(robot: Robot, names: Mapping[str, str], *, where: str) -> Robot:
+    """``robot`` with links and joints named anew (``names``: old → new; a name not in it is kept): how a diff
+    matches a joint or frame renamed between A and B (``--map``).
+
+    Raises:
+        DiffError: a name that is neither a link nor a joint, or a new name that another link or joint has.
+    """
+    known = set(robot.link_by_name) | set(robot.joint_by_name)
+    for old in names:
+        if old not in known:
+            raise DiffError(f"`map`: {where} has no link or joint '{old}'")
+
+    def name(old: str) -> str:
+        return names.get(old, old)
+
+    links = tuple(replace(link, name=name(link.name)) for link in robot.links)
+    joints = tuple(replace(joint, name=name(joint.name), parent=name(joint.parent), child=name(joint.child),
+                           mimic=None if joint.mimic is None else replace(joint.mimic, joint=name(joint.mimic.joint)))
+                   for joint in robot.joints)
+    for kind, items in (("link", [link.name for link in links]), ("joint", [joint.name for joint in joints])):
+        if len(set(items)) != len(items):
+            twice = next(item for item in items if items.count(item) > 1)
+            raise DiffError(f"`map`: {where} would have two {kind}s named '{twice}'")
+    return Robot(name=robot.name, links=links, joints=joints, urdf=robot.urdf, source=robot.source)
 
 
 def load_input(

@@ -23,7 +23,7 @@ from __future__ import annotations
 import os
 import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -31,7 +31,15 @@ from numpy.typing import NDArray
 
 from tfrec.conventions import DIFF_JOINT_TOL, DIFF_POS_TOL, DIFF_ROT_TOL
 from tfrec.description import load_description
-from tfrec.diff.inputs import DescriptionLoader, DiffInput, joint_states_of, load_input, trajectory_from_joint_states
+from tfrec.description.mjcf import is_mjcf_robot
+from tfrec.diff.inputs import (
+    DescriptionLoader,
+    DiffInput,
+    joint_states_of,
+    load_input,
+    renamed,
+    trajectory_from_joint_states,
+)
 from tfrec.diff.motion_report import DescriptionDiffReport, LinkDelta, Side
 from tfrec.diff.precision import float32_tolerance
 from tfrec.diff.report import Difference, Largest, at_time
@@ -133,6 +141,7 @@ def compare_motion(  # noqa: PLR0913 - the keyword-only options of a diff of des
     package_paths: Sequence[str | os.PathLike[str]] = (),
     strict_xacro: bool = False,
     loader: DescriptionLoader = load_description,
+    names: Mapping[str, str] | None = None,
 ) -> MotionComparison:
     """Drive two inputs along one motion and compare their URDFs and every link's pose over it.
 
@@ -150,6 +159,8 @@ def compare_motion(  # noqa: PLR0913 - the keyword-only options of a diff of des
         pos_tol, rot_tol, joint_tol: as for :func:`tfrec.diff.compare`.
         package_paths, strict_xacro: for loading descriptions.
         loader: reads a description file (:func:`tfrec.description.load_description`).
+        names: joints and frames renamed from A to B (``{name in A: name in B}``; ``--map a:=b``): B's are
+            compared under A's names.
 
     Raises:
         DescriptionError: a description that does not load.
@@ -164,6 +175,11 @@ def compare_motion(  # noqa: PLR0913 - the keyword-only options of a diff of des
     load = {"package_paths": package_paths, "strict_xacro": strict_xacro, "loader": loader}
     side_a = load_input(a, label="A", args=args_a, **load)  # type: ignore[arg-type]
     side_b = load_input(b, label="B", args=args_b, **load)  # type: ignore[arg-type]
+    if names:
+        if side_b.robot is None:
+            raise DiffError(f"`map`: {side_b.path} has no robot description to rename")
+        side_b = replace(side_b, robot=renamed(side_b.robot, {new: old for old, new in names.items()},
+                                               where=side_b.path))
     recordings = [side for side in (side_a, side_b) if not side.is_description]
     notes: list[str] = []
     if recordings:
@@ -201,7 +217,7 @@ def compare_motion(  # noqa: PLR0913 - the keyword-only options of a diff of des
         label = kind if isinstance(kind, str) and "/" not in kind and "." not in kind else os.fspath(kind)
         motion = f"`traj` {label}" + (f" (`seed` {seed})" if label == "random" else "") + \
             f", {duration_s:g} s at {rate_hz:g} Hz, the same joint positions in A and B"
-    root = (side_a.robot or side_b.robot or _no_robot(side_a, side_b)).root
+    root = _shared_root(side_a, side_b)
     posed_a = _pose(side_a, trajectories.get("A"), time_ns, root)
     posed_b = _pose(side_b, trajectories.get("B"), time_ns, root)
     return _compare(posed_a, posed_b, time_ns, root, motion, tolerances, notes)
@@ -252,6 +268,16 @@ def _same_recording(joints: Recording | str | os.PathLike[str], side: DiffInput)
     if isinstance(joints, Recording):
         return joints is side.recording
     return os.path.abspath(os.fspath(joints)) == os.path.abspath(side.path)
+
+
+def _shared_root(a: DiffInput, b: DiffInput) -> str:
+    """The frame link poses are taken in: A's root, or B's when only B's is a link of both (a MuJoCo model's root
+    is ``world``, above the URDF's root link)."""
+    first = a.robot or b.robot or _no_robot(a, b)
+    other = b.robot if a.robot is not None else None
+    if other is not None and first.root not in other.link_by_name and other.root in first.link_by_name:
+        return other.root
+    return first.root
 
 
 def _no_robot(a: DiffInput, b: DiffInput) -> Robot:
@@ -313,8 +339,13 @@ def _compare(pa: Posed, pb: Posed, time_ns: NDArray[np.int64], root: str, motion
         if side.robot_note:
             report.notes.append(side.robot_note + ": its robot description is not compared")
     if pa.side.robot is not None and pb.side.robot is not None:
+        across = is_mjcf_robot(pa.side.robot) != is_mjcf_robot(pb.side.robot)
+        if across:
+            report.notes.append("one description is a MuJoCo model: the descriptions compare by their moving joints "
+                                "(type, axis, limits, mimic) and by the world pose of every frame both have")
         for change in diff_robots(pa.side.robot, pb.side.robot, pos_tol=tolerances["pos_tol"],
-                                  rot_tol=tolerances["rot_tol"], value_tol=tolerances["joint_tol"]):
+                                  rot_tol=tolerances["rot_tol"], value_tol=tolerances["joint_tol"],
+                                  moving_joints_only=across):
             report.differences.append(Difference("description", change.what, change.detail))
     frames_a = {child: k for k, child in enumerate(pa.world.children)}
     frames_b = {child: k for k, child in enumerate(pb.world.children)}

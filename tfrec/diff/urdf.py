@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, TypeVar
 
 import numpy as np
@@ -26,7 +26,7 @@ from tfrec.conventions import DIFF_JOINT_TOL, DIFF_POS_TOL, DIFF_ROT_TOL
 from tfrec.description.urdf import parse_urdf
 from tfrec.errors import DescriptionError
 from tfrec.kinematics.rotations import quaternion_from_rpy, rotation_error
-from tfrec.model import Joint, Limit, Link, Mimic, Pose, Robot, Visual
+from tfrec.model import Joint, JointType, Limit, Link, Mimic, Pose, Robot, Visual
 
 __all__ = ["ElementChange", "diff_robots", "diff_urdf_texts", "rotation_angle"]
 
@@ -122,6 +122,14 @@ class _Comparer:
             out += self.value("mimic offset", a.mimic.offset, b.mimic.offset)
         return out
 
+    def moving_joint(self, a: Joint, b: Joint) -> list[str]:
+        """What a URDF and a MuJoCo model of one joint both say: type, axis, position limits, mimic. A continuous
+        joint's limits mean nothing to either, and a revolute joint with equal limits (blank ones, which MuJoCo's
+        URDF import ignores: "limit ignored") is compared as the continuous joint MuJoCo makes of it."""
+        a, b = _as_mujoco_reads(a), _as_mujoco_reads(b)
+        return [change for change in self.joint(a, b)
+                if not change.startswith(("parent ", "child ", "origin ", "limit effort", "limit velocity"))]
+
     def visual(self, label: str, a: Visual, b: Visual) -> list[str]:
         out = []
         if type(a.geometry) is not type(b.geometry):
@@ -154,9 +162,16 @@ class _Comparer:
         return out
 
 
+def _as_mujoco_reads(joint: Joint) -> Joint:
+    blank = joint.type is JointType.REVOLUTE and joint.limit is not None and joint.limit.lower == joint.limit.upper
+    if blank or joint.type is JointType.CONTINUOUS:
+        return replace(joint, type=JointType.CONTINUOUS, limit=None)
+    return joint
+
+
 def diff_robots(
     a: Robot, b: Robot, *, pos_tol: float = DIFF_POS_TOL, rot_tol: float = DIFF_ROT_TOL,
-    value_tol: float = DIFF_JOINT_TOL,
+    value_tol: float = DIFF_JOINT_TOL, moving_joints_only: bool = False,
 ) -> list[ElementChange]:
     """The elements added, removed or changed from robot ``a`` to robot ``b``.
 
@@ -165,6 +180,9 @@ def diff_robots(
         pos_tol: metres within which lengths (origins, geometry sizes) are equal.
         rot_tol: radians within which orientations and axes are equal.
         value_tol: within which other numbers (limits, mimic factors, mass, colours) are equal.
+        moving_joints_only: compare only the joints that move, by type, axis, position limits and mimic
+            (a URDF and a MuJoCo model: what both formats say alike; links, fixed joints, origins, effort and
+            velocity limits are left to the comparison of world poses, or are not in MJCF).
 
     Returns:
         One :class:`ElementChange` per element, robot name first, then links and joints in
@@ -172,6 +190,10 @@ def diff_robots(
     """
     cmp = _Comparer(pos_tol, rot_tol, value_tol)
     out: list[ElementChange] = []
+    if moving_joints_only:
+        moving_a = {joint.name: joint for joint in a.moving_joints}
+        moving_b = {joint.name: joint for joint in b.moving_joints}
+        return _diff_elements("joint", moving_a, moving_b, cmp.moving_joint)
     if a.name != b.name:
         out.append(ElementChange("robot name", f"robot name '{a.name}' → '{b.name}'"))
     out += _diff_elements("link", a.link_by_name, b.link_by_name, cmp.link)
