@@ -296,9 +296,10 @@ def translation(connection: Connection, *, encoding: str, sample: bytes | memory
             definition that does not parse).
     """
     note = ""
-    if sample is not None and connection.definition and connection.encoding in ("cdr", "ros1"):
+    kept = connection.encoding == encoding or (encoding == "cdr" and connection.encoding != "ros1")
+    if sample is not None and _replaceable(connection, sample, kept=kept):
         connection, note = _fitting(connection, sample)
-    if connection.encoding == encoding or (encoding == "cdr" and connection.encoding != "ros1"):
+    if kept:
         return Translation(connection, _completed(connection), None, note=note)  # an MCAP holds any encoding
     if {connection.encoding, encoding} != {"cdr", "ros1"}:
         raise Untranslatable(f"it is serialized as '{connection.encoding}', which tfrec carries only as it is "
@@ -318,6 +319,34 @@ def translation(connection: Connection, *, encoding: str, sample: bytes | memory
                             qos, plan.type_hash)
     kind = FAST_KINDS.get(plan.msgtype) if has_known_layout(connection) else None
     return Translation(connection, target, plan.convert, kind, note=note)
+
+
+def _replaceable(connection: Connection, sample: bytes | memoryview, *, kept: bool) -> bool:
+    """Whether the distro's definition might replace the file's (:func:`_fitting`): the distro knows the type and,
+    when the messages are copied as they are (``kept``), decodes ``sample``.
+
+    Checking the file's definition builds a type store (milliseconds), so it is done only where the distro's could
+    take its place — not for the 65,000 schemas of types the distro does not know that a file may hold — and for
+    at most :data:`CHECKED_DEFINITIONS` definitions of one type (a file may hold as many as it has schemas)."""
+    if not connection.definition or connection.encoding not in ("cdr", "ros1") or not connection.msgtype:
+        return False
+    full = connection.msgtype if "/msg/" in connection.msgtype else connection.msgtype.replace("/", "/msg/", 1)
+    if full not in (known_ros1_typestore() if connection.ros1 else typestore()).fielddefs:
+        return False
+    if kept and _undecodable(replace(connection, definition="", definition_encoding="", type_hash=""), sample):
+        return False  # the distro's does not decode them either: they are copied with the file's
+    key = (full, connection.ros1)
+    checked = _CHECKED.setdefault(key, set())
+    definition = _uncommented(connection.definition, connection.definition_encoding)
+    if definition not in checked and len(checked) >= CHECKED_DEFINITIONS:
+        return False
+    checked.add(definition)
+    return True
+
+
+CHECKED_DEFINITIONS = 64
+"""How many distinct definitions of one type a conversion checks against its messages (:func:`_replaceable`)."""
+_CHECKED: dict[tuple[str, bool], set[str]] = {}
 
 
 def _undecodable(connection: Connection, sample: bytes | memoryview) -> str | None:
