@@ -40,6 +40,7 @@ from tfrec.formats.ros.definitions import DefinitionError, has_known_layout, par
 from tfrec.formats.ros.encode import TFMessageEncoder, encode_string
 from tfrec.formats.ros.types import (
     deserializer,
+    genmsg_definition,
     known_ros1_typestore,
     ros1_definition_text,
     typestore,
@@ -409,7 +410,10 @@ def _fitting(connection: Connection, sample: bytes | memoryview) -> tuple[Connec
 
 
 def _completed(connection: Connection) -> Connection:
-    """A connection kept as it is, with the definition its distro gives when the file has none."""
+    """A connection kept as it is, with the definition its distro gives when the file has none; a ROS 1 type of
+    Noetic's with Noetic's md5sum gets genmsg's text (:func:`_as_recorded`)."""
+    if connection.definition and connection.ros1 and connection.msgtype:
+        return _as_recorded(connection)
     if connection.definition or connection.encoding not in ("cdr", "ros1") or not connection.msgtype:
         return connection
     try:
@@ -423,6 +427,37 @@ def _completed(connection: Connection) -> Connection:
     text, _ = store.generate_msgdef(connection.msgtype, ros_version=2)
     return replace(connection, definition=text, definition_encoding="ros2msg",
                    type_hash=connection.type_hash or store.hash_rihs01(connection.msgtype))
+
+
+def _as_recorded(connection: Connection) -> Connection:
+    """A ROS 1 connection with genmsg's text of its type, as ``rosbag record`` writes it, when the type is one of
+    Noetic's and its md5sum (the file's, else the one of the file's definition) is Noetic's: the file's text of the
+    same type (rosbags' generated text, another tool's spelling) makes ``rosbag check`` ask for migrations. Another
+    type, or another md5sum, keeps the file's text; a connection without an md5sum (an MCAP's) gets its
+    definition's."""
+    md5sum = connection.type_hash
+    if md5sum in ("", "*"):
+        md5sum = _ros1_md5sum(connection.msgtype, _uncommented(connection.definition, connection.definition_encoding),
+                              connection.definition_encoding) or md5sum
+    text = connection.definition
+    if genmsg_definition(connection.msgtype) is not None and md5sum not in ("", "*"):
+        text = ros1_definition_text(connection.msgtype, md5sum, connection.definition)
+    if (text, md5sum) == (connection.definition, connection.type_hash):
+        return connection
+    return replace(connection, definition=text, definition_encoding="ros1msg", type_hash=md5sum)
+
+
+@lru_cache(maxsize=256)
+def _ros1_md5sum(msgtype: str, definition: str, definition_encoding: str) -> str:
+    """The md5sum of a ROS 1 definition; ``""`` when it does not give one."""
+    from rosbags.typesys.base import TypesysError
+
+    try:
+        _, md5sum = _store(_types(msgtype, definition, definition_encoding, True),
+                           ros1_header=True).generate_msgdef(msgtype, ros_version=1)
+    except (Untranslatable, TypesysError, KeyError, ValueError):
+        return ""
+    return str(md5sum)
 
 
 @lru_cache(maxsize=256)
