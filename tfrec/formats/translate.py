@@ -171,7 +171,10 @@ def _type_plan(msgtype: str, definition: str, definition_encoding: str, ros1: bo
     if ros1 or not definition or "idl" in definition_encoding or genmsg_definition(msgtype) is not None \
             or not _names_no_relative_type(definition):
         return _plan(msgtype, definition, definition_encoding, ros1)
-    shared = _plan(_SHARED_TYPE, definition, definition_encoding, ros1)
+    try:
+        shared = _plan(_SHARED_TYPE, definition, definition_encoding, ros1)
+    except Untranslatable:  # said again under the type's own name
+        return _plan(msgtype, definition, definition_encoding, ros1)
     return replace(shared, msgtype=msgtype)
 
 
