@@ -69,6 +69,8 @@ SLOW_TIER = (
     "tests/trajectory/test_keyframes.py::test_many_rows_in_seconds",
     "tests/faults/test_deep_chains.py",
     "tests/faults/test_many_channels.py",
+    "tests/faults/test_many_schemas.py::test_65000_",
+    "tests/faults/test_address_space.py",
 )
 """The slow tier (``make test-slow``, run by CI; ``make test`` leaves it out): test files, or test names
 (a prefix: every parametrization, and every test whose name starts so), kept in this one list."""

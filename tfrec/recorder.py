@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from tfrec._address_space import check_rerun_address_space
 from tfrec._atomic import AtomicOutputs
 from tfrec._outputs import OutputKind, check_outputs
 from tfrec.conventions import DEFAULT_START_TIME_NS
@@ -214,6 +215,7 @@ def record(
     last = int(trajectory.time_ns[-1]) + start_time_ns if total else start_time_ns
     check_time_range(first, last)
     if plan.rrd is not None:
+        check_rerun_address_space(os.fspath(plan.rrd))  # before rerun is loaded
         from tfrec.formats.rrd.paths import check_rerun_robot
 
         check_rerun_robot(robot, os.fspath(plan.rrd), hint="record without it (`no_rrd`)")

@@ -145,6 +145,37 @@ def test_a_broken_visual_is_left_out_with_a_warning_and_tf_is_recorded(tmp_path:
     assert "the visual is left out" in capsys.readouterr().err and out.stat().st_size > 0
 
 
+@pytest.mark.parametrize("collision, problem", [
+    ("<geometry><sphere/></geometry>", r"link 'a' collision 0 sphere has no 'radius'"),
+    ('<geometry><sphere radius="x"/></geometry>', r"link 'a' collision 0 sphere: malformed radius"),
+    ("<geometry><box/></geometry>", r"link 'a' collision 0 box has no 'size'"),
+    ('<geometry><box size="1 1"/></geometry>', r"link 'a' collision 0 box: malformed size=\"1 1\""),
+    ("<geometry><mesh/></geometry>", r"link 'a' collision 0 mesh has no filename"),
+    ('<geometry><mesh filename="m.stl" scale="1 q 1"/></geometry>', r"link 'a' collision 0 mesh: malformed scale"),
+    ('<geometry><cylinder radius="1"/></geometry>', r"link 'a' collision 0 cylinder has no 'length'"),
+    ("<geometry/>", r"link 'a' collision 0 <geometry> is empty"),
+    ('<geometry><cone radius="1"/></geometry>', r"link 'a' collision 0 has unknown geometry <cone>"),
+    ("", r"link 'a' collision 0 has no <geometry>"),
+    ('<origin xyz="1 2"/><geometry><sphere radius="1"/></geometry>', r"link 'a' collision 0 origin: malformed xyz"),
+])
+def test_a_broken_collision_is_left_out_with_a_warning_and_tf_is_recorded(tmp_path: Path, collision: str, problem: str,
+                                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """urdfdom 3.0.1 logs "Could not parse collision element for Link [a]" and loads the link (check_urdf succeeds);
+    tfrec, which does not use collisions, said nothing. It warns now, naming the link, as for a broken visual."""
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text(f'<robot name="r">\n<link name="a"><collision>{collision}</collision>'
+                    '<collision><geometry><sphere radius="0.5"/></geometry></collision></link>\n<link name="b"/>\n'
+                    f'<joint name="j" type="revolute"><parent link="a"/><child link="b"/>{LIMIT}</joint>\n</robot>\n')
+    with pytest.warns(UserWarning, match=rf"r\.urdf:2: {problem}.*: the collision is left out, as urdfdom 3\.0\.1 "
+                                         r"leaves it out \(TF is not affected\)$") as found:
+        robot = load_description(urdf)
+    assert len(found) == 1  # the good collision says nothing
+    assert [link.name for link in robot.links] == ["a", "b"]
+    out = tmp_path / "r.mcap"
+    assert main(["record", str(urdf), "-o", str(out), "--no-rrd", "--duration", "1"]) == 0
+    assert "the collision is left out" in capsys.readouterr().err and out.stat().st_size > 0
+
+
 def test_a_malformed_colour_or_mass_is_left_out_with_a_warning() -> None:
     text = ('<robot name="r"><material name="m"><color rgba="1 0"/></material>'
             '<link name="a"><inertial><mass/></inertial><visual><geometry><sphere radius="1"/></geometry>'

@@ -17,6 +17,7 @@ import warnings
 from collections.abc import Iterator, Sequence
 from typing import TextIO
 
+from tfrec._address_space import economize, limit_phrase
 from tfrec._version import __version__
 from tfrec.cli._common import (
     PROG,
@@ -63,6 +64,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     # Rerun's Rust logger writes to stderr on its own (a full disk gives WARN and ERROR lines before
     # tfrec's one-line error): quiet unless the user asks for it with RUST_LOG
     os.environ.setdefault("RUST_LOG", "off")
+    economize()  # under ulimit -v: before numpy and rerun are loaded
     parser = _build_parser()
     try:
         ns = parser.parse_args(argv)
@@ -99,8 +101,16 @@ def main(argv: Sequence[str] | None = None) -> int:
                  "bytes, a path 4095)", file=sys.stderr)
             return 2
         except ImportError as err:  # a library that cannot load: not installed, or no address space left to map it
-            show(f"{PROG}: error: cannot load {err.name or 'a library'}: {printable(' '.join(str(err).split()))}",
+            limit = f" ({limit_phrase()})" if limit_phrase() else ""
+            show(f"{PROG}: error: cannot load {err.name or 'a library'}: {printable(' '.join(str(err).split()))}{limit}",
                   file=sys.stderr)
+            return 2
+        except RuntimeError as err:
+            if "can't start new thread" not in str(err):
+                raise
+            # a thread that cannot start: the address space is used up (ulimit -v), or the threads a user may have
+            show(f"{PROG}: error: {printable(_inputs(ns))}cannot start a thread ({limit_phrase() or 'ulimit -u'} "
+                 "reached)", file=sys.stderr)
             return 2
 
 

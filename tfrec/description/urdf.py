@@ -7,8 +7,8 @@ link 'uper_arm'``.
 The rules follow :data:`URDFDOM`, the urdfdom Debian's ROS 1 loads URDFs with (check_urdf,
 robot_state_publisher): what it refuses, tfrec refuses, saying what urdfdom would say; what it
 loads, tfrec loads, except what has no defined motion (a zero axis, mimic joints in a cycle, a
-link without a name). A broken visual or inertial never stops TF: urdfdom leaves it out with an
-error message and so does tfrec, with a warning. docs/ros-parity.md lists each difference.
+link without a name). A broken visual, collision or inertial never stops TF: urdfdom leaves it out
+with an error message and so does tfrec, with a warning. docs/ros-parity.md lists each difference.
 """
 
 from __future__ import annotations
@@ -305,7 +305,20 @@ class _Parser:
                     else:
                         self.warn(mat, f"{what} uses material '{material.name}', which is not defined")
             visuals.append(Visual(geometry=geometry, origin=origin, material=material, name=visual.get("name")))
+        for index, collision in enumerate(elem.findall("collision")):
+            self.collision(collision, f"link '{name}' collision {index}")
         return Link(name=name, visuals=tuple(visuals), mass=self.mass(elem, name))
+
+    def collision(self, elem: ET.Element, what: str) -> None:
+        """Check a ``<collision>`` as urdfdom reads it (tfrec does not use it): one urdfdom leaves out — no or a
+        broken geometry (a sphere without ``radius``, a box without ``size``, a mesh without ``filename``), a
+        malformed origin — is said with a warning, as a broken visual is; the link and TF are not affected."""
+        try:
+            self.geometry(elem, what)
+            self.pose(elem, what)
+        except DescriptionError as err:
+            warnings.warn(f"{err}: the collision is left out, as {URDFDOM} leaves it out (TF is not affected)",
+                          TfrecWarning, stacklevel=5)
 
     def mass(self, elem: ET.Element, name: str) -> float | None:
         """The link's mass; None without one, or (with a warning) with a malformed one: urdfdom leaves

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tfrec._address_space import check_rerun_address_space
 from tfrec._atomic import AtomicOutputs
 from tfrec._outputs import check_target
 from tfrec.conventions import DEFAULT_START_TIME_NS
@@ -51,6 +52,7 @@ def write_overlay(
     target = Path(path)
     c = comparison
     check_target(target, RRD, force=force, inputs=[c.a.side.path, c.b.side.path])
+    check_rerun_address_space(os.fspath(target))
     recordings = [side.side.recording for side in (c.a, c.b) if side.side.recording is not None]
     origin = (data_start_ns(recordings[0]) or 0) if recordings else DEFAULT_START_TIME_NS
     errors = OverlayErrors(c.links, c.position_error, c.rotation_error, c.position_tol, c.rotation_tol)

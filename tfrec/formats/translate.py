@@ -25,6 +25,7 @@ message of that layout becomes a row of the target template with those ranges co
 
 from __future__ import annotations
 
+import re
 import struct
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -40,6 +41,7 @@ from tfrec.formats.ros.definitions import DefinitionError, has_known_layout, par
 from tfrec.formats.ros.encode import TFMessageEncoder, encode_string
 from tfrec.formats.ros.types import (
     deserializer,
+    genmsg_definition,
     known_ros1_typestore,
     ros1_definition_text,
     typestore,
@@ -159,6 +161,40 @@ def _plan(msgtype: str, definition: str, definition_encoding: str, ros1: bool) -
     except (TypesysError, KeyError, ValueError) as err:
         first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
         raise Untranslatable(f"its message definition is incomplete (rosbags: {first[:80]})") from err
+
+
+def _type_plan(msgtype: str, definition: str, definition_encoding: str, ros1: bool) -> _TypePlan:
+    """:func:`_plan`, shared by the types of one definition where the type's name changes nothing carried over:
+    a ROS 2 type converted to ROS 1 that is not one of Noetic's (its md5sum and generated text do not name it)
+    and whose definition names no type relative to its package. A file of 65,000 types of their own, each
+    ``string data``, builds one type store, not 65,000 (~4 ms and 50 kB each)."""
+    if ros1 or not definition or "idl" in definition_encoding or genmsg_definition(msgtype) is not None \
+            or not _names_no_relative_type(definition):
+        return _plan(msgtype, definition, definition_encoding, ros1)
+    try:
+        shared = _plan(_SHARED_TYPE, definition, definition_encoding, ros1)
+    except Untranslatable:  # said again under the type's own name
+        return _plan(msgtype, definition, definition_encoding, ros1)
+    return replace(shared, msgtype=msgtype)
+
+
+_SHARED_TYPE = "tfrec_shared/msg/Message"
+"""The name a shared plan is built under (:func:`_type_plan`)."""
+_ROS2_BUILTINS = frozenset({"bool", "byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64",
+                            "uint64", "float32", "float64", "string", "wstring"})
+
+
+def _names_no_relative_type(definition: str) -> bool:
+    """Whether every field of a ``ros2msg`` definition is of a built-in type or of a type named with its package
+    (``pkg/Type``, ``pkg/msg/Type``): then the definition means the same whatever type it defines."""
+    for raw in definition.splitlines():
+        line = raw.split("#", 1)[0].strip()
+        if not line or line.startswith(("MSG:", "===")):
+            continue
+        base = re.split(r"[\[<\s=]", line, maxsplit=1)[0]
+        if base not in _ROS2_BUILTINS and "/" not in base:
+            return False
+    return True
 
 
 # -- connections ------------------------------------------------------------------------------------
@@ -296,9 +332,10 @@ def translation(connection: Connection, *, encoding: str, sample: bytes | memory
             definition that does not parse).
     """
     note = ""
-    if sample is not None and connection.definition and connection.encoding in ("cdr", "ros1"):
+    kept = connection.encoding == encoding or (encoding == "cdr" and connection.encoding != "ros1")
+    if sample is not None and _replaceable(connection, sample, kept=kept):
         connection, note = _fitting(connection, sample)
-    if connection.encoding == encoding or (encoding == "cdr" and connection.encoding != "ros1"):
+    if kept:
         return Translation(connection, _completed(connection), None, note=note)  # an MCAP holds any encoding
     if {connection.encoding, encoding} != {"cdr", "ros1"}:
         raise Untranslatable(f"it is serialized as '{connection.encoding}', which tfrec carries only as it is "
@@ -307,8 +344,8 @@ def translation(connection: Connection, *, encoding: str, sample: bytes | memory
         raise Untranslatable("it has no message type")
     if "/srv/" in connection.msgtype:
         raise Untranslatable("a service event: ROS 1 bags record no services")
-    plan = _plan(connection.msgtype, _uncommented(connection.definition, connection.definition_encoding),
-                 connection.definition_encoding, connection.ros1)
+    plan = _type_plan(connection.msgtype, _uncommented(connection.definition, connection.definition_encoding),
+                      connection.definition_encoding, connection.ros1)
     if encoding == "ros1":
         target = Connection(connection.topic, plan.msgtype, "ros1", plan.definition, "ros1msg", connection.latched,
                             "", plan.type_hash)
@@ -318,6 +355,34 @@ def translation(connection: Connection, *, encoding: str, sample: bytes | memory
                             qos, plan.type_hash)
     kind = FAST_KINDS.get(plan.msgtype) if has_known_layout(connection) else None
     return Translation(connection, target, plan.convert, kind, note=note)
+
+
+def _replaceable(connection: Connection, sample: bytes | memoryview, *, kept: bool) -> bool:
+    """Whether the distro's definition might replace the file's (:func:`_fitting`): the distro knows the type and,
+    when the messages are copied as they are (``kept``), decodes ``sample``.
+
+    Checking the file's definition builds a type store (milliseconds), so it is done only where the distro's could
+    take its place — not for the 65,000 schemas of types the distro does not know that a file may hold — and for
+    at most :data:`CHECKED_DEFINITIONS` definitions of one type (a file may hold as many as it has schemas)."""
+    if not connection.definition or connection.encoding not in ("cdr", "ros1") or not connection.msgtype:
+        return False
+    full = connection.msgtype if "/msg/" in connection.msgtype else connection.msgtype.replace("/", "/msg/", 1)
+    if full not in (known_ros1_typestore() if connection.ros1 else typestore()).fielddefs:
+        return False
+    if kept and _undecodable(replace(connection, definition="", definition_encoding="", type_hash=""), sample):
+        return False  # the distro's does not decode them either: they are copied with the file's
+    key = (full, connection.ros1)
+    checked = _CHECKED.setdefault(key, set())
+    definition = _uncommented(connection.definition, connection.definition_encoding)
+    if definition not in checked and len(checked) >= CHECKED_DEFINITIONS:
+        return False
+    checked.add(definition)
+    return True
+
+
+CHECKED_DEFINITIONS = 64
+"""How many distinct definitions of one type a conversion checks against its messages (:func:`_replaceable`)."""
+_CHECKED: dict[tuple[str, bool], set[str]] = {}
 
 
 def _undecodable(connection: Connection, sample: bytes | memoryview) -> str | None:
@@ -380,7 +445,10 @@ def _fitting(connection: Connection, sample: bytes | memoryview) -> tuple[Connec
 
 
 def _completed(connection: Connection) -> Connection:
-    """A connection kept as it is, with the definition its distro gives when the file has none."""
+    """A connection kept as it is, with the definition its distro gives when the file has none; a ROS 1 type of
+    Noetic's with Noetic's md5sum gets genmsg's text (:func:`_as_recorded`)."""
+    if connection.definition and connection.ros1 and connection.msgtype:
+        return _as_recorded(connection)
     if connection.definition or connection.encoding not in ("cdr", "ros1") or not connection.msgtype:
         return connection
     try:
@@ -394,6 +462,37 @@ def _completed(connection: Connection) -> Connection:
     text, _ = store.generate_msgdef(connection.msgtype, ros_version=2)
     return replace(connection, definition=text, definition_encoding="ros2msg",
                    type_hash=connection.type_hash or store.hash_rihs01(connection.msgtype))
+
+
+def _as_recorded(connection: Connection) -> Connection:
+    """A ROS 1 connection with genmsg's text of its type, as ``rosbag record`` writes it, when the type is one of
+    Noetic's and its md5sum (the file's, else the one of the file's definition) is Noetic's: the file's text of the
+    same type (rosbags' generated text, another tool's spelling) makes ``rosbag check`` ask for migrations. Another
+    type, or another md5sum, keeps the file's text; a connection without an md5sum (an MCAP's) gets its
+    definition's."""
+    md5sum = connection.type_hash
+    if md5sum in ("", "*"):
+        md5sum = _ros1_md5sum(connection.msgtype, _uncommented(connection.definition, connection.definition_encoding),
+                              connection.definition_encoding) or md5sum
+    text = connection.definition
+    if genmsg_definition(connection.msgtype) is not None and md5sum not in ("", "*"):
+        text = ros1_definition_text(connection.msgtype, md5sum, connection.definition)
+    if (text, md5sum) == (connection.definition, connection.type_hash):
+        return connection
+    return replace(connection, definition=text, definition_encoding="ros1msg", type_hash=md5sum)
+
+
+@lru_cache(maxsize=256)
+def _ros1_md5sum(msgtype: str, definition: str, definition_encoding: str) -> str:
+    """The md5sum of a ROS 1 definition; ``""`` when it does not give one."""
+    from rosbags.typesys.base import TypesysError
+
+    try:
+        _, md5sum = _store(_types(msgtype, definition, definition_encoding, True),
+                           ros1_header=True).generate_msgdef(msgtype, ros_version=1)
+    except (Untranslatable, TypesysError, KeyError, ValueError):
+        return ""
+    return str(md5sum)
 
 
 @lru_cache(maxsize=256)

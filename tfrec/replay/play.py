@@ -19,6 +19,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from tfrec._address_space import check_rerun_address_space
 from tfrec._atomic import AtomicOutputs
 from tfrec._outputs import check_target
 from tfrec.errors import ReplayError, printable
@@ -252,6 +253,7 @@ def check_play_options(
             check_can_connect(connect)
         return
     check_target(Path(save), RRD, force=force, inputs=inputs)
+    check_rerun_address_space(os.fspath(save))
 
 
 def replay_to_rerun(

@@ -41,6 +41,7 @@ import sys
 
 import rerun as rr
 
+from tfrec._address_space import check_rerun_address_space
 from tfrec.errors import WriteError
 from tfrec.model import Robot
 
@@ -177,8 +178,10 @@ minutes and gigabytes); the ROS outputs have no such bound."""
 
 
 def check_rerun_robot(robot: Robot | None, target: str, *, hint: str = "") -> None:
-    """Raise WriteError for a robot of more than :data:`MAX_LINKS` links (before any output is written);
-    ``hint``: what to do instead, ending the message."""
+    """Raise WriteError for a robot of more than :data:`MAX_LINKS` links, or an address space too small for
+    Rerun (:func:`~tfrec._address_space.check_rerun_address_space`), before any output is written; ``hint``:
+    what to do instead, ending the message."""
+    check_rerun_address_space(target)
     if robot is not None and len(robot.links) > MAX_LINKS:
         raise WriteError(f"{target}: robot '{robot.name}' has {len(robot.links):,} links, more than tfrec logs to "
                          f"Rerun (at most {MAX_LINKS:,}: each link is an entity of its own, ~1 ms and 60 kB)"
