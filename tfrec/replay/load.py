@@ -314,16 +314,28 @@ def load_replay(
     """
     _check_window(start_s, end_s)
     selected = _check_topics(topics)
-    where = os.fspath(path)
-    # the time series are read whatever is selected: the recording's start counts from them
-    rec = read_recording(path, topics={*selected, JOINT_STATES, TF, *(() if robot is not None else (ROBOT_DESCRIPTION,))},
-                         namespace=namespace, remap=remap, use_log_time=use_log_time)
+    rec = read_recording(path, topics=_read_topics(selected, robot), namespace=namespace, remap=remap,
+                         use_log_time=use_log_time)
+    return _prepare_recording(rec, os.fspath(path), selected, robot=robot, given=topics is not None,
+                              window=(start_s, end_s), need_robot=need_robot, namespace=namespace)
+
+
+def _read_topics(selected: Collection[str], robot: Robot | None) -> set[str]:
+    """What is read of a recording to replay ``selected``: the time series whatever is selected (the recording's
+    start counts from them), the description unless a robot is given."""
+    return {*selected, JOINT_STATES, TF, *(() if robot is not None else (ROBOT_DESCRIPTION,))}
+
+
+def _prepare_recording(rec: Recording, where: str, selected: list[str], *, robot: Robot | None, given: bool,
+                       window: tuple[float | None, float | None], need_robot: bool, namespace: str | None) -> Replay:
+    """:func:`load_replay` of a recording read (or of a piece of one, :func:`replay_pieces`)."""
+    start_s, end_s = window
     absent = [topic for topic in selected if not _has(rec, topic)]
     if len(absent) == len(selected):
         rec_kind = " (an .rrd not written by tfrec?)" if rec.format == "rrd" and not rec.topics else ""
         raise ReplayError(f"{where}: no {_listed(absent)} in the recording{rec_kind}; nothing to replay")
-    if topics is not None and absent:
-        warnings.warn(f"{where}: no {', '.join(absent)} in the recording", TfrecWarning, stacklevel=2)
+    if given and absent:
+        warnings.warn(f"{where}: no {', '.join(absent)} in the recording", TfrecWarning, stacklevel=3)
     ns = None if namespace is None else namespace_name(namespace)
     found = find_robots(rec, namespace=ns)
     if not found:
