@@ -35,10 +35,10 @@ FORMATS = ("mcap", "rosbag1", "sqlite3")
 def _run(argv: list[str], *, pythonpath: str | None = None) -> tuple[float, float, int]:
     """(peak RSS in MB, wall seconds, exit code) of one child process."""
     env = dict(os.environ)
-    if pythonpath is not None:
-        env["PYTHONPATH"] = pythonpath
+    env["PYTHONPATH"] = pythonpath or str(ROOT)  # run from another folder: `-m` puts the working folder first
     start = time.perf_counter()
-    child = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    child = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                             cwd=tempfile.gettempdir())
     assert child.stderr is not None
     err = child.stderr.read()
     _, status, usage = os.wait4(child.pid, 0)

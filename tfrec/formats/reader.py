@@ -28,7 +28,7 @@ from tfrec.formats.rrd.reader import read_rrd
 from tfrec.formats.source import RecordingSource, identify_recording, messages_of, recording_format
 from tfrec.recording import Recording
 
-PIECE_MESSAGES = 50_000
+PIECE_MESSAGES = 10_000
 """/joint_states and /tf messages of a piece of a recording read piece by piece (:func:`read_pieces`), about."""
 
 __all__ = [
@@ -117,22 +117,22 @@ def read_pieces(
     remap: Iterable[str] | Mapping[str, str] | None = None,
     use_log_time: bool = False,
     messages: int | None = None,
-) -> Iterator[Recording]:
+) -> Iterator[tuple[Recording, bool]]:
     """Read a recording piece by piece, in bounded memory: what :func:`read_recording` gives, its time series cut
     into consecutive pieces of about ``messages`` /joint_states and /tf messages (default :data:`PIECE_MESSAGES`), in
     the order the file holds them (by log time).
 
     The latched data (/robot_description, /tf_static) is read first, from the chunks that hold it, and every piece
     has it, with the whole recording's topic table; each piece has the /joint_states and /tf series of its
-    messages (each sorted by stamp). The last piece has the recording's ``read_error``; warnings are given once.
-    An ``.rrd`` is one piece. Arguments as :func:`read_recording`'s.
+    messages (each sorted by stamp). Each piece comes with whether it is the last; the last has the recording's
+    ``read_error``; warnings are given once. An ``.rrd`` is one piece. Arguments as :func:`read_recording`'s.
 
     Raises:
         ReadError: as :func:`read_recording`.
     """
     source = path if isinstance(path, RecordingSource) else identify_recording(path)
     if source.format == "rrd":
-        yield read_recording(source, topics=topics, namespace=namespace, remap=remap, use_log_time=use_log_time)
+        yield read_recording(source, topics=topics, namespace=namespace, remap=remap, use_log_time=use_log_time), True
         return
     latched = read_recording(source, topics=_kinds(topics, (ROBOT_DESCRIPTION, TF_STATIC)), namespace=namespace,
                              remap=remap, use_log_time=use_log_time)
@@ -152,11 +152,11 @@ def read_pieces(
                 break
             collector.take(batch, found)
             if collector.pending >= (PIECE_MESSAGES if messages is None else messages):
-                yield _with_latched(collector.piece(), latched)
+                yield _with_latched(collector.piece(), latched), False
     last = _with_latched(collector.piece(), latched)
     last.read_error = found.read_error or latched.read_error
     collector.warn_stamps()
-    yield last
+    yield last, True
 
 
 def _said(read_error: str | None) -> str:

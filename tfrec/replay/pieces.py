@@ -25,6 +25,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from tfrec.errors import TfrecError
 from tfrec.formats.reader import read_pieces
 from tfrec.model import Robot
 from tfrec.recording import FrameSeries, JointStates, Recording
@@ -111,8 +112,12 @@ class _Joiner:
     def __init__(self) -> None:
         self.carried: dict[str, JointStates] = {}
         self.waiting: dict[str, dict[Pair, FrameSeries]] = {}
-        self.firsts: list[int] = []  # the first stamp of every series of every piece: the recording's start
+        self.firsts: list[int] = []  # the first stamp of any series: the recording's start
         self.lasts: list[int] = []
+
+    def saw(self, first: int, last: int) -> None:
+        self.firsts = [min([first, *self.firsts])]
+        self.lasts = [max([last, *self.lasts])]
 
     def join(self, piece: Recording, *, last: bool) -> tuple[Recording, dict[str, NDArray[np.int64]]]:
         names = sorted({*piece.namespaces, "", *self.carried, *self.waiting})
@@ -123,8 +128,7 @@ class _Joiner:
             found = piece.robot_topics(ns).joint_states
             if found is not None and len(found):
                 own[ns] = found.time_ns
-                self.firsts.append(int(found.time_ns[0]))
-                self.lasts.append(int(found.time_ns[-1]))
+                self.saw(int(found.time_ns[0]), int(found.time_ns[-1]))
             before = self.carried.pop(ns, None)
             js = found if before is None else before if found is None else _joined(before, found)
             joint_states[ns] = js
@@ -141,8 +145,7 @@ class _Joiner:
             series = dict(piece.robot_topics(ns).tf)
             for pair, s in series.items():
                 if len(s):
-                    self.firsts.append(int(s.time_ns[0]))
-                    self.lasts.append(int(s.time_ns[-1]))
+                    self.saw(int(s.time_ns[0]), int(s.time_ns[-1]))
             out: dict[Pair, FrameSeries] = {}
             for pair in [*waiting, *(p for p in series if p not in waiting)]:
                 both = _merged(waiting.get(pair), series.get(pair))
@@ -191,24 +194,37 @@ def replay_pieces(
     selected = _check_topics(topics)
     where = os.fspath(path)
     joiner = _Joiner()
-    said: set[tuple[type[Warning], str]] = set()
+    said: dict[tuple[type[Warning], str], int] = {}  # what preparing the pieces warned of → how many pieces did
+    count = 0
     pieces = read_pieces(path, topics=_read_topics(selected, robot), namespace=namespace, remap=remap,
                          use_log_time=use_log_time, messages=messages)
-    piece = next(pieces)
-    while piece is not None:
-        following = next(pieces, None)
-        joined, own = joiner.join(piece, last=following is None)
+    for piece, last in pieces:
+        joined, own = joiner.join(piece, last=last)
+        count += 1
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            replay = _prepare_recording(joined, where, selected, robot=robot, given=topics is not None,
-                                        window=(None, None), need_robot=need_robot, namespace=namespace)
-        for warning in caught:  # each piece says the same of the latched data: once
-            if (warning.category, str(warning.message)) not in said:
-                said.add((warning.category, str(warning.message)))
-                warnings.warn(warning.message, stacklevel=2)
-        if following is None:
+            failed: TfrecError | None = None
+            try:
+                replay = _prepare_recording(joined, where, selected, robot=robot, given=topics is not None,
+                                            window=(None, None), need_robot=need_robot, namespace=namespace)
+            except TfrecError as err:
+                failed = err
+        for key in dict.fromkeys((w.category, str(w.message)) for w in caught):
+            said[key] = said.get(key, 0) + 1
+        if failed is not None:
+            _say(said, count)
+            raise failed
+        if last:
+            _say(said, count)
             origin = start_of(joiner.firsts, joined)
             replay = replace(replay, origin_ns=replay.origin_ns if origin is None else origin,
                              start_ns=min(joiner.firsts, default=None), end_ns=max(joiner.lasts, default=None))
-        yield ReplayPiece(replay, own, following is None)
-        piece = following
+        yield ReplayPiece(replay, own, last)
+
+
+def _say(said: dict[tuple[type[Warning], str], int], pieces: int) -> None:
+    """The warnings every piece gave, once: what the recording lacks (its latched data, a joint never published).
+    What only some pieces said is what those pieces lack (a joint's transforms all in the next piece): not said."""
+    for (category, text), count in said.items():
+        if count == pieces:
+            warnings.warn(text, category, stacklevel=3)
