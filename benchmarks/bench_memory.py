@@ -95,13 +95,16 @@ def _copy_for_diff(path: Path) -> Path:
     return twin
 
 
+_CHECK = ("import sys; from tfrec.fleet.tasks import check_recording; "
+          "rows = check_recording(sys.argv[1]); sys.exit(rows[0].verdict != 'pass')")
+
+
 def commands(path: Path) -> dict[str, list[str]]:
     tfrec = [sys.executable, "-m", "tfrec"]
     return {
         "replay --check": [*tfrec, "replay", str(path), "--check"],
         # what one worker of `tfrec check` does (the pool's workers are the forkserver's children, not ours)
-        "check": [sys.executable, "-c", "import sys; from tfrec.fleet.tasks import check_recording; "
-                  "rows = check_recording(sys.argv[1]); sys.exit(rows[0].verdict != 'pass')", str(path)],
+        "check": [sys.executable, "-c", _CHECK, str(path)],
         "diff": [*tfrec, "diff", str(path), str(_copy_for_diff(path))],
     }
 

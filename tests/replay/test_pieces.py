@@ -125,7 +125,7 @@ def test_check_of_a_recording_in_pieces_gives_the_same_rows(marm: Robot, tmp_pat
     path = write_rosbag2(rec, tmp_path / "bag", storage="mcap")
     whole = _rows(path)
     assert {row["check"] for row in whole} >= {"summary", "rate", "stamps", "resim"}
-    import tfrec.formats.reader as reader
+    from tfrec.formats import reader
 
     for messages in (3, 11):
         monkeypatch.setattr(reader, "PIECE_MESSAGES", messages)

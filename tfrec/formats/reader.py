@@ -32,9 +32,9 @@ PIECE_MESSAGES = 10_000
 """/joint_states and /tf messages of a piece of a recording read piece by piece (:func:`read_pieces`), about."""
 
 __all__ = [
+    "PIECE_MESSAGES",
     "ReadOptions",
     "RecordingSource",
-    "PIECE_MESSAGES",
     "identify_recording",
     "read_pieces",
     "read_recording",

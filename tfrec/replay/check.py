@@ -443,12 +443,12 @@ class _Fold:
         errors = FrameErrors(np.array([s for s, _, _ in seen], dtype=np.int64), np.array([t for _, t, _ in seen]),
                              np.array([r for _, _, r in seen]))
         out = replace(self.check, samples=self.samples, errors=errors)
-        for what, value_field, time_field in (("t", "translation_m", "translation_time_s"),
-                                              ("r", "rotation_rad", "rotation_time_s")):
-            best = self.witnesses.get(what)
-            if best is not None:
-                value = best[0] if math.isfinite(best[0]) else math.inf
-                out = replace(out, **{value_field: value, time_field: (best[1] - origin_ns) / NS_PER_S})
+        best = self.witnesses.get("t")
+        if best is not None:
+            out = replace(out, translation_m=best[0], translation_time_s=(best[1] - origin_ns) / NS_PER_S)
+        best = self.witnesses.get("r")
+        if best is not None:
+            out = replace(out, rotation_rad=best[0], rotation_time_s=(best[1] - origin_ns) / NS_PER_S)
         return out
 
 
@@ -472,8 +472,8 @@ class _Pieces:
             if part.model is not None and part.key not in self.order:
                 self.order[part.key] = {joint.name: k for k, joint in enumerate(part.model.joints)}
         self.robots += [key for key in report.robots if key not in self.robots]
-        for key, reason in report.unchecked.items():
-            self.unchecked.setdefault(key, reason)
+        for robot, reason in report.unchecked.items():
+            self.unchecked.setdefault(robot, reason)
         self.notes += [note for note in report.notes if note not in self.notes]
         for frame in report.frames:
             key = (frame.robot, frame.frame, frame.topic, frame.parent)

@@ -368,8 +368,8 @@ def _prepare_recording(rec: Recording, where: str, selected: list[str], *, robot
     start_ns = min(int(s[0]) for s in stamps) if stamps else None
     end_ns = max(int(s[-1]) for s in stamps) if stamps else None
     if start_ns is None and had_samples:
-        window = f"from {start_s or 0:g} s to " + ("the end" if end_s is None else f"{end_s:g} s")
-        warnings.warn(f"{where}: no /joint_states or /tf sample {window}; only latched data is replayed", TfrecWarning,
+        span = f"from {start_s or 0:g} s to " + ("the end" if end_s is None else f"{end_s:g} s")
+        warnings.warn(f"{where}: no /joint_states or /tf sample {span}; only latched data is replayed", TfrecWarning,
                       stacklevel=2)
     return Replay(path=where, format=rec.format, robots=robots, origin_ns=origin, start_ns=start_ns, end_ns=end_ns,
                   read_error=rec.read_error, time_base=rec.time_base)

@@ -73,15 +73,15 @@ def _last_known(joint_states: JointStates, fresh: JointStates | None) -> tuple[J
     the piece's own joint states, gives a position): what the next piece needs of them, and how far they
     interpolate (a joint the piece does not move, no longer published, holds nothing back)."""
     known = np.isfinite(joint_states.positions)
-    has = known.any(axis=0)
+    has = np.asarray(known.any(axis=0), dtype=bool)
     if not has.any():
         return None, None
     last = len(known) - 1 - np.argmax(known[::-1], axis=0)
     rows = np.unique(last[has])
     carried = JointStates(joint_states.time_ns[rows], joint_states.names, joint_states.positions[rows],
                           joint_states.repeated)
-    moved = set() if fresh is None else {name for name, given in zip(fresh.names, np.isfinite(fresh.positions).any(axis=0))
-                                         if given}
+    given = np.zeros(0, dtype=bool) if fresh is None else np.asarray(np.isfinite(fresh.positions).any(axis=0), dtype=bool)
+    moved = set() if fresh is None else {name for name, has_one in zip(fresh.names, given.tolist()) if has_one}
     stamps = [int(joint_states.time_ns[last[k]]) for k, name in enumerate(joint_states.names) if has[k] and name in moved]
     return carried, min(stamps) if stamps else None
 
@@ -195,12 +195,10 @@ def replay_pieces(
     where = os.fspath(path)
     joiner = _Joiner()
     said: dict[tuple[type[Warning], str], int] = {}  # what preparing the pieces warned of → how many pieces did
-    count = 0
     pieces = read_pieces(path, topics=_read_topics(selected, robot), namespace=namespace, remap=remap,
                          use_log_time=use_log_time, messages=messages)
-    for piece, last in pieces:
+    for count, (piece, last) in enumerate(pieces, start=1):
         joined, own = joiner.join(piece, last=last)
-        count += 1
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             failed: TfrecError | None = None
