@@ -162,7 +162,7 @@ def check_recording(
             replay, stamps, checked = _check_pieces(path, robot, pos_tol=pos_tol, rot_tol=rot_tol)
         except _Unreadable as err:
             return [_row(base, verdict=ERROR, detail=one_line(str(err.error)), read_s=time.perf_counter() - started)]
-        read_s = time.perf_counter() - started
+        read_s = stamps.read_s
         examined = _examine(replay, stamps, checked, gap_periods=gap_periods)
     notes = _notes(caught, skip=[replay.read_error or "", "/robot_description"])
     base["robot"] = replay.robot.name if replay.robot is not None else ""
@@ -209,6 +209,7 @@ class _Stamps(Mapping[tuple[str, str], NDArray[np.int64]]):
         self.first_joint_ns: int | None = None
         self.last_joint_ns: int | None = None
         self.joint_count = 0
+        self.read_s = 0.0  # spent reading and preparing the pieces
 
     @staticmethod
     def _packed(stamps: NDArray[np.int64]) -> tuple[int, bytes]:
@@ -264,13 +265,20 @@ def _check_pieces(path: str | os.PathLike[str], robot: Robot | None, *, pos_tol:
     last: list[Replay] = []
 
     def watched() -> Iterator[ReplayPiece]:
-        try:
-            for piece in replay_pieces(path, robot=robot):
-                stamps.add(piece)
-                last[:] = [piece.replay]
-                yield piece
-        except TfrecError as err:
-            raise _Unreadable(err) from err
+        pieces = replay_pieces(path, robot=robot)
+        while True:
+            started = time.perf_counter()
+            try:
+                piece = next(pieces, None)
+            except TfrecError as err:
+                raise _Unreadable(err) from err
+            finally:
+                stamps.read_s += time.perf_counter() - started
+            if piece is None:
+                return
+            stamps.add(piece)
+            last[:] = [piece.replay]
+            yield piece
 
     checked: CheckReport | TfrecError | None
     try:
