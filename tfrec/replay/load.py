@@ -61,6 +61,7 @@ from tfrec.robots import detect_frame_prefix, find_robots
 
 __all__ = [
     "REPLAYED_TOPICS",
+    "LackingWarning",
     "Replay",
     "derive_transforms",
     "detect_frame_prefix",
@@ -132,6 +133,11 @@ def derive_transforms(
     return out
 
 
+class LackingWarning(TfrecWarning):
+    """A warning that the data replayed lacks something (a joint's positions, any sample): of a recording read piece
+    by piece (:mod:`tfrec.replay.pieces`), said only when every piece lacks it."""
+
+
 def _check_window(start_s: float | None, end_s: float | None) -> None:
     for name, value in (("`start_s`", start_s), ("`end_s`", end_s)):
         if value is not None and not (math.isfinite(value) and value >= 0):
@@ -200,7 +206,7 @@ def _transforms_not_recorded(
         listed = ", ".join(unplaced[:5]) + (f" and {len(unplaced) - 5} more" if len(unplaced) > 5 else "")
         plural = len(unplaced) > 1
         warnings.warn(f"{where}: no /tf and no {joint_topic} position for joint{'s' if plural else ''} {listed}; "
-                      f"{'their links are' if plural else 'its link is'} not placed", TfrecWarning, stacklevel=4)
+                      f"{'their links are' if plural else 'its link is'} not placed", LackingWarning, stacklevel=4)
     return latched, computed
 
 
@@ -369,7 +375,7 @@ def _prepare_recording(rec: Recording, where: str, selected: list[str], *, robot
     end_ns = max(int(s[-1]) for s in stamps) if stamps else None
     if start_ns is None and had_samples:
         span = f"from {start_s or 0:g} s to " + ("the end" if end_s is None else f"{end_s:g} s")
-        warnings.warn(f"{where}: no /joint_states or /tf sample {span}; only latched data is replayed", TfrecWarning,
+        warnings.warn(f"{where}: no /joint_states or /tf sample {span}; only latched data is replayed", LackingWarning,
                       stacklevel=2)
     return Replay(path=where, format=rec.format, robots=robots, origin_ns=origin, start_ns=start_ns, end_ns=end_ns,
                   read_error=rec.read_error, time_base=rec.time_base)

@@ -29,7 +29,7 @@ from tfrec.errors import TfrecError
 from tfrec.formats.reader import read_pieces
 from tfrec.model import Robot
 from tfrec.recording import FrameSeries, JointStates, Recording
-from tfrec.replay.load import _check_topics, _prepare_recording, _read_topics
+from tfrec.replay.load import LackingWarning, _check_topics, _prepare_recording, _read_topics
 from tfrec.replay.prepared import Replay
 from tfrec.resample import start_of
 
@@ -221,8 +221,10 @@ def replay_pieces(
 
 
 def _say(said: dict[tuple[type[Warning], str], int], pieces: int) -> None:
-    """The warnings every piece gave, once: what the recording lacks (its latched data, a joint never published).
-    What only some pieces said is what those pieces lack (a joint's transforms all in the next piece): not said."""
+    """The warnings the pieces gave, once each: what a piece has (a TF cycle, an unusable description) as soon as one
+    piece says it; what the recording lacks (:class:`~tfrec.replay.load.LackingWarning`: a joint never published)
+    only when every piece says it — what only some pieces lack (a joint's transforms all in the next piece) is not
+    the recording's."""
     for (category, text), count in said.items():
-        if count == pieces:
+        if count == pieces or not issubclass(category, LackingWarning):
             warnings.warn(text, category, stacklevel=3)
