@@ -4,7 +4,8 @@ Recordings of a 7-joint arm (robots/marm.xacro, 100 Hz, ``--traj sine``) are mad
 format and cached in a folder (``--cache``, default a folder in the temp dir): MCAP and ROS 1 bag by
 ``tfrec record``, rosbag2 sqlite3 by rosbags' writer from the MCAP's messages. Each command then runs in a
 child process of its own; its peak resident memory is what the kernel reports for it (``os.wait4``'s
-``ru_maxrss``), its time the wall clock around it. ``check`` is measured as one worker of ``tfrec check``
+``ru_maxrss``), its time the wall clock around it and the CPU time it used (user + system, from the same
+rusage: the figure to compare on a machine shared with other jobs). ``check`` is measured as one worker of ``tfrec check``
 runs it (:func:`tfrec.fleet.tasks.check_recording` in a child process): the pool's workers are children of
 its forkserver, whose peak memory the command's own process does not see. ``check`` throughput on MCAP is the file's messages over
 that time, beside rosbags' ``AnyReader`` deserializing every message of the same file in the same run.
@@ -32,8 +33,8 @@ ROBOT = ROOT / "robots" / "marm.xacro"
 FORMATS = ("mcap", "rosbag1", "sqlite3")
 
 
-def _run(argv: list[str], *, pythonpath: str | None = None) -> tuple[float, float, int]:
-    """(peak RSS in MB, wall seconds, exit code) of one child process."""
+def _run(argv: list[str], *, pythonpath: str | None = None) -> tuple[float, float, float, int]:
+    """(peak RSS in MB, wall seconds, CPU seconds (user + system), exit code) of one child process."""
     env = dict(os.environ)
     env["PYTHONPATH"] = pythonpath or str(ROOT)  # run from another folder: `-m` puts the working folder first
     start = time.perf_counter()
@@ -46,7 +47,7 @@ def _run(argv: list[str], *, pythonpath: str | None = None) -> tuple[float, floa
     child.returncode = os.waitstatus_to_exitcode(status)
     if child.returncode not in (0, 1):
         sys.stderr.write(err.decode(errors="replace"))
-    return usage.ru_maxrss / 1024, elapsed, child.returncode
+    return usage.ru_maxrss / 1024, elapsed, usage.ru_utime + usage.ru_stime, child.returncode
 
 
 def _sqlite3_copy(mcap: Path, out: Path) -> None:
@@ -118,16 +119,16 @@ def _messages(mcap: Path) -> int:
 
 
 def _anyreader_rate(mcap: Path) -> float:
-    """rosbags' AnyReader deserializing every message of the file, messages per second."""
+    """rosbags' AnyReader deserializing every message of the file, messages per second of CPU time."""
     from rosbags.highlevel import AnyReader
 
-    started = time.perf_counter()
+    started = time.process_time()
     count = 0
     with AnyReader([mcap]) as reader:
         for conn, _, raw in reader.messages():
             reader.deserialize(raw, conn.msgtype)
             count += 1
-    return count / (time.perf_counter() - started)
+    return count / (time.process_time() - started)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -141,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     print(machine("mcap", "rosbags"))
     trees = [("this", None)] + ([("baseline", args.baseline)] if args.baseline else [])
-    print("tree      duration  format   command          peak RSS (MB)  wall (s)  exit")
+    print("tree      duration  format   command          peak RSS (MB)  wall (s)  CPU (s)  exit")
     for duration_s in args.durations:
         made = recordings(args.cache, duration_s)
         for fmt in args.formats:
@@ -149,14 +150,16 @@ def main(argv: list[str] | None = None) -> int:
                 if name not in args.commands:
                     continue
                 for tree, pythonpath in trees:
-                    rss, wall, code = _run(argv_, pythonpath=pythonpath)
-                    print(f"{tree:9s} {duration_s:7d}s  {fmt:8s} {name:16s} {rss:13.0f}  {wall:8.2f}  {code}",
-                          flush=True)
+                    rss, wall, cpu, code = _run(argv_, pythonpath=pythonpath)
+                    print(f"{tree:9s} {duration_s:7d}s  {fmt:8s} {name:16s} {rss:13.0f}  {wall:8.2f}  {cpu:7.2f}  "
+                          f"{code}", flush=True)
                     if fmt == "mcap" and name == "check":
-                        print(f"{tree:9s} check throughput on MCAP: {_messages(made['mcap']) / wall:,.0f} msg/s "
-                              "(process wall time, start-up included)", flush=True)
+                        messages = _messages(made["mcap"])
+                        print(f"{tree:9s} check throughput on MCAP: {messages / wall:,.0f} msg/s of wall time, "
+                              f"{messages / cpu:,.0f} msg/s of CPU time (start-up included)", flush=True)
         if not args.no_anyreader:
-            print(f"rosbags AnyReader on {made['mcap'].name}: {_anyreader_rate(made['mcap']):,.0f} msg/s", flush=True)
+            print(f"rosbags AnyReader on {made['mcap'].name}: {_anyreader_rate(made['mcap']):,.0f} msg/s of CPU time",
+                  flush=True)
     return 0
 
 

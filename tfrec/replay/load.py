@@ -48,7 +48,7 @@ from tfrec.conventions import (
     offset_ns,
     robot_topic_kind,
 )
-from tfrec.errors import DescriptionError, ReplayError, TfrecWarning
+from tfrec.errors import DescriptionError, LackingWarning, ReplayError, TfrecWarning
 from tfrec.formats.reader import read_recording
 from tfrec.frames import frame_tree, graph_problems
 from tfrec.kinematics.fk import dynamic_transforms, static_transforms
@@ -61,7 +61,6 @@ from tfrec.robots import detect_frame_prefix, find_robots
 
 __all__ = [
     "REPLAYED_TOPICS",
-    "LackingWarning",
     "Replay",
     "derive_transforms",
     "detect_frame_prefix",
@@ -131,11 +130,6 @@ def derive_transforms(
             np.ascontiguousarray(tfs.rotation[:, i] if every else tfs.rotation[rows, i]),
         )
     return out
-
-
-class LackingWarning(TfrecWarning):
-    """A warning that the data replayed lacks something (a joint's positions, any sample): of a recording read piece
-    by piece (:mod:`tfrec.replay.pieces`), said only when every piece lacks it."""
 
 
 def _check_window(start_s: float | None, end_s: float | None) -> None:

@@ -25,11 +25,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.errors import TfrecError
+from tfrec.errors import LackingWarning, TfrecError
 from tfrec.formats.reader import read_pieces
 from tfrec.model import Robot
 from tfrec.recording import FrameSeries, JointStates, Recording
-from tfrec.replay.load import LackingWarning, _check_topics, _prepare_recording, _read_topics
+from tfrec.replay.load import _check_topics, _prepare_recording, _read_topics
 from tfrec.replay.prepared import Replay
 from tfrec.resample import start_of
 
@@ -194,7 +194,7 @@ def replay_pieces(
     selected = _check_topics(topics)
     where = os.fspath(path)
     joiner = _Joiner()
-    said: dict[tuple[type[Warning], str], int] = {}  # what preparing the pieces warned of → how many pieces did
+    said: dict[tuple[type[Warning], str], tuple[warnings.WarningMessage, int]] = {}  # → (first, how many pieces)
     pieces = read_pieces(path, topics=_read_topics(selected, robot), namespace=namespace, remap=remap,
                          use_log_time=use_log_time, messages=messages)
     for count, (piece, last) in enumerate(pieces, start=1):
@@ -207,8 +207,11 @@ def replay_pieces(
                                             window=(None, None), need_robot=need_robot, namespace=namespace)
             except TfrecError as err:
                 failed = err
-        for key in dict.fromkeys((w.category, str(w.message)) for w in caught):
-            said[key] = said.get(key, 0) + 1
+        firsts: dict[tuple[type[Warning], str], warnings.WarningMessage] = {}
+        for warning in caught:
+            firsts.setdefault((warning.category, str(warning.message)), warning)
+        for key, warning in firsts.items():
+            said[key] = (said[key][0], said[key][1] + 1) if key in said else (warning, 1)
         if failed is not None:
             _say(said, count)
             raise failed
@@ -220,11 +223,11 @@ def replay_pieces(
         yield ReplayPiece(replay, own, last)
 
 
-def _say(said: dict[tuple[type[Warning], str], int], pieces: int) -> None:
+def _say(said: dict[tuple[type[Warning], str], tuple[warnings.WarningMessage, int]], pieces: int) -> None:
     """The warnings the pieces gave, once each: what a piece has (a TF cycle, an unusable description) as soon as one
-    piece says it; what the recording lacks (:class:`~tfrec.replay.load.LackingWarning`: a joint never published)
+    piece says it; what the recording lacks (:class:`~tfrec.errors.LackingWarning`: a joint never published)
     only when every piece says it — what only some pieces lack (a joint's transforms all in the next piece) is not
     the recording's."""
-    for (category, text), count in said.items():
-        if count == pieces or not issubclass(category, LackingWarning):
-            warnings.warn(text, category, stacklevel=3)
+    for warning, count in said.values():
+        if count == pieces or not issubclass(warning.category, LackingWarning):
+            warnings.warn(str(warning.message), warning.category, stacklevel=3)
