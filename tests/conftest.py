@@ -55,6 +55,8 @@ SLOW_TIER = (
     "tests/test_without_joints.py::test_info_replay_check_and_plot_work[cube-rrd]",
     "tests/test_without_joints.py::test_info_replay_check_and_plot_work[statue-rrd]",
     "tests/formats/test_rrd.py::test_a_write_that_fails_midway_is_a_recording_error",
+    # peak memory of a check of ten minutes against one minute's, each in a process of its own
+    "tests/replay/test_pieces.py::test_check_memory_does_not_grow_with_the_recordings_length",
     # bombs and floods, each in a process of its own under memory limits
     "tests/faults/test_hostile_recordings.py::test_an_rrd_that_aborts_reruns_reader_is_one_line",
     "tests/faults/test_hostile_recordings.py::test_a_ros1_bz2_chunk_inflating_to_4_gib_is_skipped",

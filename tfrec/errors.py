@@ -25,6 +25,7 @@ __all__ = [
     "DiffError",
     "FleetError",
     "KinematicsError",
+    "LackingWarning",
     "LegacyXacroWarning",
     "PlotError",
     "ReadError",
@@ -90,6 +91,11 @@ class FleetError(TfrecError):
 
 class TfrecWarning(UserWarning):
     """The category of tfrec's warnings: something recoverable in an input, named as an error would be."""
+
+
+class LackingWarning(TfrecWarning):
+    """What is replayed lacks something (a joint's positions, any sample in the window). Of a recording read piece
+    by piece (``replay --check``, ``tfrec check``), said only when every piece lacks it."""
 
 
 class LegacyXacroWarning(TfrecWarning):

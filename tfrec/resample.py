@@ -18,7 +18,7 @@ from tfrec.conventions import CLOCK_GAP_NS, JOINT_STATES, TF, robot_topic_kind
 from tfrec.kinematics.rotations import slerp
 from tfrec.recording import Recording
 
-__all__ = ["Alignment", "align", "data_end_ns", "data_start_ns", "log_start_ns"]
+__all__ = ["Alignment", "align", "data_end_ns", "data_start_ns", "log_start_ns", "start_of"]
 
 Array = NDArray[np.float64]
 
@@ -45,7 +45,12 @@ def data_start_ns(rec: Recording) -> int | None:
     it is empty. A damaged file whose first messages were lost starts at its true start (from
     the MCAP summary or chunk headers), so what was read keeps its time.
     """
-    firsts = [int(time_ns.min()) for time_ns in _series(rec)]
+    return start_of([int(time_ns.min()) for time_ns in _series(rec)], rec)
+
+
+def start_of(firsts: list[int], rec: Recording) -> int | None:
+    """:func:`data_start_ns` of a recording whose time series start at ``firsts`` (read piece by piece: the first
+    stamp of each series of each piece), with its topic table, log times and ``read_error``."""
     start = min(firsts) if firsts else rec.start_ns
     if (rec.read_error is not None and rec.start_ns is not None and start is not None
             and abs(start - rec.start_ns) < CLOCK_GAP_NS):  # stamps and log times on one clock

@@ -105,7 +105,7 @@ def _check_outputs(ns: argparse.Namespace, inputs: list[str | None]) -> None:
 
 
 def _cmd_replay(ns: argparse.Namespace) -> int:
-    from tfrec.replay.check import check_replay, format_check
+    from tfrec.replay.check import check_recording_pieces, check_replay, format_check
     from tfrec.replay.load import load_replay
     from tfrec.replay.play import check_play_options, replay_to_rerun
 
@@ -119,10 +119,16 @@ def _cmd_replay(ns: argparse.Namespace) -> int:
         check_play_options(save=ns.save, connect=ns.connect, rate=ns.rate, loop=ns.loop, force=ns.force,
                            inputs=inputs)
     robot = load_robot_option(ns)
+    if ns.check and not live and ns.plot is None and ns.start is None and ns.end is None:  # read piece by piece
+        report = check_recording_pieces(ns.file, robot=robot, topics=ns.topics, namespace=ns.namespace,
+                                        remap=ns.remap, use_log_time=ns.use_log_time, pos_tol=ns.pos_tol,
+                                        rot_tol=ns.rot_tol)
+        show(*(json.dumps(report.to_dict(), indent=2) if ns.json else as_flags(format_check(report)).rstrip("\n")).split("\n"))
+        return 0 if report.passed else 1
     replay = load_replay(ns.file, robot=robot, topics=ns.topics, start_s=ns.start, end_s=ns.end,
                          need_robot=ns.check, namespace=ns.namespace, remap=ns.remap, use_log_time=ns.use_log_time)
     status = 0
-    if ns.check:
+    if ns.check:  # a plot of the errors over time, or a time window: the whole recording
         report = check_replay(replay, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol)
         show(*(json.dumps(report.to_dict(), indent=2) if ns.json else as_flags(format_check(report)).rstrip("\n")).split("\n"))
         status = 0 if report.passed else 1

@@ -21,7 +21,8 @@ import os
 import re
 import time
 import warnings
-from collections.abc import Mapping, Sequence
+import zlib
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -37,7 +38,8 @@ from tfrec.fleet.row import ERROR, FAIL, PASS, Row
 if TYPE_CHECKING:
     from tfrec.model import Robot
     from tfrec.replay.check import CheckReport, FrameCheck
-    from tfrec.replay.load import Replay
+    from tfrec.replay.pieces import ReplayPiece
+    from tfrec.replay.prepared import Replay
 
 __all__ = ["Row", "check_recording", "diff_pair"]
 
@@ -152,17 +154,16 @@ def check_recording(
                            _file_stamp(where))
         except TfrecError as err:
             return [_row(base, verdict=ERROR, detail=f"robot_path: {one_line(str(err))}")]
-    from tfrec.replay.load import load_replay
-
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         started = time.perf_counter()
         try:
-            replay = load_replay(path, robot=robot)  # one read: replay.tf and joint_states feed the health checks
-        except TfrecError as err:
-            return [_row(base, verdict=ERROR, detail=one_line(str(err)), read_s=time.perf_counter() - started)]
-        read_s = time.perf_counter() - started
-        examined = _examine(replay, pos_tol=pos_tol, rot_tol=rot_tol, gap_periods=gap_periods)
+            # one read, piece by piece: each piece re-simulated, its stamps kept for the health checks
+            replay, stamps, checked = _check_pieces(path, robot, pos_tol=pos_tol, rot_tol=rot_tol)
+        except _Unreadable as err:
+            return [_row(base, verdict=ERROR, detail=one_line(str(err.error)), read_s=time.perf_counter() - started)]
+        read_s = stamps.read_s
+        examined = _examine(replay, stamps, checked, gap_periods=gap_periods)
     notes = _notes(caught, skip=[replay.read_error or "", "/robot_description"])
     base["robot"] = replay.robot.name if replay.robot is not None else ""
     findings = examined.findings
@@ -189,8 +190,119 @@ class _Examined:
     frames: list[FrameCheck] = field(default_factory=list)
 
 
-def _examine(replay: Replay, *, pos_tol: float, rot_tol: float, gap_periods: float) -> _Examined:
-    """The findings about a loaded recording, and the summary's text."""
+class _Unreadable(Exception):
+    """What reading a recording raised (not re-simulating it)."""
+
+    def __init__(self, error: TfrecError) -> None:
+        super().__init__(str(error))
+        self.error = error
+
+
+class _Stamps(Mapping[tuple[str, str], NDArray[np.int64]]):
+    """The stamps of the first robot's /joint_states and recorded /tf pairs, piece by piece, kept compressed (the
+    differences between consecutive stamps, zlib): a series is whole again (sorted by stamp, as a reader gives it)
+    only while the health checks look at it."""
+
+    def __init__(self) -> None:
+        self.joint_states: list[tuple[int, bytes]] = []
+        self.tf: dict[tuple[str, str], list[tuple[int, bytes]]] = {}
+        self.first_joint_ns: int | None = None
+        self.last_joint_ns: int | None = None
+        self.joint_count = 0
+        self.read_s = 0.0  # spent reading and preparing the pieces
+
+    @staticmethod
+    def _packed(stamps: NDArray[np.int64]) -> tuple[int, bytes]:
+        return len(stamps), zlib.compress(np.diff(stamps, prepend=np.int64(0)).tobytes(), 1)
+
+    @staticmethod
+    def _whole(parts: Sequence[tuple[int, bytes]]) -> NDArray[np.int64]:
+        out = np.empty(sum(n for n, _ in parts), dtype=np.int64)
+        at = 0
+        for n, data in parts:  # each piece's stamps in place, without a copy of the whole series
+            np.cumsum(np.frombuffer(zlib.decompress(data), dtype=np.int64), out=out[at : at + n])
+            at += n
+        if len(out) > 1 and not bool((out[1:] >= out[:-1]).all()):
+            out.sort()  # a stamp that arrived after a later piece's
+        return out
+
+    def add(self, piece: ReplayPiece) -> None:
+        robot = piece.replay.robots[0]
+        own = piece.joint_stamps.get(robot.joint_states_namespace)
+        if robot.joint_states is not None and own is not None and len(own):
+            self.joint_states.append(self._packed(own))
+            self.joint_count += len(own)
+            first, last = int(own.min()), int(own.max())
+            self.first_joint_ns = first if self.first_joint_ns is None else min(first, self.first_joint_ns)
+            self.last_joint_ns = last if self.last_joint_ns is None else max(last, self.last_joint_ns)
+        for pair, series in robot.tf.items():
+            if pair not in robot.derived_dynamic and len(series):
+                self.tf.setdefault(pair, []).append(self._packed(series.time_ns))
+
+    def joint_stamps(self) -> NDArray[np.int64] | None:
+        return self._whole(self.joint_states) if self.joint_states else None
+
+    def __getitem__(self, pair: tuple[str, str]) -> NDArray[np.int64]:
+        return self._whole(self.tf[pair])
+
+    def __iter__(self) -> Iterator[tuple[str, str]]:
+        return iter(self.tf)
+
+    def __len__(self) -> int:
+        return len(self.tf)
+
+
+def _check_pieces(path: str | os.PathLike[str], robot: Robot | None, *, pos_tol: float,
+                  rot_tol: float) -> tuple[Replay, _Stamps, CheckReport | TfrecError | None]:
+    """Read a recording piece by piece (:func:`tfrec.replay.pieces.replay_pieces`), re-simulating each
+    (:func:`tfrec.replay.check.check_pieces`) when it has a usable robot model and keeping the stamps.
+
+    Returns:
+        (the last piece's replay, the stamps, the re-simulation: its report, why it could not be done, or None
+        without a robot model).
+
+    Raises:
+        _Unreadable: what reading said.
+    """
+    from tfrec.replay.check import check_pieces
+    from tfrec.replay.pieces import replay_pieces
+
+    stamps = _Stamps()
+    last: list[Replay] = []
+
+    def watched() -> Iterator[ReplayPiece]:
+        pieces = replay_pieces(path, robot=robot)
+        while True:
+            started = time.perf_counter()
+            try:
+                piece = next(pieces, None)
+            except TfrecError as err:
+                raise _Unreadable(err) from err
+            finally:
+                stamps.read_s += time.perf_counter() - started
+            if piece is None:
+                return
+            stamps.add(piece)
+            last[:] = [piece.replay]
+            yield piece
+
+    checked: CheckReport | TfrecError | None
+    try:
+        checked = check_pieces(watched(), pos_tol=pos_tol, rot_tol=rot_tol)[0]
+    except _Unreadable:
+        raise
+    except TfrecError as err:
+        checked = err
+        if not last:  # a bad tolerance, said before reading: read for the health checks
+            for _ in watched():
+                pass
+    replay = last[0]
+    return replay, stamps, None if replay.robot is None else checked
+
+
+def _examine(replay: Replay, stamps: _Stamps, checked: CheckReport | TfrecError | None, *,
+             gap_periods: float) -> _Examined:
+    """The findings about a recording read, and the summary's text."""
     findings: list[Finding] = []
     if replay.read_error is not None:
         findings.append(Finding("read", "", "", replay.read_error))
@@ -199,31 +311,24 @@ def _examine(replay: Replay, *, pos_tol: float, rot_tol: float, gap_periods: flo
             findings.append(Finding("description", "/robot_description", "", "no /robot_description in the recording"))
     elif replay.robot is None:
         findings.append(Finding("description", "/robot_description", "", _unusable(replay.robot_description)))
-    recorded_tf = {pair: s.time_ns for pair, s in replay.tf.items() if pair not in replay.derived_dynamic}
-    js = replay.joint_states
-    health = series_findings(None if js is None else js.time_ns, recorded_tf, replay.origin_ns,
-                             gap_periods=gap_periods)
+    health = series_findings(stamps.joint_stamps(), stamps, replay.origin_ns, gap_periods=gap_periods)
     parts = []
-    if js is not None and len(js) > 1 and js.time_ns[-1] > js.time_ns[0]:
-        span_s = (int(js.time_ns[-1]) - int(js.time_ns[0])) / 1e9
-        parts.append(f"{len(js):,} joint states over {span_s:.3f} s ({(len(js) - 1) / span_s:.4g} Hz)")
+    count, first, last = stamps.joint_count, stamps.first_joint_ns, stamps.last_joint_ns
+    if count > 1 and first is not None and last is not None and last > first:
+        span_s = (last - first) / 1e9
+        parts.append(f"{count:,} joint states over {span_s:.3f} s ({(count - 1) / span_s:.4g} Hz)")
     frames: list[Finding] = []
     resim: list[Finding] = []
     compared: list[FrameCheck] = []
     if replay.robot is None:
         parts.insert(0, "nothing re-simulated (no usable robot description)")
-    else:
-        from tfrec.replay.check import check_replay
-
-        try:
-            report = check_replay(replay, pos_tol=pos_tol, rot_tol=rot_tol)
-        except TfrecError as err:
-            resim.append(Finding("resim", "", "", f"cannot re-simulate: {one_line(str(err))}"))
-        else:
-            compared = report.frames
-            frames, resim = _frame_findings(replay, report)
-            parts.insert(0, _check_summary(report))
-            parts.extend(report.notes)
+    elif isinstance(checked, TfrecError):
+        resim.append(Finding("resim", "", "", f"cannot re-simulate: {one_line(str(checked))}"))
+    elif checked is not None:
+        compared = checked.frames
+        frames, resim = _frame_findings(replay, checked)
+        parts.insert(0, _check_summary(checked))
+        parts.extend(checked.notes)
     return _Examined([*findings, *health, *frames, *resim], "; ".join(parts), compared)
 
 

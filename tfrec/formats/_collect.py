@@ -170,11 +170,17 @@ class _Decoded:
         self.deserialize = deserialize
         self.taken = 0
         self.accumulator: JointStateAccumulator | TFAccumulator | None = None
-        if kind == JOINT_STATES:
-            self.accumulator = JointStateAccumulator(deserialize, ros1=ros1)
-        elif kind == TF:
-            self.accumulator = TFAccumulator(deserialize, ros1=ros1)
         self.latched: list[tuple[int, int, bytes]] = []  # (log time, arrival, message) of /tf_static, descriptions
+        self.restart(ros1)
+
+    def restart(self, ros1: bool) -> None:
+        """Forget what was taken (a piece of the recording is done), keeping the count."""
+        self.accumulator = None
+        if self.kind == JOINT_STATES:
+            self.accumulator = JointStateAccumulator(self.deserialize, ros1=ros1)
+        elif self.kind == TF:
+            self.accumulator = TFAccumulator(self.deserialize, ros1=ros1)
+        self.latched = []
 
 
 class Collector:
@@ -194,6 +200,9 @@ class Collector:
         self._arrivals = 0
         self._foreign: set[str] = set()
         self._store: Any = None
+        self.pending = 0  # messages taken since the last piece (:meth:`piece`)
+        self._zero_stamps: dict[str, list[int]] = {}  # topic → [stamps that are 0, stamps], over every piece
+        self._repeated: dict[str, dict[str, int]] = {}  # topic → joint → messages naming it more than once
         if options.use_log_time:
             recording.time_base = "log"
 
@@ -294,6 +303,7 @@ class Collector:
         if not datas:
             return
         decoded.taken += len(datas)
+        self.pending += len(datas)
         if decoded.accumulator is not None:
             times = None
             if self.options.use_log_time:
@@ -309,12 +319,31 @@ class Collector:
     # -- the result -----------------------------------------------------------------------
 
     def finish(self) -> Recording:
+        """The recording: the topic table (after :meth:`count`), latched data and every series taken."""
         rec = self.recording
         rec.topics = {topic: stats.info() for topic, stats in self.topics.items()}  # in the file's order
         firsts = [info.first_ns for info in rec.topics.values() if info.first_ns is not None]
         lasts = [info.last_ns for info in rec.topics.values() if info.last_ns is not None]
         rec.start_ns = min(firsts) if firsts else None
         rec.end_ns = max(lasts) if lasts else None
+        self._fill(rec)
+        self.warn_stamps()
+        return rec
+
+    def piece(self) -> Recording:
+        """The series of the messages taken since the last piece, as a recording of their own (no topic table;
+        latched data only as far as it was taken since): the accumulators start again, so that a recording is
+        read piece by piece in bounded memory. The warnings about stamps and repeated joint names wait for
+        :meth:`warn_stamps`, which counts every piece."""
+        rec = Recording(path=self.recording.path, format=self.recording.format, time_base=self.recording.time_base)
+        self._fill(rec)
+        for decoded in self.decoded.values():
+            decoded.restart(self.ros1)
+        self.pending = 0
+        return rec
+
+    def _fill(self, rec: Recording) -> None:
+        """Put what was taken into ``rec``, robot by robot, tallying the stamps that are 0 and the repeats."""
         parts: dict[str, dict[str, Any]] = {}
         for topic, decoded in self.decoded.items():
             part = parts.setdefault(decoded.namespace, {})
@@ -327,14 +356,14 @@ class Collector:
                 time, names, positions = decoded.accumulator.result()
                 repeated = decoded.accumulator.repeated
                 part["joint_states"] = JointStates(time, names, positions, tuple(repeated))
-                self._warn_zero_stamps(topic, time)
-                if repeated:
-                    warn_reading(repeated_joints(self.recording.path, topic, repeated, decoded.taken,
-                                                  first=self.options.summary))
+                self._tally_stamps(topic, time)
+                tally = self._repeated.setdefault(topic, {})
+                for name, count in repeated.items():
+                    tally[name] = tally.get(name, 0) + count
             elif decoded.kind == TF and decoded.accumulator is not None:
                 assert isinstance(decoded.accumulator, TFAccumulator)
                 part["tf"] = tf = _frames(decoded.accumulator)
-                self._warn_zero_stamps(topic, np.concatenate([s.time_ns for s in tf.values()] or [np.zeros(0, np.int64)]))
+                self._tally_stamps(topic, np.concatenate([s.time_ns for s in tf.values()] or [np.zeros(0, np.int64)]))
         for namespace, part in parts.items():
             topics = RecordedRobot(namespace, tuple(part.get("descriptions", ())), part.get("joint_states"),
                                    part.get("tf", {}), part.get("tf_static", {}))
@@ -344,12 +373,27 @@ class Collector:
             rec.robot_description = topics.robot_description
             rec.robot_descriptions = topics.descriptions if len(topics.descriptions) > 1 else ()
             rec.joint_states, rec.tf, rec.tf_static = topics.joint_states, topics.tf, topics.tf_static
-        return rec
 
-    def _warn_zero_stamps(self, topic: str, time_ns: NDArray[np.int64]) -> None:
-        if self.options.use_log_time or not len(time_ns):
+    def _tally_stamps(self, topic: str, time_ns: NDArray[np.int64]) -> None:
+        tally = self._zero_stamps.setdefault(topic, [0, 0])
+        tally[0] += int(np.count_nonzero(time_ns == 0))
+        tally[1] += len(time_ns)
+
+    def warn_stamps(self) -> None:
+        """Warn, once per topic, of stamps that are 0 and of joints named twice in a message, over everything
+        taken (every piece); the tallies start again."""
+        for topic, (zero, total) in self._zero_stamps.items():
+            self._warn_zero_stamps(topic, zero, total)
+            repeated = self._repeated.get(topic)
+            if repeated:
+                warn_reading(repeated_joints(self.recording.path, topic, repeated, self.decoded[topic].taken,
+                                              first=self.options.summary))
+        self._repeated.clear()
+        self._zero_stamps.clear()
+
+    def _warn_zero_stamps(self, topic: str, zero: int, total: int) -> None:
+        if self.options.use_log_time or not total:
             return
-        zero = int(np.count_nonzero(time_ns == 0))
         if zero <= 1:  # one sample at t=0 is a clock that starts at 0
             return
         if topic.endswith(JOINT_STATES):
@@ -357,7 +401,7 @@ class Collector:
                     "nothing for them)")
         else:
             what = "transforms are stamped 0 (tf2's \"latest\": they have no time of their own)"
-        warn_reading(f"{self.recording.path}: {zero:,} of {len(time_ns):,} {topic} {what}; their times are "
+        warn_reading(f"{self.recording.path}: {zero:,} of {total:,} {topic} {what}; their times are "
                       "meaningless: `use_log_time` replays by log time")
 
 

@@ -18,17 +18,25 @@ there).
 from __future__ import annotations
 
 import os
-from collections.abc import Collection, Iterable, Mapping
+import warnings
+from collections.abc import Collection, Iterable, Iterator, Mapping
+from dataclasses import replace
 
+from tfrec.conventions import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC, robot_topic_kind
 from tfrec.formats._collect import Collector, ReadOptions
 from tfrec.formats.rrd.reader import read_rrd
 from tfrec.formats.source import RecordingSource, identify_recording, messages_of, recording_format
 from tfrec.recording import Recording
 
+PIECE_MESSAGES = 10_000
+"""/joint_states and /tf messages of a piece of a recording read piece by piece (:func:`read_pieces`), about."""
+
 __all__ = [
+    "PIECE_MESSAGES",
     "ReadOptions",
     "RecordingSource",
     "identify_recording",
+    "read_pieces",
     "read_recording",
     "recording_format",
 ]
@@ -92,3 +100,80 @@ def read_recording(
         if recording.end_ns is None:
             recording.end_ns = true_start
     return recording
+
+
+def _kinds(topics: Collection[str] | None, kinds: tuple[str, ...]) -> frozenset[str] | None:
+    """The topics of ``topics`` (kinds like ``/tf``, or one namespace's ``/robot1/tf``) of these kinds."""
+    if topics is None:
+        return frozenset(kinds)
+    return frozenset(t for t in topics if (found := robot_topic_kind(t)) is not None and found[1] in kinds)
+
+
+def read_pieces(
+    path: str | os.PathLike[str] | RecordingSource,
+    *,
+    topics: Collection[str] | None = None,
+    namespace: str | None = None,
+    remap: Iterable[str] | Mapping[str, str] | None = None,
+    use_log_time: bool = False,
+    messages: int | None = None,
+) -> Iterator[tuple[Recording, bool]]:
+    """Read a recording piece by piece, in bounded memory: what :func:`read_recording` gives, its time series cut
+    into consecutive pieces of about ``messages`` /joint_states and /tf messages (default :data:`PIECE_MESSAGES`), in
+    the order the file holds them (by log time).
+
+    The latched data (/robot_description, /tf_static) is read first, from the chunks that hold it, and every piece
+    has it, with the whole recording's topic table; each piece has the /joint_states and /tf series of its
+    messages (each sorted by stamp). Each piece comes with whether it is the last; the last has the recording's
+    ``read_error``; warnings are given once. An ``.rrd`` is one piece. Arguments as :func:`read_recording`'s.
+
+    Raises:
+        ReadError: as :func:`read_recording`.
+    """
+    source = path if isinstance(path, RecordingSource) else identify_recording(path)
+    if source.format == "rrd":
+        yield read_recording(source, topics=topics, namespace=namespace, remap=remap, use_log_time=use_log_time), True
+        return
+    latched = read_recording(source, topics=_kinds(topics, (ROBOT_DESCRIPTION, TF_STATIC)), namespace=namespace,
+                             remap=remap, use_log_time=use_log_time)
+    options = ReadOptions.of(topics=_kinds(topics, (JOINT_STATES, TF)), namespace=namespace, remap=remap,
+                             use_log_time=use_log_time)
+    collector = Collector(Recording(path=source.where, format=source.format), options,
+                          ros1=source.format == "rosbag1")
+    if use_log_time:
+        collector.recording.time_base = "log"
+    with messages_of(source, options.resolve) as found:
+        walk = iter(found.batches(collector.wants))
+        while True:
+            with warnings.catch_warnings():  # what reading the latched data said is not said again
+                warnings.filterwarnings("ignore", message=_said(latched.read_error))
+                batch = next(walk, None)
+            if batch is None:
+                break
+            collector.take(batch, found)
+            if collector.pending >= (PIECE_MESSAGES if messages is None else messages):
+                yield _with_latched(collector.piece(), latched), False
+    last = _with_latched(collector.piece(), latched)
+    last.read_error = found.read_error or latched.read_error
+    collector.warn_stamps()
+    yield last, True
+
+
+def _said(read_error: str | None) -> str:
+    """A warnings filter's message pattern for a damage already reported (none: matches nothing)."""
+    import re
+
+    return re.escape(read_error) if read_error else "(?!)"
+
+
+def _with_latched(piece: Recording, latched: Recording) -> Recording:
+    """A piece of a recording's series, with the recording's topic table and latched data."""
+    piece.topics, piece.start_ns, piece.end_ns = latched.topics, latched.start_ns, latched.end_ns
+    piece.details = latched.details
+    piece.robot_description, piece.robot_descriptions = latched.robot_description, latched.robot_descriptions
+    piece.tf_static = latched.tf_static
+    for name, robot in latched.namespaces.items():
+        own = piece.namespaces.get(name)
+        piece.namespaces[name] = robot if own is None else replace(own, descriptions=robot.descriptions,
+                                                                   tf_static=robot.tf_static)
+    return piece

@@ -16,20 +16,22 @@ and the angle of the relative rotation (:func:`tfrec.kinematics.rotations.rotati
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+import os
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.conventions import CHECK_POS_TOL, CHECK_ROT_TOL
+from tfrec.conventions import CHECK_POS_TOL, CHECK_ROT_TOL, NS_PER_S
 from tfrec.errors import ReplayError, printable
 from tfrec.kinematics.fk import dynamic_transforms, static_transforms
 from tfrec.kinematics.rotations import rotation_error
-from tfrec.model import Joint, JointType
+from tfrec.model import Joint, JointType, Robot
 from tfrec.recording import FrameSeries, RecordedRobot
 from tfrec.replay.load import joint_positions
+from tfrec.replay.pieces import ReplayPiece, replay_pieces
 from tfrec.replay.prepared import Replay
 from tfrec.resample import align
 
@@ -37,6 +39,8 @@ __all__ = [
     "CheckReport",
     "FrameCheck",
     "FrameErrors",
+    "check_pieces",
+    "check_recording_pieces",
     "check_replay",
     "format_check",
 ]
@@ -405,3 +409,150 @@ def _verdict(frames: list[FrameCheck], report: CheckReport, description: str) ->
     more = f" and {len(failures) - 5} more" if len(failures) > 5 else ""
     return (f"FAIL: {len(failures)} of {len(frames)} frames differ from {description}: "
             + "; ".join(named) + more)
+
+
+@dataclass
+class _Fold:
+    """One /tf frame's comparisons over the pieces of a recording: the count, the largest errors and the samples
+    that the report names (the largest errors, and the first above each tolerance)."""
+
+    check: FrameCheck
+    samples: int = 0
+    witnesses: dict[str, tuple[float, int, float, float]] = field(default_factory=dict)  # what → (value, stamp, t, r)
+
+    def add(self, found: FrameCheck, pos_tol: float, rot_tol: float) -> None:
+        self.samples += found.samples
+        errors = found.errors
+        if errors is None or not len(errors.time_ns):
+            return
+        for what, values, tol in (("t", errors.translation_m, pos_tol), ("r", errors.rotation_rad, rot_tol)):
+            ranked = np.where(np.isnan(values), np.inf, values)
+            k = int(np.argmax(ranked))
+            best = self.witnesses.get(what)
+            if best is None or ranked[k] > best[0]:
+                self.witnesses[what] = (float(ranked[k]), int(errors.time_ns[k]), float(errors.translation_m[k]),
+                                        float(errors.rotation_rad[k]))
+            over = ~(values <= tol)
+            if over.any() and what + ">" not in self.witnesses:
+                k = int(np.argmax(over))
+                self.witnesses[what + ">"] = (0.0, int(errors.time_ns[k]), float(errors.translation_m[k]),
+                                              float(errors.rotation_rad[k]))
+
+    def result(self, origin_ns: int) -> FrameCheck:
+        seen = sorted({(stamp, t, r) for _, stamp, t, r in self.witnesses.values()})
+        errors = FrameErrors(np.array([s for s, _, _ in seen], dtype=np.int64), np.array([t for _, t, _ in seen]),
+                             np.array([r for _, _, r in seen]))
+        out = replace(self.check, samples=self.samples, errors=errors)
+        best = self.witnesses.get("t")
+        if best is not None:
+            out = replace(out, translation_m=best[0], translation_time_s=(best[1] - origin_ns) / NS_PER_S)
+        best = self.witnesses.get("r")
+        if best is not None:
+            out = replace(out, rotation_rad=best[0], rotation_time_s=(best[1] - origin_ns) / NS_PER_S)
+        return out
+
+
+@dataclass
+class _Pieces:
+    """The reports of a recording's pieces, folded into the whole recording's."""
+
+    pos_tol: float
+    rot_tol: float
+    folds: dict[tuple[str, str, str, str], _Fold] = field(default_factory=dict)
+    latched: dict[tuple[str, str, str, str], FrameCheck] = field(default_factory=dict)
+    problems: dict[tuple[str, str, str, str], FrameCheck] = field(default_factory=dict)
+    placed: set[tuple[str, str]] = field(default_factory=set)  # (robot, child) of frames the recording has
+    order: dict[str, dict[str, int]] = field(default_factory=dict)  # robot → joint → its place in the description
+    robots: list[str] = field(default_factory=list)
+    unchecked: dict[str, str] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+    def add(self, report: CheckReport, replay: Replay) -> None:
+        for part in replay.robots:
+            if part.model is not None and part.key not in self.order:
+                self.order[part.key] = {joint.name: k for k, joint in enumerate(part.model.joints)}
+        self.robots += [key for key in report.robots if key not in self.robots]
+        for robot, reason in report.unchecked.items():
+            self.unchecked.setdefault(robot, reason)
+        self.notes += [note for note in report.notes if note not in self.notes]
+        for frame in report.frames:
+            key = (frame.robot, frame.frame, frame.topic, frame.parent)
+            if frame.problem is None or not frame.problem.startswith(_NOT_RECORDED):
+                self.placed.add((frame.robot, frame.frame))
+            if frame.problem is not None:
+                self.problems.setdefault(key, frame)
+            elif frame.topic == "/tf_static":
+                self.latched.setdefault(key, frame)
+            else:
+                self.folds.setdefault(key, _Fold(replace(frame, samples=0, errors=None))).add(
+                    frame, self.pos_tol, self.rot_tol)
+
+    def frames(self, origin_ns: int) -> list[FrameCheck]:
+        found: dict[tuple[str, str, str, str], FrameCheck] = {}
+        for key, problem in self.problems.items():
+            if key in self.folds or key in self.latched:
+                continue  # compared in another piece
+            if problem.problem is not None and problem.problem.startswith(_NOT_RECORDED) and key[:2] in self.placed:
+                continue  # in the recording, under another parent
+            found[key] = problem
+        found.update(self.latched)
+        found.update({key: fold.result(origin_ns) for key, fold in self.folds.items()})
+        robots = {key: k for k, key in enumerate(self.robots)}
+        return sorted(found.values(), key=lambda f: (robots.get(f.robot, len(robots)),
+                                                     self.order.get(f.robot, {}).get(f.joint, -1),
+                                                     f.topic != "/tf_static"))
+
+
+_NOT_RECORDED = "not in the recording"
+
+
+def check_pieces(pieces: Iterable[ReplayPiece], *, pos_tol: float = CHECK_POS_TOL,
+                 rot_tol: float = CHECK_ROT_TOL) -> tuple[CheckReport, Replay]:
+    """:func:`check_replay` of a recording read piece by piece (:func:`tfrec.replay.pieces.replay_pieces`), in memory
+    that does not grow with its length: each piece re-simulated, the reports folded into the recording's — the
+    same frames, counts, largest errors and their times. A frame's ``errors`` hold only the samples the report names
+    (its largest errors, and the first above each tolerance).
+
+    Returns:
+        (the report, the last piece's replay: the recording's ``origin_ns``, ``read_error``, robots).
+
+    Raises:
+        ReplayError: as :func:`check_replay`, when no piece has a robot that can be checked.
+    """
+    pos_tol = _tolerance("`pos_tol`", pos_tol)
+    rot_tol = _tolerance("`rot_tol`", rot_tol)
+    fold = _Pieces(pos_tol, rot_tol)
+    failed: ReplayError | None = None
+    checked = False
+    last: Replay | None = None
+    for piece in pieces:
+        last = piece.replay
+        try:
+            report = check_replay(piece.replay, pos_tol=pos_tol, rot_tol=rot_tol)
+        except ReplayError as err:
+            failed = failed or err
+            continue
+        checked = True
+        fold.add(report, piece.replay)
+    assert last is not None, "a recording has one piece at least"
+    if not checked:
+        assert failed is not None
+        raise failed
+    report = CheckReport(last.path, fold.frames(last.origin_ns), pos_tol, rot_tol, notes=fold.notes,
+                         origin_ns=last.origin_ns, robots=fold.robots,
+                         unchecked={key: why for key, why in fold.unchecked.items() if key not in fold.robots})
+    return report, last
+
+
+def check_recording_pieces(path: str | os.PathLike[str], *, robot: Robot | None = None,
+                           topics: Collection[str] | None = None, namespace: str | None = None,
+                           remap: Iterable[str] | Mapping[str, str] | None = None, use_log_time: bool = False,
+                           pos_tol: float = CHECK_POS_TOL, rot_tol: float = CHECK_ROT_TOL,
+                           messages: int | None = None) -> CheckReport:
+    """``replay --check`` of a recording: :func:`tfrec.replay.load_replay` (without a time window) and
+    :func:`check_replay`, read and re-simulated piece by piece (:func:`check_pieces`) in memory that does not grow
+    with the recording's length (pieces of about ``messages`` messages). The description is required
+    (``need_robot``)."""
+    pieces = replay_pieces(path, robot=robot, topics=topics, need_robot=True, namespace=namespace, remap=remap,
+                           use_log_time=use_log_time, messages=messages)
+    return check_pieces(pieces, pos_tol=pos_tol, rot_tol=rot_tol)[0]

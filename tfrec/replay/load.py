@@ -48,7 +48,7 @@ from tfrec.conventions import (
     offset_ns,
     robot_topic_kind,
 )
-from tfrec.errors import DescriptionError, ReplayError, TfrecWarning
+from tfrec.errors import DescriptionError, LackingWarning, ReplayError, TfrecWarning
 from tfrec.formats.reader import read_recording
 from tfrec.frames import frame_tree, graph_problems
 from tfrec.kinematics.fk import dynamic_transforms, static_transforms
@@ -200,7 +200,7 @@ def _transforms_not_recorded(
         listed = ", ".join(unplaced[:5]) + (f" and {len(unplaced) - 5} more" if len(unplaced) > 5 else "")
         plural = len(unplaced) > 1
         warnings.warn(f"{where}: no /tf and no {joint_topic} position for joint{'s' if plural else ''} {listed}; "
-                      f"{'their links are' if plural else 'its link is'} not placed", TfrecWarning, stacklevel=4)
+                      f"{'their links are' if plural else 'its link is'} not placed", LackingWarning, stacklevel=4)
     return latched, computed
 
 
@@ -314,16 +314,28 @@ def load_replay(
     """
     _check_window(start_s, end_s)
     selected = _check_topics(topics)
-    where = os.fspath(path)
-    # the time series are read whatever is selected: the recording's start counts from them
-    rec = read_recording(path, topics={*selected, JOINT_STATES, TF, *(() if robot is not None else (ROBOT_DESCRIPTION,))},
-                         namespace=namespace, remap=remap, use_log_time=use_log_time)
+    rec = read_recording(path, topics=_read_topics(selected, robot), namespace=namespace, remap=remap,
+                         use_log_time=use_log_time)
+    return _prepare_recording(rec, os.fspath(path), selected, robot=robot, given=topics is not None,
+                              window=(start_s, end_s), need_robot=need_robot, namespace=namespace)
+
+
+def _read_topics(selected: Collection[str], robot: Robot | None) -> set[str]:
+    """What is read of a recording to replay ``selected``: the time series whatever is selected (the recording's
+    start counts from them), the description unless a robot is given."""
+    return {*selected, JOINT_STATES, TF, *(() if robot is not None else (ROBOT_DESCRIPTION,))}
+
+
+def _prepare_recording(rec: Recording, where: str, selected: list[str], *, robot: Robot | None, given: bool,
+                       window: tuple[float | None, float | None], need_robot: bool, namespace: str | None) -> Replay:
+    """:func:`load_replay` of a recording read (or of a piece of one, :func:`replay_pieces`)."""
+    start_s, end_s = window
     absent = [topic for topic in selected if not _has(rec, topic)]
     if len(absent) == len(selected):
         rec_kind = " (an .rrd not written by tfrec?)" if rec.format == "rrd" and not rec.topics else ""
         raise ReplayError(f"{where}: no {_listed(absent)} in the recording{rec_kind}; nothing to replay")
-    if topics is not None and absent:
-        warnings.warn(f"{where}: no {', '.join(absent)} in the recording", TfrecWarning, stacklevel=2)
+    if given and absent:
+        warnings.warn(f"{where}: no {', '.join(absent)} in the recording", TfrecWarning, stacklevel=3)
     ns = None if namespace is None else namespace_name(namespace)
     found = find_robots(rec, namespace=ns)
     if not found:
@@ -356,8 +368,8 @@ def load_replay(
     start_ns = min(int(s[0]) for s in stamps) if stamps else None
     end_ns = max(int(s[-1]) for s in stamps) if stamps else None
     if start_ns is None and had_samples:
-        window = f"from {start_s or 0:g} s to " + ("the end" if end_s is None else f"{end_s:g} s")
-        warnings.warn(f"{where}: no /joint_states or /tf sample {window}; only latched data is replayed", TfrecWarning,
+        span = f"from {start_s or 0:g} s to " + ("the end" if end_s is None else f"{end_s:g} s")
+        warnings.warn(f"{where}: no /joint_states or /tf sample {span}; only latched data is replayed", LackingWarning,
                       stacklevel=2)
     return Replay(path=where, format=rec.format, robots=robots, origin_ns=origin, start_ns=start_ns, end_ns=end_ns,
                   read_error=rec.read_error, time_base=rec.time_base)

@@ -41,7 +41,7 @@ __all__ = [
     "with_article",
 ]
 
-BATCH_MESSAGES = 32768
+BATCH_MESSAGES = 4096
 """Messages a source gathers into one batch, at most, where the file does not cut them into chunks (messages outside
 chunks, rows of a database)."""
 

@@ -215,7 +215,9 @@ class Sqlite3Source(MessageSource):
         try:
             db = connect_read_only(file)
             try:
-                db.execute("PRAGMA mmap_size = 1073741824")  # pages mapped, not copied (no effect where unsupported)
+                # no memory map: its pages of a long bag would stay resident (a 4 h bag is 1.7 GB); read through
+                # SQLite's page cache, memory does not grow with the bag
+                db.execute("PRAGMA mmap_size = 0")
                 ids = self._connections(db)
                 for batch, rows in self._rows(db, ids, ordered=True):
                     read += rows

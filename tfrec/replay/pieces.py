@@ -1,0 +1,233 @@
+"""A recording replayed piece by piece, in memory that does not grow with its length: what ``replay --check`` and
+``tfrec check`` re-simulate.
+
+:func:`replay_pieces` reads a recording in consecutive pieces (:func:`tfrec.formats.reader.read_pieces`: every piece
+has the latched data and the topic table) and prepares each as :func:`tfrec.replay.load_replay` prepares a whole
+recording. So that every recorded transform meets the joint states around it, as in the whole recording:
+
+- each piece starts with the last joint state of the pieces before that gives each joint a position (the sample
+  before its first transforms);
+- transforms stamped after the last position of a joint in their piece wait for the next piece (the sample after
+  them); the last piece takes what is left.
+
+Each transform is thus in one piece, and interpolated between the same two joint states as in the whole recording
+(when the joint states arrive in stamp order, as a recorder writes them; one that arrives behind a later piece's
+is used from that piece on).
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from collections.abc import Collection, Iterable, Iterator, Mapping
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tfrec.errors import LackingWarning, TfrecError
+from tfrec.formats.reader import read_pieces
+from tfrec.model import Robot
+from tfrec.recording import FrameSeries, JointStates, Recording
+from tfrec.replay.load import _check_topics, _prepare_recording, _read_topics
+from tfrec.replay.prepared import Replay
+from tfrec.resample import start_of
+
+__all__ = ["ReplayPiece", "replay_pieces"]
+
+Pair = tuple[str, str]
+
+
+@dataclass(frozen=True, slots=True)
+class ReplayPiece:
+    """One piece of a recording, prepared for replaying or checking.
+
+    Attributes:
+        replay: the piece prepared (:func:`tfrec.replay.load_replay`'s result for it). The last piece's
+            ``origin_ns``, ``start_ns``, ``end_ns`` and ``read_error`` are the whole recording's.
+        joint_stamps: namespace → the stamps of the piece's own joint states (not those carried from the piece
+            before).
+        last: whether it is the last piece.
+    """
+
+    replay: Replay
+    joint_stamps: dict[str, NDArray[np.int64]] = field(default_factory=dict)
+    last: bool = False
+
+
+def _joined(first: JointStates, then: JointStates) -> JointStates:
+    """Two sets of joint states as one, columns united (NaN where one lacks a joint), sorted by stamp (stable)."""
+    names = first.names + tuple(n for n in then.names if n not in first.names)
+    positions = np.full((len(first) + len(then), len(names)), np.nan)
+    column = {name: k for k, name in enumerate(names)}
+    positions[: len(first), [column[n] for n in first.names]] = first.positions
+    positions[len(first):, [column[n] for n in then.names]] = then.positions
+    time = np.concatenate([first.time_ns, then.time_ns])
+    order = np.argsort(time, kind="stable")
+    repeated = first.repeated + tuple(n for n in then.repeated if n not in first.repeated)
+    return JointStates(time[order], names, positions[order], repeated)
+
+
+def _last_known(joint_states: JointStates, fresh: JointStates | None) -> tuple[JointStates | None, int | None]:
+    """(the rows holding each joint's last position, the earliest stamp among those of the joints that ``fresh``,
+    the piece's own joint states, gives a position): what the next piece needs of them, and how far they
+    interpolate (a joint the piece does not move, no longer published, holds nothing back)."""
+    known = np.isfinite(joint_states.positions)
+    has = np.asarray(known.any(axis=0), dtype=bool)
+    if not has.any():
+        return None, None
+    last = len(known) - 1 - np.argmax(known[::-1], axis=0)
+    rows = np.unique(last[has])
+    carried = JointStates(joint_states.time_ns[rows], joint_states.names, joint_states.positions[rows],
+                          joint_states.repeated)
+    given = np.zeros(0, dtype=bool) if fresh is None else np.asarray(np.isfinite(fresh.positions).any(axis=0), dtype=bool)
+    moved = set() if fresh is None else {name for name, has_one in zip(fresh.names, given.tolist()) if has_one}
+    stamps = [int(joint_states.time_ns[last[k]]) for k, name in enumerate(joint_states.names) if has[k] and name in moved]
+    return carried, min(stamps) if stamps else None
+
+
+def _cut(series: FrameSeries, frontier: int | None) -> tuple[FrameSeries, FrameSeries | None]:
+    """(the transforms up to ``frontier``, those after it: None when none)."""
+    if frontier is None or not len(series) or series.time_ns[-1] <= frontier:
+        return series, None
+    k = int(np.searchsorted(series.time_ns, frontier, side="right"))
+    return (FrameSeries(series.time_ns[:k], series.translation[:k], series.rotation[:k]),
+            FrameSeries(series.time_ns[k:], series.translation[k:], series.rotation[k:]))
+
+
+def _merged(first: FrameSeries | None, then: FrameSeries | None) -> FrameSeries | None:
+    if first is None or not len(first):
+        return then
+    if then is None or not len(then):
+        return first
+    time = np.concatenate([first.time_ns, then.time_ns])
+    order = np.argsort(time, kind="stable")
+    return FrameSeries(time[order], np.concatenate([first.translation, then.translation])[order],
+                       np.concatenate([first.rotation, then.rotation])[order])
+
+
+class _Joiner:
+    """What passes from one piece to the next: each namespace's last joint positions, and transforms that wait."""
+
+    def __init__(self) -> None:
+        self.carried: dict[str, JointStates] = {}
+        self.waiting: dict[str, dict[Pair, FrameSeries]] = {}
+        self.firsts: list[int] = []  # the first stamp of any series: the recording's start
+        self.lasts: list[int] = []
+
+    def saw(self, first: int, last: int) -> None:
+        self.firsts = [min([first, *self.firsts])]
+        self.lasts = [max([last, *self.lasts])]
+
+    def join(self, piece: Recording, *, last: bool) -> tuple[Recording, dict[str, NDArray[np.int64]]]:
+        names = sorted({*piece.namespaces, "", *self.carried, *self.waiting})
+        frontiers: list[int] = []
+        own: dict[str, NDArray[np.int64]] = {}
+        joint_states: dict[str, JointStates | None] = {}
+        for ns in names:
+            found = piece.robot_topics(ns).joint_states
+            if found is not None and len(found):
+                own[ns] = found.time_ns
+                self.saw(int(found.time_ns[0]), int(found.time_ns[-1]))
+            before = self.carried.pop(ns, None)
+            js = found if before is None else before if found is None else _joined(before, found)
+            joint_states[ns] = js
+            if js is not None and len(js):
+                carried, frontier = _last_known(js, found)
+                if carried is not None:
+                    self.carried[ns] = carried
+                if frontier is not None:
+                    frontiers.append(frontier)
+        frontier = None if last or not frontiers else min(frontiers)
+        tf: dict[str, dict[Pair, FrameSeries]] = {}
+        for ns in names:
+            waiting = self.waiting.pop(ns, {})
+            series = dict(piece.robot_topics(ns).tf)
+            for pair, s in series.items():
+                if len(s):
+                    self.saw(int(s.time_ns[0]), int(s.time_ns[-1]))
+            out: dict[Pair, FrameSeries] = {}
+            for pair in [*waiting, *(p for p in series if p not in waiting)]:
+                both = _merged(waiting.get(pair), series.get(pair))
+                if both is None:
+                    continue
+                now, later = _cut(both, frontier)
+                out[pair] = now
+                if later is not None:
+                    self.waiting.setdefault(ns, {})[pair] = later
+            tf[ns] = out
+        return _rebuilt(piece, joint_states, tf), own
+
+
+def _rebuilt(piece: Recording, joint_states: dict[str, JointStates | None],
+             tf: dict[str, dict[Pair, FrameSeries]]) -> Recording:
+    """The piece with these joint states and transforms, namespace by namespace."""
+    out = replace(piece, namespaces=dict(piece.namespaces))
+    for ns, js in joint_states.items():
+        if ns:
+            if ns not in out.namespaces and js is None and not tf.get(ns):
+                continue
+            robot = out.namespaces.get(ns) or piece.robot_topics(ns)
+            out.namespaces[ns] = replace(robot, joint_states=js, tf=tf.get(ns, {}))
+        else:
+            out.joint_states, out.tf = js, tf.get("", {})
+    return out
+
+
+def replay_pieces(
+    path: str | os.PathLike[str],
+    *,
+    robot: Robot | None = None,
+    topics: Collection[str] | None = None,
+    need_robot: bool = False,
+    namespace: str | None = None,
+    remap: Iterable[str] | Mapping[str, str] | None = None,
+    use_log_time: bool = False,
+    messages: int | None = None,
+) -> Iterator[ReplayPiece]:
+    """A recording prepared for replaying piece by piece (:func:`tfrec.replay.load_replay`'s arguments, without a
+    time window), in memory that does not grow with its length; each warning is given once.
+
+    Raises:
+        as :func:`tfrec.replay.load_replay`, from the first piece.
+    """
+    selected = _check_topics(topics)
+    where = os.fspath(path)
+    joiner = _Joiner()
+    said: dict[tuple[type[Warning], str], tuple[warnings.WarningMessage, int]] = {}  # → (first, how many pieces)
+    pieces = read_pieces(path, topics=_read_topics(selected, robot), namespace=namespace, remap=remap,
+                         use_log_time=use_log_time, messages=messages)
+    for count, (piece, last) in enumerate(pieces, start=1):
+        joined, own = joiner.join(piece, last=last)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            failed: TfrecError | None = None
+            try:
+                replay = _prepare_recording(joined, where, selected, robot=robot, given=topics is not None,
+                                            window=(None, None), need_robot=need_robot, namespace=namespace)
+            except TfrecError as err:
+                failed = err
+        firsts: dict[tuple[type[Warning], str], warnings.WarningMessage] = {}
+        for warning in caught:
+            firsts.setdefault((warning.category, str(warning.message)), warning)
+        for key, warning in firsts.items():
+            said[key] = (said[key][0], said[key][1] + 1) if key in said else (warning, 1)
+        if failed is not None:
+            _say(said, count)
+            raise failed
+        if last:
+            _say(said, count)
+            origin = start_of(joiner.firsts, joined)
+            replay = replace(replay, origin_ns=replay.origin_ns if origin is None else origin,
+                             start_ns=min(joiner.firsts, default=None), end_ns=max(joiner.lasts, default=None))
+        yield ReplayPiece(replay, own, last)
+
+
+def _say(said: dict[tuple[type[Warning], str], tuple[warnings.WarningMessage, int]], pieces: int) -> None:
+    """The warnings the pieces gave, once each: what a piece has (a TF cycle, an unusable description) as soon as one
+    piece says it; what the recording lacks (:class:`~tfrec.errors.LackingWarning`: a joint never published)
+    only when every piece says it — what only some pieces lack (a joint's transforms all in the next piece) is not
+    the recording's."""
+    for warning, count in said.values():
+        if count == pieces or not issubclass(warning.category, LackingWarning):
+            warnings.warn(str(warning.message), warning.category, stacklevel=3)
