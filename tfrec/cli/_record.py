@@ -29,7 +29,7 @@ if TYPE_CHECKING:
     from tfrec.description.launch import LaunchRobot
     from tfrec.model import Robot
 
-__all__ = ["add_parser"]
+__all__ = ["add_parser", "add_trajectory_arguments", "parse_overrides"]
 
 
 def add_parser(sub: Any) -> None:
@@ -46,10 +46,33 @@ def add_parser(sub: Any) -> None:
                   "  tfrec record marm_description/launch/view_marm.launch --traj keyframes.csv --rate 100 "
                   "--interp cubic")
     add_robot_arguments(rec)
-    traj = rec.add_argument_group("trajectory")
-    traj.add_argument("--traj", metavar="KIND", default="sine",
+    add_trajectory_arguments(rec, default="sine")
+    out = rec.add_argument_group("output")
+    out.add_argument("-o", "--output", metavar="OUT.mcap",
+                     help="MCAP file, or a ROS 1 bag when it ends in .bag "
+                          "(default recordings/<robot>-<traj>-<YYYYmmdd-HHMMSS>.mcap)")
+    out.add_argument("--bag", metavar="DIR", help="write a rosbag2 folder (metadata.yaml + .mcap) instead")
+    out.add_argument("--rrd", metavar="OUT.rrd", help="Rerun recording (default: beside the MCAP, same stem)")
+    out.add_argument("--no-rrd", action="store_true", help="write no Rerun recording")
+    out.add_argument("--no-mcap", action="store_true", help="write no MCAP (only the .rrd)")
+    out.add_argument("--compression", choices=sorted({*COMPRESSIONS, *ROS1_COMPRESSIONS}), default=None,
+                     help=f"chunk compression: MCAP {', '.join(COMPRESSIONS)} (default zstd); ROS 1 bag "
+                          f"{', '.join(ROS1_COMPRESSIONS)} (default none, as rosbag record)")
+    out.add_argument("--start-time", metavar="S", type=start_time, default=None,
+                     help="stamp of the first sample, seconds since the Unix epoch "
+                          f"(default {DEFAULT_START_TIME_NS // NS_PER_S} = 2023-11-14T22:13:20Z, so runs are "
+                          "byte-identical)")
+    out.add_argument("--force", action="store_true", help="replace existing outputs tfrec would write there (never another file or folder, nor an input)")
+    rec.set_defaults(handler=_cmd_record)
+
+
+def add_trajectory_arguments(parser: argparse.ArgumentParser, *, default: str | None) -> None:
+    """The options of the trajectory a robot is driven along (``record``, ``serve``)."""
+    traj = parser.add_argument_group("trajectory")
+    traj.add_argument("--traj", metavar="KIND", default=default,
                       help="center, random, sine, sweep, or a CSV file (time column in s + one column per "
-                           "joint) (default: sine)")
+                           "joint) " + (f"(default: {default})" if default else
+                                        "(default: none, the joints are parameters clients set)"))
     traj.add_argument("--duration", metavar="S", type=float, default=None, help="seconds (default 10)")
     traj.add_argument("--rate", metavar="HZ", type=float, default=None,
                       help="samples per second (default 50, or what a launch file gives joint_state_publisher); with "
@@ -70,26 +93,9 @@ def add_parser(sub: Any) -> None:
                       help="hold a joint at a value (repeatable), like joint_state_publisher's zeros")
     traj.add_argument("--frame-prefix", metavar="P", default=None,
                       help="put P in front of every TF frame id, as robot_state_publisher's frame_prefix")
-    out = rec.add_argument_group("output")
-    out.add_argument("-o", "--output", metavar="OUT.mcap",
-                     help="MCAP file, or a ROS 1 bag when it ends in .bag "
-                          "(default recordings/<robot>-<traj>-<YYYYmmdd-HHMMSS>.mcap)")
-    out.add_argument("--bag", metavar="DIR", help="write a rosbag2 folder (metadata.yaml + .mcap) instead")
-    out.add_argument("--rrd", metavar="OUT.rrd", help="Rerun recording (default: beside the MCAP, same stem)")
-    out.add_argument("--no-rrd", action="store_true", help="write no Rerun recording")
-    out.add_argument("--no-mcap", action="store_true", help="write no MCAP (only the .rrd)")
-    out.add_argument("--compression", choices=sorted({*COMPRESSIONS, *ROS1_COMPRESSIONS}), default=None,
-                     help=f"chunk compression: MCAP {', '.join(COMPRESSIONS)} (default zstd); ROS 1 bag "
-                          f"{', '.join(ROS1_COMPRESSIONS)} (default none, as rosbag record)")
-    out.add_argument("--start-time", metavar="S", type=start_time, default=None,
-                     help="stamp of the first sample, seconds since the Unix epoch "
-                          f"(default {DEFAULT_START_TIME_NS // NS_PER_S} = 2023-11-14T22:13:20Z, so runs are "
-                          "byte-identical)")
-    out.add_argument("--force", action="store_true", help="replace existing outputs tfrec would write there (never another file or folder, nor an input)")
-    rec.set_defaults(handler=_cmd_record)
 
 
-def _parse_overrides(items: Sequence[str]) -> dict[str, float]:
+def parse_overrides(items: Sequence[str]) -> dict[str, float]:
     out: dict[str, float] = {}
     for item in items:
         name, sep, value = item.partition("=")
@@ -124,7 +130,7 @@ def _cmd_record(ns: argparse.Namespace) -> int:
                 warnings.warn(f"{launch.launch_file if launch else ''}: robot_state_publisher publishes /tf at "
                               f"{params.publish_frequency_hz:g} Hz, below joint_state_publisher's {params.jsp_rate_hz:g} "
                               "Hz: both are recorded at the /tf rate (--rate overrides)", TfrecWarning, stacklevel=1)
-    overrides = _parse_overrides(ns.overrides)
+    overrides = parse_overrides(ns.overrides)
     if not overrides and params is not None and params.jsp_zeros and ns.traj == "center":
         overrides = dict(params.jsp_zeros)  # joint_state_publisher's zeros: where Center puts the joints
     frame_prefix = ns.frame_prefix
