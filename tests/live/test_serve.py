@@ -278,3 +278,69 @@ def test_bad_inputs_are_one_line_and_exit_2(tmp_path: Path, capsys: pytest.Captu
         err = capsys.readouterr().err
         assert err.startswith("tfrec: error: cannot serve on 127.0.0.1:") and len(err.strip().splitlines()) == 1
     assert cli.main(["serve", MARM, "--port", "0", "--start", "1"]) == 2
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+def _rerun_saving(out: Path) -> Any:
+    """The real ``rerun`` of the pinned rerun-sdk as a headless gRPC server saving what it gets to ``out``."""
+    import shutil
+    import socket
+    import subprocess
+    import sys
+    import time
+
+    port = _free_port()
+    rerun = shutil.which("rerun", path=str(Path(sys.executable).parent)) or "rerun"
+    proc = subprocess.Popen([rerun, "--port", str(port), "--save", str(out)], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    for _ in range(200):  # until it listens (a hang guard of its own: at most 200 tries)
+        with socket.socket() as sock:
+            if sock.connect_ex(("127.0.0.1", port)) == 0:
+                return proc, f"rerun+http://127.0.0.1:{port}/proxy"
+        time.sleep(0.1)
+    proc.kill()
+    raise AssertionError("rerun did not listen")
+
+
+def test_connect_streams_the_same_to_a_rerun_viewer(tmp_path: Path) -> None:
+    """--connect: the real `rerun` (headless, saving what it receives) gets the served robot: every sample's joint
+    states and TF equal to tfrec's FK (Rerun keeps float32)."""
+    import signal
+    import subprocess
+    import sys
+
+    from tfrec.replay.load import load_replay
+
+    out = tmp_path / "viewer.rrd"
+    proc, url = _rerun_saving(out)
+    try:
+        run = subprocess.run([sys.executable, "-m", "tfrec", "serve", MARM, "--traj", "sine", "--duration", "2",
+                              "--port", "0", "--start-time", str(START_S), "--connect", url],
+                             capture_output=True, text=True, timeout=120, cwd=REPO)
+        assert run.returncode == 0, run.stderr
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=30)
+    robot = load_description(MARM)
+    expected = _expected_fk(robot, make_trajectory(robot, "sine", duration_s=2.0, rate_hz=50.0))
+    replay = load_replay(out)
+    assert replay.robot_description == robot.urdf
+    tf = replay.tf
+    assert tf
+    for (parent, child), series in tf.items():
+        assert len(series) == 101
+        for i, stamp in enumerate(series.time_ns.tolist()):
+            want = expected[stamp][(parent, child)]
+            np.testing.assert_allclose(series.translation[i], want[:3], atol=1e-6)
+            np.testing.assert_allclose(np.abs(series.rotation[i] @ want[3:]), 1.0, atol=1e-6)

@@ -15,6 +15,7 @@ if TYPE_CHECKING:
     from tfrec.live.server import FoxgloveServer
     from tfrec.model import Robot
     from tfrec.recorder import RecordingPlan
+    from tfrec.viewer.spawn import LiveRerunSink
 
 __all__ = ["add_parser"]
 
@@ -50,6 +51,10 @@ def add_parser(sub: Any) -> None:
                       help="keep what was served: the files `tfrec record -o OUT.mcap` writes (OUT.rrd beside it, "
                            "unless --no-rrd; a ROS 1 bag when it ends in .bag)")
     live.add_argument("--no-rrd", action="store_true", help="with --record: write no Rerun recording")
+    viewer = live.add_mutually_exclusive_group()
+    viewer.add_argument("--rerun", action="store_true", help="stream the same to a Rerun viewer (spawned) at the same pace")
+    viewer.add_argument("--connect", metavar="URL",
+                        help="stream the same to a running Rerun viewer, e.g. rerun+http://127.0.0.1:9876/proxy")
     live.add_argument("--force", action="store_true", help="replace existing --record outputs tfrec would write")
     rec = srv.add_argument_group("a recording (FILE instead of ROBOT)")
     rec.add_argument("--start", metavar="S", type=float, default=None,
@@ -62,6 +67,7 @@ def add_parser(sub: Any) -> None:
 def _cmd_serve(ns: argparse.Namespace) -> int:
     from tfrec.live.serve import is_recording
 
+    _check_viewer(ns)
     if is_recording(ns.robot):
         return _serve_recording(ns)
     if ns.start is not None or ns.end is not None:
@@ -89,6 +95,7 @@ def _serve_robot(ns: argparse.Namespace, robot: Robot, plan: RecordingPlan | Non
     import time
 
     from tfrec.description.packages import PackageFinder
+    from tfrec.kinematics.fk import static_transforms
     from tfrec.live.joints import JointControl
     from tfrec.live.serve import DEFAULT_RATE_HZ, ServeOptions, serve_robot
     from tfrec.live.server import mesh_assets
@@ -118,12 +125,37 @@ def _serve_robot(ns: argparse.Namespace, robot: Robot, plan: RecordingPlan | Non
             sinks = [] if plan is None else stack.enter_context(open_sinks(
                 robot, plan, start_time_ns=options.start_time_ns, frame_prefix=frame_prefix,
                 package_paths=ns.package_path))
+            live = _viewer(ns, robot, frame_prefix)
+            if live is not None:
+                live.begin(robot_description=robot.urdf, static=static_transforms(robot, frame_prefix=frame_prefix),
+                           start_time_ns=options.start_time_ns)
+                stack.callback(live.finish)
             _announce(ns, server, robot.name, trajectory is None)
-            result = serve_robot(robot, server, trajectory=trajectory, options=options, sinks=sinks)
+            result = serve_robot(robot, server, trajectory=trajectory, options=options, sinks=sinks,
+                                 live_sinks=[] if live is None else [live])
     finally:
         server.stop()
     _summary(result, plan)
     return 0
+
+
+def _check_viewer(ns: argparse.Namespace) -> None:
+    """A viewer asked for is there before anything is read (Rerun retries in the background otherwise)."""
+    from tfrec.viewer.spawn import check_can_connect, check_can_spawn
+
+    if ns.connect is not None:
+        check_can_connect(ns.connect)
+    elif ns.rerun:
+        check_can_spawn()
+
+
+def _viewer(ns: argparse.Namespace, robot: Robot, frame_prefix: str) -> LiveRerunSink | None:
+    from tfrec.viewer.spawn import open_live_rerun_sink
+
+    if ns.connect is None and not ns.rerun:
+        return None
+    return open_live_rerun_sink(connect=ns.connect, robot=robot, frame_prefix=frame_prefix,
+                                package_paths=ns.package_path)
 
 
 def _start(ns: argparse.Namespace, control: Any, assets: Any) -> FoxgloveServer:
@@ -162,10 +194,15 @@ def _serve_recording(ns: argparse.Namespace) -> int:
     if not rate > 0:
         raise ReplayError(f"--rate {rate:g}: a recording plays at a speed factor above 0")
     replay = load_replay(ns.robot, start_s=ns.start, end_s=ns.end)
+    also = None
+    if ns.rerun or ns.connect is not None:
+        from tfrec.viewer.spawn import open_rerun_sink
+
+        also = open_rerun_sink(connect=ns.connect, robot=replay.robot, frame_prefix=replay.frame_prefix)
     server = _start(ns, None, {})
     try:
         _announce(ns, server, replay.robot.name if replay.robot is not None else ns.robot, False)
-        result = serve_recording(replay, server, rate=rate, loop=ns.loop)
+        result = serve_recording(replay, server, rate=rate, loop=ns.loop, also=also)
     finally:
         server.stop()
     passes = f" over {result.passes} passes" if result.passes != 1 else ""

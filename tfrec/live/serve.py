@@ -21,6 +21,7 @@ import time
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
+from typing import Any
 from pathlib import Path
 
 import numpy as np
@@ -34,8 +35,8 @@ from tfrec.live.joints import JointControl
 from tfrec.live.server import FoxgloveServer
 from tfrec.model import Robot
 from tfrec.recording import Transforms
-from tfrec.replay.pacing import MonotonicClock, Pacer
-from tfrec.replay.play import play
+from tfrec.replay.pacing import BATCH_WALL_S, MonotonicClock, Pacer
+from tfrec.replay.play import ReplaySink, play
 from tfrec.replay.prepared import Replay
 from tfrec.trajectory.types import JointTrajectory
 
@@ -127,11 +128,12 @@ def take_chunk(chunk: DynamicChunk, stop: int) -> DynamicChunk:
 
 
 class _Forward:
-    """Served samples gathered and handed to the other sinks every :data:`RECORD_FLUSH_SAMPLES`."""
+    """Served samples gathered and handed to other sinks every ``samples`` (default :data:`RECORD_FLUSH_SAMPLES`)."""
 
-    def __init__(self, sinks: Sequence[RecordSink], start_time_ns: int) -> None:
+    def __init__(self, sinks: Sequence[RecordSink], start_time_ns: int, samples: int = RECORD_FLUSH_SAMPLES) -> None:
         self._sinks = sinks
         self._start = start_time_ns
+        self._samples = max(1, samples)
         self._pending: list[DynamicChunk] = []
         self._count = 0
 
@@ -140,7 +142,7 @@ class _Forward:
             return
         self._pending.append(chunk)
         self._count += len(chunk.time_ns)
-        if self._count >= RECORD_FLUSH_SAMPLES:
+        if self._count >= self._samples:
             self.flush()
 
     def flush(self) -> None:
@@ -165,12 +167,14 @@ def serve_robot(
     trajectory: JointTrajectory | None,
     options: ServeOptions,
     sinks: Sequence[RecordSink] = (),
+    live_sinks: Sequence[RecordSink] = (),
     clock: Callable[[], int] = time.time_ns,
 ) -> ServeResult:
     """Serve ``robot`` moved by ``trajectory``, or (None) by the clients through ``server.control``.
 
-    ``sinks`` are begun already (:func:`tfrec.recorder.open_sinks`); they get every sample served, in order. The
-    caller finishes them (and stops the server).
+    ``sinks`` are begun already (:func:`tfrec.recorder.open_sinks`); they get every sample served, in order, in
+    chunks of :data:`RECORD_FLUSH_SAMPLES`. ``live_sinks`` (begun too: a Rerun viewer) get them at the pace they are
+    served, :data:`tfrec.replay.pacing.BATCH_WALL_S` at a time. The caller finishes them (and stops the server).
 
     Returns:
         What was served; Ctrl-C or SIGTERM ends serving without an error (``interrupted``).
@@ -191,7 +195,9 @@ def serve_robot(
     else:
         raise ValueError("serve_robot: no trajectory and no joint control")
     end_ns = None if options.duration_s is None else round(options.duration_s * NS_PER_S)
-    loop = _Loop(server, _Forward(sinks, start_ns), period_ns, end_ns, clock)
+    forwards = [_Forward(sinks, start_ns),
+                _Forward(live_sinks, start_ns, round(BATCH_WALL_S * NS_PER_S / max(period_ns, 1)))]
+    loop = _Loop(server, forwards, period_ns, end_ns, clock)
     interrupted = False
     try:
         for chunk in chunks:
@@ -199,17 +205,18 @@ def serve_robot(
                 break
     except KeyboardInterrupt:
         interrupted = True
-    loop.forward.flush()
+    for forward in forwards:
+        forward.flush()
     return ServeResult(loop.served, max(passes[0], 1), loop.late, interrupted, start_ns)
 
 
 class _Loop:
     """Sends samples when they are due; counts them and the late ones."""
 
-    def __init__(self, server: FoxgloveServer, forward: _Forward, period_ns: int, end_ns: int | None,
+    def __init__(self, server: FoxgloveServer, forwards: Sequence[_Forward], period_ns: int, end_ns: int | None,
                  clock: Callable[[], int]) -> None:
         self.server = server
-        self.forward = forward
+        self.forwards = forwards
         self.pacer = Pacer(MonotonicClock())
         self.period_s = period_ns / NS_PER_S
         self.end_ns = end_ns
@@ -237,7 +244,9 @@ class _Loop:
                 done += 1
                 _warn(self.server.take_notes())
         finally:
-            self.forward.add(chunk if done == len(chunk.time_ns) else take_chunk(chunk, done))
+            sent = chunk if done == len(chunk.time_ns) else take_chunk(chunk, done)
+            for forward in self.forwards:
+                forward.add(sent)
         return True
 
 
@@ -302,16 +311,47 @@ def _no_transforms(n: int) -> Transforms:
 
 
 def serve_recording(replay: Replay, server: FoxgloveServer, *, rate: float = 1.0, loop: bool = False,
-                    clock: Callable[[], int] = time.time_ns) -> ServeResult:
+                    also: ReplaySink | None = None, clock: Callable[[], int] = time.time_ns) -> ServeResult:
     """Play a recording (:func:`tfrec.replay.load.load_replay`) to ``server`` at ``rate`` times real time, once or
-    (``loop``) until stopped: what ``tfrec replay`` plays into Rerun (its first robot).
+    (``loop``) until stopped: what ``tfrec replay`` plays into Rerun (its first robot); to ``also`` too (a Rerun
+    viewer, :func:`tfrec.viewer.spawn.open_rerun_sink`), which is finished at the end.
 
     Returns:
         What was served (``samples``: messages); Ctrl-C or SIGTERM ends serving without an error.
     """
     sink = FoxgloveReplaySink(server, clock=clock)
     try:
-        result = play(replay, sink, pacer=Pacer(MonotonicClock(), rate=rate), loop=loop)
+        result = play(replay, sink if also is None else _Tee(sink, also), pacer=Pacer(MonotonicClock(), rate=rate),
+                      loop=loop)
     except KeyboardInterrupt:
         return ServeResult(sink.messages, 1, 0, True, replay.origin_ns)
     return ServeResult(sink.messages, result.passes, 0, False, replay.origin_ns)
+
+
+class _Tee:
+    """Two replay sinks as one (:class:`tfrec.replay.play.ReplaySink`)."""
+
+    def __init__(self, *sinks: ReplaySink) -> None:
+        self._sinks = sinks
+
+    def begin(self, **kwargs: Any) -> None:
+        for sink in self._sinks:
+            sink.begin(**kwargs)
+
+    def write_transforms(self, parent: str, child: str, time_ns: NDArray[np.int64], translation: Array,
+                         rotation: Array, *, robot: int = 0) -> None:
+        for sink in self._sinks:
+            sink.write_transforms(parent, child, time_ns, translation, rotation, robot=robot)
+
+    def write_joint_positions(self, time_ns: NDArray[np.int64], names: Sequence[str], positions: Array, *,
+                              robot: int = 0) -> None:
+        for sink in self._sinks:
+            sink.write_joint_positions(time_ns, names, positions, robot=robot)
+
+    def finish(self) -> None:
+        for sink in self._sinks:
+            sink.finish()
+
+    def abort(self) -> None:
+        for sink in self._sinks:
+            sink.abort()

@@ -41,7 +41,7 @@ from tfrec.recording import Transforms
 from tfrec.viewer.blueprint import blueprint_of
 from tfrec.viewer.sink import RerunSink
 
-__all__ = ["RerunReplaySink", "check_can_connect", "check_can_spawn", "open_rerun_sink"]
+__all__ = ["RerunReplaySink", "check_can_connect", "check_can_spawn", "open_live_rerun_sink", "open_rerun_sink"]
 
 _SCHEMES = ("rerun", "rerun+http", "rerun+https")
 """The URL schemes of a Rerun viewer's gRPC endpoint."""
@@ -206,6 +206,49 @@ def open_rerun_sink(
                                   package_paths=package_paths)
     return RerunReplaySink([first, *_more_sinks(first, parts[1:], package_paths)], names=names, live=True,
                            display_prefixes=display_prefixes)
+
+
+def open_live_rerun_sink(
+    *,
+    connect: str | None,
+    robot: Robot,
+    frame_prefix: str = "",
+    package_paths: Sequence[str | os.PathLike[str]] = (),
+    port: int = 9876,
+) -> LiveRerunSink:
+    """What ``tfrec record`` logs (a :class:`tfrec.formats.RecordSink`), sent live to the viewer at ``connect`` or
+    to a spawned one (``tfrec serve --rerun``): the layout goes with the robot's static data, at :meth:`begin`.
+
+    Raises:
+        WriteError: as :func:`open_rerun_sink`.
+    """
+    replay = open_rerun_sink(connect=connect, robot=robot, frame_prefix=frame_prefix, package_paths=package_paths,
+                             port=port)
+    return LiveRerunSink(replay._sinks[0])
+
+
+class LiveRerunSink:
+    """A :class:`RerunSink` to a viewer, as a :class:`tfrec.formats.RecordSink` whose :meth:`begin` also sends the
+    layout and flushes (the viewer shows the robot at once) and whose chunks are flushed as they come."""
+
+    def __init__(self, sink: RerunSink) -> None:
+        self.sink = sink
+
+    def begin(self, *, robot_description: str, static: Transforms, start_time_ns: int) -> None:
+        self.sink.begin(robot_description=robot_description, static=static, start_time_ns=start_time_ns)
+        self.sink.send_blueprint()
+        self.sink.flush()
+
+    def write_chunk(self, *, stamp_ns: NDArray[np.int64], joint_names: Sequence[str], positions: Array,
+                    velocities: Array, transforms: Transforms) -> None:
+        self.sink.write_chunk(stamp_ns=stamp_ns, joint_names=joint_names, positions=positions, velocities=velocities,
+                              transforms=transforms)
+
+    def finish(self) -> None:
+        self.sink.finish()
+
+    def abort(self) -> None:
+        self.sink.abort()
 
 
 def _more_sinks(first: RerunSink, parts: Sequence[tuple[Robot | None, str, str]],
