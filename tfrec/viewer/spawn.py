@@ -41,7 +41,10 @@ from tfrec.recording import Transforms
 from tfrec.viewer.blueprint import blueprint_of
 from tfrec.viewer.sink import RerunSink
 
-__all__ = ["RerunReplaySink", "check_can_connect", "check_can_spawn", "open_live_rerun_sink", "open_rerun_sink"]
+__all__ = [
+    "RerunReplaySink", "check_can_connect", "check_can_spawn", "open_live_rerun_sink", "open_rerun_sink",
+    "open_stdout_sink",
+]
 
 _SCHEMES = ("rerun", "rerun+http", "rerun+https")
 """The URL schemes of a Rerun viewer's gRPC endpoint."""
@@ -119,6 +122,11 @@ class RerunReplaySink:
             self._sinks[0].send_blueprint(blueprint_of(*layouts) if len(layouts) > 1 else None)
             if self._live:
                 sink.flush()
+
+    @property
+    def sinks(self) -> list[RerunSink]:
+        """The Rerun sinks, one per robot (each a :class:`tfrec.formats.RecordSink`)."""
+        return self._sinks
 
     def write_transforms(self, parent: str, child: str, time_ns: NDArray[np.int64], translation: Array,
                          rotation: Array, *, robot: int = 0) -> None:
@@ -202,9 +210,32 @@ def open_rerun_sink(
                 f"cannot spawn the Rerun viewer ({err}); use `save` OUT.rrd or `connect` URL"
             ) from err
         target = f"the Rerun viewer on port {port}"
+    return _on_stream(stream, target, parts, names, package_paths, display_prefixes, live=True)
+
+
+def open_stdout_sink(
+    *,
+    application_id: str | None,
+    recording_id: str | None,
+    robots: Sequence[tuple[Robot | None, str, str]],
+    names: Sequence[str] = (),
+    package_paths: Sequence[str | os.PathLike[str]] = (),
+    display_prefixes: Sequence[str] = (),
+) -> RerunReplaySink:
+    """A sink writing an RRD stream to standard output, what a Rerun importer answers (``rerun-importer-tfrec``);
+    the options as for :func:`open_rerun_sink`, ``application_id`` the one Rerun asks for (default tfrec's)."""
+    stream = rr.RecordingStream(application_id or APPLICATION_ID, recording_id=recording_id)
+    stream.stdout()
+    return _on_stream(stream, "standard output", list(robots), names, package_paths, display_prefixes, live=False)
+
+
+def _on_stream(stream: rr.RecordingStream, target: str, parts: Sequence[tuple[Robot | None, str, str]],
+               names: Sequence[str], package_paths: Sequence[str | os.PathLike[str]],
+               display_prefixes: Sequence[str], *, live: bool) -> RerunReplaySink:
+    model, prefix, root = parts[0]
     first = RerunSink.from_stream(stream, target=target, robot=model, frame_prefix=prefix, entity_prefix=root,
                                   package_paths=package_paths)
-    return RerunReplaySink([first, *_more_sinks(first, parts[1:], package_paths)], names=names, live=True,
+    return RerunReplaySink([first, *_more_sinks(first, parts[1:], package_paths)], names=names, live=live,
                            display_prefixes=display_prefixes)
 
 
@@ -224,7 +255,7 @@ def open_live_rerun_sink(
     """
     replay = open_rerun_sink(connect=connect, robot=robot, frame_prefix=frame_prefix, package_paths=package_paths,
                              port=port)
-    return LiveRerunSink(replay._sinks[0])
+    return LiveRerunSink(replay.sinks[0])
 
 
 class LiveRerunSink:
