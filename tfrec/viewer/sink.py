@@ -46,7 +46,7 @@ from tfrec.model import Mesh, Robot
 from tfrec.recording import Transforms
 from tfrec.viewer._flush import disconnect, flush
 from tfrec.viewer.blueprint import Reach, blueprint_of, joint_colour, joint_units, robot_layout, tf_tree_columns
-from tfrec.viewer.columns import check_stamps, no_joint_columns, repeated_strings, time_column
+from tfrec.viewer.columns import check_stamps, elapsed_column, no_joint_columns, repeated_strings, time_column
 from tfrec.viewer.geometry import MeshLoader, default_axis_length, missing_meshes, visual_columns, visual_radius
 
 __all__ = ["RerunSink"]
@@ -176,6 +176,7 @@ class RerunSink:
         self._has_velocities = False
         self._blueprint_sent = False
         self._unflushed_bytes = 0
+        self._origin_ns: int | None = None
 
     @property
     def reach(self) -> Reach | None:  # the space the robot took up in what was logged (None without a robot)
@@ -219,6 +220,7 @@ class RerunSink:
         the rest of the robot is logged.
         """
         self._static = static
+        self._origin_ns = int(start_time_ns)
         robot = self._robot
         if name is None and robot is not None:
             name = robot.name
@@ -326,7 +328,7 @@ class RerunSink:
         if np.any(np.diff(stamps) < 0) or (self._last_time_ns is not None and stamps[0] < self._last_time_ns):
             raise WriteError("chunk stamps go back in time")
         self._last_time_ns = int(stamps[-1])
-        index = [time_column(stamps)]
+        index = self._index(stamps)
         if not joint_names:  # empty joint states: their stamps alone
             self._send(NO_JOINTS_ENTITY, index, no_joint_columns(n), nbytes=2 * stamps.nbytes)
         for j, name in enumerate(joint_names):
@@ -362,7 +364,7 @@ class RerunSink:
             raise WriteError(f"transforms '{parent}' -> '{child}': {n} stamps with translation "
                                  f"{np.shape(translation)} and rotation {np.shape(rotation)}")
         if n:
-            self._write_pair(parent, child, [time_column(stamps)], stamps, translation, rotation)
+            self._write_pair(parent, child, self._index(stamps), stamps, translation, rotation)
 
     def write_joint_positions(self, time_ns: NDArray[np.int64], names: Sequence[str], positions: Array) -> None:
         """Log joint positions at ``/joints/<joint>``; NaN (no position in that message) is skipped.
@@ -379,7 +381,7 @@ class RerunSink:
         if np.shape(positions) != (len(stamps), len(names)):
             raise WriteError(f"{len(stamps)} stamps of {len(names)} joints have positions {np.shape(positions)}")
         if len(stamps):
-            index = [time_column(stamps)]
+            index = self._index(stamps)
             if not names:
                 self._send(NO_JOINTS_ENTITY, index, no_joint_columns(len(stamps)), nbytes=2 * stamps.nbytes)
             for j, name in enumerate(names):
@@ -471,6 +473,12 @@ class RerunSink:
         if velocity:
             self._send_static(velocity_entity(name), style)
 
+    def _index(self, stamps: NDArray[np.int64]) -> list[rr.TimeColumn]:
+        """The index columns of ``stamps``: ROS time, and the time since the start given to :meth:`begin`."""
+        if self._origin_ns is None:
+            return [time_column(stamps)]
+        return [time_column(stamps), elapsed_column(stamps, self._origin_ns)]
+
     def _write_scalars(self, entity: str, index: list[rr.TimeColumn], stamps: NDArray[np.int64],
                        values: Array) -> None:
         """One column of joint values at ``index`` (the ``stamps``); values that are NaN are left out."""
@@ -479,7 +487,7 @@ class RerunSink:
             self._send(entity, index, rr.Scalars.columns(scalars=values), nbytes=stamps.nbytes + values.nbytes)
         elif given.any():
             kept = stamps[given]
-            self._send(entity, [time_column(kept)], rr.Scalars.columns(scalars=values[given]), nbytes=2 * kept.nbytes)
+            self._send(entity, self._index(kept), rr.Scalars.columns(scalars=values[given]), nbytes=2 * kept.nbytes)
 
     def _write_pair(self, parent: str, child: str, index: list[rr.TimeColumn], stamps: NDArray[np.int64],
                     translation: Array, rotation: Array) -> None:

@@ -48,6 +48,7 @@ __all__ = [
     "APPLICATION_ID",
     "DESCRIPTION_ROOT",
     "DISPLAY_PREFIX_ROOT",
+    "ELAPSED_TIMELINE",
     "JOINTS_ROOT",
     "JOINT_COUNT",
     "MAX_LINKS",
@@ -75,6 +76,10 @@ APPLICATION_ID = "tfrec"
 
 TIMELINE = "ros_time"
 """The timeline holding the ROS stamps (timestamps, integer nanoseconds)."""
+
+ELAPSED_TIMELINE = "time"
+"""The timeline of the time since the recording's start (durations, integer nanoseconds): what the viewer shows
+first, as seconds from 0 rather than a date."""
 
 ROBOT_ROOT = "robot"
 TF_ROOT = "tf"
