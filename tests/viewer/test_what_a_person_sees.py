@@ -32,3 +32,41 @@ def test_every_sample_is_also_on_a_timeline_of_seconds_from_the_start(tmp_path: 
     assert elapsed == [i * 100_000_000 for i in range(21)]
     assert np.all(np.array(stamps) - np.array(elapsed) == 1_800_000_000 * 10**9)
     assert len(types) == 1 and types.pop().startswith("duration")
+
+
+def test_a_replay_waits_for_the_spawned_viewer_to_answer() -> None:
+    """wait_for_viewer: True once a real (headless) viewer answers as an application; False at once where no viewer
+    listens (the replay then plays anyway)."""
+    import os
+    import shutil
+    import socket
+    import sys
+
+    import pytest
+
+    from tfrec.viewer.spawn import wait_for_viewer
+
+    bin_dir = os.path.dirname(sys.executable)
+    if shutil.which("rerun", path=bin_dir) is None:
+        pytest.skip("no rerun beside this Python")
+    from rerun.experimental import ViewerClient
+
+    def free_port() -> int:
+        with socket.socket() as sock:
+            sock.bind(("127.0.0.1", 0))
+            return int(sock.getsockname()[1])
+
+    assert wait_for_viewer(free_port()) is False
+    port = free_port()
+    old = os.environ["PATH"]
+    os.environ["PATH"] = f"{bin_dir}{os.pathsep}{old}"
+    try:
+        viewer = ViewerClient.spawn(headless=True, port=port, detach_process=False)
+    except (OSError, RuntimeError) as err:
+        pytest.skip(f"no headless viewer here: {err}")
+    finally:
+        os.environ["PATH"] = old
+    try:
+        assert wait_for_viewer(port) is True
+    finally:
+        viewer.quit()

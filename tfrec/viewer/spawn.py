@@ -43,7 +43,7 @@ from tfrec.viewer.sink import RerunSink
 
 __all__ = [
     "RerunReplaySink", "check_can_connect", "check_can_spawn", "open_live_rerun_sink", "open_rerun_sink",
-    "open_stdout_sink",
+    "open_stdout_sink", "wait_for_viewer",
 ]
 
 _SCHEMES = ("rerun", "rerun+http", "rerun+https")
@@ -210,6 +210,7 @@ def open_rerun_sink(
                 f"cannot spawn the Rerun viewer ({err}); use `save` OUT.rrd or `connect` URL"
             ) from err
         target = f"the Rerun viewer on port {port}"
+        wait_for_viewer(port)  # a replay starts playing when the viewer can show it, not before its window is up
     return _on_stream(stream, target, parts, names, package_paths, display_prefixes, live=True)
 
 
@@ -320,6 +321,19 @@ def check_can_connect(url: str) -> None:
         reason = "timed out" if isinstance(err, TimeoutError) else err.strerror or str(err)
         raise WriteError(f"cannot connect to the Rerun viewer at {url}: {reason} "
                              "(is the viewer running? start it with 'rerun', or use `save` OUT.rrd)") from err
+
+
+def wait_for_viewer(port: int) -> bool:
+    """Wait until the viewer listening on ``port`` answers as an application (its window up and running), at most
+    the 15 s Rerun's viewer client waits; True when it answered. A spawned viewer accepts connections before its
+    window shows: a short replay would be over before anyone saw it."""
+    from rerun.experimental import ViewerClient
+
+    try:
+        ViewerClient.connect(f"rerun+http://127.0.0.1:{port}/proxy").get_state()
+    except (OSError, RuntimeError, ValueError):  # no viewer there, or one that cannot answer: play anyway
+        return False
+    return True
 
 
 def check_can_spawn() -> None:
