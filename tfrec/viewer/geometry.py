@@ -30,7 +30,7 @@ from tfrec.errors import DescriptionError
 from tfrec.kinematics.rotations import quaternion_from_rpy
 from tfrec.model import Box, Cylinder, Material, Mesh, Robot, Sphere, Visual
 
-__all__ = ["MeshAsset", "MeshLoader", "colour_archetype", "default_axis_length", "missing_meshes", "rgba8",
+__all__ = ["MeshAsset", "MeshLoader", "colour_archetype", "default_axis_length", "missing_meshes", "rgba8", "spoke_columns",
            "visual_columns", "visual_radius"]
 
 _NATIVE_MEDIA_TYPES = {
@@ -283,3 +283,20 @@ def missing_meshes(missing: Mapping[tuple[str, str], str]) -> str:
         return f"{shown[0]}; link logged without it"
     more = f"; and {len(missing) - MESHES_LISTED} more" if len(missing) > MESHES_LISTED else ""
     return f"{len(missing)} meshes cannot be shown (their links are logged without them): {'; '.join(shown)}{more}"
+
+
+SPOKE_COLOUR = 0xFFFFFFFF
+"""A wheel's spoke: white, over any material."""
+
+
+def spoke_columns(axis: Sequence[float], length_m: float) -> list[Any]:
+    """A spoke on a wheel turning about ``axis`` (its joint's axis, in the wheel's frame): a line of ``length_m``
+    from the centre, perpendicular to the axis, so that the wheel's angle shows (a round wheel turning looks
+    still)."""
+    a = np.asarray(axis, dtype=np.float64)
+    a = a / np.linalg.norm(a)
+    other = np.eye(3)[int(np.argmin(np.abs(a)))]  # the basis vector least along the axis
+    radial = np.cross(a, other)
+    radial /= np.linalg.norm(radial)
+    strip = np.stack([np.zeros(3), radial * length_m])[np.newaxis]
+    return [*rr.LineStrips3D.columns(strips=strip, colors=[SPOKE_COLOUR], radii=[max(length_m / 30.0, 1e-4)])]

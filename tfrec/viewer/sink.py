@@ -35,6 +35,7 @@ from tfrec.formats.rrd.paths import (
     joint_entity,
     link_entity,
     pair_entity,
+    spoke_entity,
     static_pair_entity,
     tf_entity,
     tf_static_entity,
@@ -42,12 +43,19 @@ from tfrec.formats.rrd.paths import (
     visual_entity,
 )
 from tfrec.kinematics.fk import root_from_link
-from tfrec.model import Mesh, Robot
+from tfrec.model import JointType, Mesh, Robot
 from tfrec.recording import Transforms
 from tfrec.viewer._flush import disconnect, flush
 from tfrec.viewer.blueprint import Reach, blueprint_of, joint_colour, joint_units, robot_layout, tf_tree_columns
 from tfrec.viewer.columns import check_stamps, elapsed_column, no_joint_columns, repeated_strings, time_column
-from tfrec.viewer.geometry import MeshLoader, default_axis_length, missing_meshes, visual_columns, visual_radius
+from tfrec.viewer.geometry import (
+    MeshLoader,
+    default_axis_length,
+    missing_meshes,
+    spoke_columns,
+    visual_columns,
+    visual_radius,
+)
 
 __all__ = ["RerunSink"]
 
@@ -260,6 +268,7 @@ class RerunSink:
             return
         meshes = MeshLoader(self._package_paths, source=robot.source)
         missing: dict[tuple[str, str], str] = {}
+        wheels = {j.child: j.axis for j in robot.joints if j.type is JointType.CONTINUOUS}
         for link in robot.links:
             frame = [self._prefix + link.name]
             self._send_static(link_entity(link.name), [
@@ -277,6 +286,11 @@ class RerunSink:
                 self._visual_radii[(link.name, index)] = visual_radius(visual, asset)
                 self._send_static(visual_entity(link.name, index), [
                     *rr.CoordinateFrame.columns(frame=frame), *visual_columns(visual, asset, colour=self._colour)])
+            if link.name in wheels:  # a wheel turning looks still: a spoke shows its angle
+                radius = max((self._visual_radii[(link.name, i)] for i in range(len(link.visuals))),
+                             default=self._axis_length_m)
+                self._send_static(spoke_entity(link.name), [
+                    *rr.CoordinateFrame.columns(frame=frame), *spoke_columns(wheels[link.name], 1.05 * radius)])
         if missing:
             warnings.warn(missing_meshes(missing), TfrecWarning, stacklevel=3)
         self.log_tf_tree([(self._prefix + j.parent, self._prefix + j.child) for j in robot.tree_order])

@@ -64,6 +64,7 @@ __all__ = [
     "link_entity",
     "pair_entity",
     "parse_entity",
+    "spoke_entity",
     "static_pair_entity",
     "tf_entity",
     "tf_static_entity",
@@ -143,6 +144,12 @@ def link_entity(link: str) -> str:
 def visual_entity(link: str, index: int) -> str:
     """``/robot/<link>/visual_<index>``: the link's visual number ``index`` (document order)."""
     return f"{link_entity(link)}/visual_{index}"
+
+
+def spoke_entity(link: str) -> str:
+    """``/robot/<link>/spoke``: a radius drawn on a wheel (the child link of a continuous joint), so that its turning
+    shows."""
+    return f"{link_entity(link)}/spoke"
 
 
 def tf_entity(joint: str) -> str:
