@@ -85,7 +85,8 @@ def test_the_colours_have_a_legend_with_the_errors_they_stand_for(overlay: tuple
     assert legend["TextDocument:media_type"] == ["text/markdown"]
     (text,) = legend["TextDocument:text"]
     assert "green | within tolerance (1e-09 m" in text
-    assert "red | the worst of this diff: +0.001 m" in text and "yellow" in text and "grey" in text
+    assert "red | +0.001 m or +0 rad over it: this diff's worst" in text and "yellow | +0.0005 m" in text
+    assert "grey" in text
 
 
 def test_the_blueprint_frames_both_robots_beside_the_plots(overlay: tuple[Path, Rrd]) -> None:

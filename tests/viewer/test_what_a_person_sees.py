@@ -75,12 +75,13 @@ def test_a_replay_waits_for_the_spawned_viewer_to_answer() -> None:
 def test_a_wheel_has_a_spoke_that_turns_with_it(tmp_path: Path) -> None:
     """A continuous joint's child link (a wheel) gets a spoke in its own frame, perpendicular to the joint's axis and
     longer than the wheel's radius (it shows through the wheel); other links get none."""
+    import pytest
     from rerun.chunk import RrdReader
 
     urdf = tmp_path / "cart.urdf"
     urdf.write_text(
-        "<robot name='cart'><link name='base'/><link name='wheel'><visual><geometry><cylinder radius='0.1' "
-        "length='0.04'/></geometry></visual></link><link name='arm'/>"
+        "<robot name='cart'><link name='base'/><link name='wheel'><visual><origin rpy='1.5707963267948966 0 0'/>"
+        "<geometry><cylinder radius='0.1' length='0.04'/></geometry></visual></link><link name='arm'/>"
         "<joint name='spin' type='continuous'><parent link='base'/><child link='wheel'/><axis xyz='0 1 0'/></joint>"
         "<joint name='lift' type='revolute'><parent link='base'/><child link='arm'/><axis xyz='1 0 0'/>"
         "<limit lower='-1' upper='1' effort='1' velocity='1'/></joint></robot>")
@@ -92,12 +93,16 @@ def test_a_wheel_has_a_spoke_that_turns_with_it(tmp_path: Path) -> None:
         if chunk.entity_path.endswith("/spoke"):
             batch = chunk.to_record_batch()
             if "LineStrips3D:strips" in batch.schema.names:
-                spokes[chunk.entity_path] = np.array(batch.column("LineStrips3D:strips").to_pylist()[0][0])
+                spokes[chunk.entity_path] = [np.array(strip) for strip in batch.column("LineStrips3D:strips").to_pylist()[0]]
             if "CoordinateFrame:frame" in batch.schema.names:
                 frames[chunk.entity_path] = batch.column("CoordinateFrame:frame").to_pylist()[0]
     assert list(spokes) == ["/robot/wheel/spoke"]
     assert frames["/robot/wheel/spoke"] == ["wheel"] or frames["/robot/wheel/spoke"] == "wheel"
-    start, end = spokes["/robot/wheel/spoke"]
-    direction = end - start
-    assert abs(direction[1]) < 1e-9  # perpendicular to the axis (0 1 0)
-    assert np.linalg.norm(direction) > 0.1  # out of the wheel
+    faces = []
+    for start, end in spokes["/robot/wheel/spoke"]:  # one on each face of the wheel, out past its rim
+        direction = end - start
+        assert abs(direction[1]) < 1e-6  # perpendicular to the axis (0 1 0)
+        assert np.linalg.norm(direction) > 0.1
+        assert start[0] == start[2] == 0.0
+        faces.append(start[1])
+    assert sorted(faces) == pytest.approx([-0.0204, 0.0204])  # the cylinder is 4 cm thick along the axis

@@ -15,6 +15,7 @@ if TYPE_CHECKING:
     from tfrec.live.server import FoxgloveServer
     from tfrec.model import Robot
     from tfrec.recorder import RecordingPlan
+    from tfrec.recording import Transforms
     from tfrec.viewer.spawn import LiveRerunSink
 
 __all__ = ["add_parser"]
@@ -97,7 +98,7 @@ def _serve_robot(ns: argparse.Namespace, robot: Robot, plan: RecordingPlan | Non
     from tfrec.description.packages import PackageFinder
     from tfrec.kinematics.fk import static_transforms
     from tfrec.live.joints import JointControl
-    from tfrec.live.serve import DEFAULT_RATE_HZ, ServeOptions, serve_robot
+    from tfrec.live.serve import DEFAULT_RATE_HZ, ServeOptions, reach_poses, serve_robot
     from tfrec.live.server import mesh_assets
     from tfrec.model import Mesh
     from tfrec.recorder import open_sinks
@@ -125,7 +126,8 @@ def _serve_robot(ns: argparse.Namespace, robot: Robot, plan: RecordingPlan | Non
             sinks = [] if plan is None else stack.enter_context(open_sinks(
                 robot, plan, start_time_ns=options.start_time_ns, frame_prefix=frame_prefix,
                 package_paths=ns.package_path))
-            live = _viewer(ns, robot, frame_prefix)
+            live = _viewer(ns, robot, frame_prefix, reach_poses(robot, trajectory=trajectory, control=control,
+                                                                frame_prefix=frame_prefix, seed=ns.seed))
             if live is not None:
                 live.begin(robot_description=robot.urdf, static=static_transforms(robot, frame_prefix=frame_prefix),
                            start_time_ns=options.start_time_ns)
@@ -149,13 +151,13 @@ def _check_viewer(ns: argparse.Namespace) -> None:
         check_can_spawn()
 
 
-def _viewer(ns: argparse.Namespace, robot: Robot, frame_prefix: str) -> LiveRerunSink | None:
+def _viewer(ns: argparse.Namespace, robot: Robot, frame_prefix: str, reach: Transforms) -> LiveRerunSink | None:
     from tfrec.viewer.spawn import open_live_rerun_sink
 
     if ns.connect is None and not ns.rerun:
         return None
     return open_live_rerun_sink(connect=ns.connect, robot=robot, frame_prefix=frame_prefix,
-                                package_paths=ns.package_path)
+                                package_paths=ns.package_path, reach=reach)
 
 
 def _start(ns: argparse.Namespace, control: Any, assets: Any) -> FoxgloveServer:

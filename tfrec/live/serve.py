@@ -40,8 +40,8 @@ from tfrec.replay.play import ReplaySink, play
 from tfrec.replay.prepared import Replay
 from tfrec.trajectory.types import JointTrajectory
 
-__all__ = ["DEFAULT_RATE_HZ", "FoxgloveReplaySink", "ServeOptions", "ServeResult", "is_recording", "serve_recording",
-           "serve_robot", "take_chunk"]
+__all__ = ["DEFAULT_RATE_HZ", "FoxgloveReplaySink", "ServeOptions", "ServeResult", "is_recording", "reach_poses",
+           "serve_recording", "serve_robot", "take_chunk"]
 
 DEFAULT_RATE_HZ = 50.0
 """Samples per second of the joints clients move (joint_state_publisher's default rate)."""
@@ -118,6 +118,31 @@ def _control_chunks(robot: Robot, control: JointControl, options: ServeOptions) 
         sample = JointTrajectory(names, time_ns, control.positions()[np.newaxis, :], zeros)
         yield from iter_dynamic_chunks(robot, sample, chunk_samples=1, frame_prefix=options.frame_prefix)
         tick += 1
+
+
+REACH_SAMPLES = 64
+"""Poses a live viewer's camera is fitted to (:func:`reach_poses`)."""
+
+
+def reach_poses(robot: Robot, *, trajectory: JointTrajectory | None, control: JointControl | None,
+                frame_prefix: str = "", seed: int = 0) -> Transforms:
+    """The dynamic transforms of poses the robot will take, for a live viewer's camera: :data:`REACH_SAMPLES`
+    samples of the trajectory, or (joints moved by clients) the center and random poses within the joints'
+    ranges."""
+    if trajectory is not None:
+        picked = np.unique(np.linspace(0, max(len(trajectory) - 1, 0), REACH_SAMPLES).astype(np.int64))
+        names, positions = trajectory.joint_names, trajectory.positions[picked]
+    elif control is not None:
+        rng = np.random.default_rng(seed)
+        names = control.names
+        middle, half = control.lower / 2.0 + control.upper / 2.0, control.upper / 2.0 - control.lower / 2.0
+        positions = np.vstack([control.positions()[np.newaxis, :],
+                               middle + half * rng.uniform(-1.0, 1.0, size=(REACH_SAMPLES - 1, len(names)))])
+    else:
+        raise ValueError("reach_poses: no trajectory and no joint control")
+    samples = JointTrajectory(names, np.arange(len(positions), dtype=np.int64), positions, np.zeros_like(positions))
+    chunk = next(iter_dynamic_chunks(robot, samples, chunk_samples=len(positions), frame_prefix=frame_prefix))
+    return chunk.transforms
 
 
 def take_chunk(chunk: DynamicChunk, stop: int) -> DynamicChunk:

@@ -136,17 +136,15 @@ def colour_legend(errors: OverlayErrors) -> str:
     tol_p = float(errors.position_tol.max()) if errors.position_tol.size else 0.0
     tol_r = float(errors.rotation_tol.max()) if errors.rotation_tol.size else 0.0
     return "\n".join([
-        "### A's links, coloured by their error against B",
-        "",
-        "| colour | link error |",
+        "| A's link colour | its error against B |",
         "| --- | --- |",
-        f"| 🟩 green | within tolerance ({tol_p:.3g} m, {tol_r:.3g} rad) |",
-        f"| 🟨 yellow | half the worst excess above tolerance: +{position / 2:.3g} m or +{rotation / 2:.3g} rad |",
-        f"| 🟥 red | the worst of this diff: +{position:.3g} m or +{rotation:.3g} rad above tolerance |",
-        "| ⬜ grey | placed by A only (B has no such link) |",
+        f"| green | within tolerance ({tol_p:.3g} m, {tol_r:.3g} rad) |",
+        f"| yellow | +{position / 2:.3g} m or +{rotation / 2:.3g} rad over it |",
+        f"| red | +{position:.3g} m or +{rotation:.3g} rad over it: this diff's worst |",
+        "| grey | not in B |",
         "",
-        ("Between them the colour blends; position and orientation each count against their own worst, the larger "
-         "wins. B is the translucent blue ghost."),
+        ("Colours blend in between; position and orientation each count against their own worst, the larger wins. "
+         "B is the translucent blue ghost."),
     ])
 
 
@@ -223,9 +221,9 @@ def overlay_blueprint(reach: Reach | None, *, root_frame: str) -> rrb.Blueprint:
     position = rrb.TimeSeriesView(name="largest link position error (m)", origin=f"/{DIFF_ROOT}/position")
     rotation = rrb.TimeSeriesView(name="largest link orientation error (rad)", origin=f"/{DIFF_ROOT}/rotation")
     events = rrb.TextLogView(name="first above tolerance", origin=f"/{DIFF_ROOT}/events")
-    legend = rrb.TextDocumentView(name="colours", origin=f"/{DIFF_ROOT}/legend")
+    legend = rrb.TextDocumentView(name="colour scale", origin=f"/{DIFF_ROOT}/legend")
     return stable_ids(rrb.Blueprint(
-        rrb.Horizontal(view3d, rrb.Vertical(position, rotation, events, legend, row_shares=[2, 2, 1, 1]),
+        rrb.Horizontal(view3d, rrb.Vertical(position, rotation, events, legend, row_shares=[2, 2, 1, 2]),
                        column_shares=[5, 3]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),

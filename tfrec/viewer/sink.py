@@ -43,13 +43,15 @@ from tfrec.formats.rrd.paths import (
     visual_entity,
 )
 from tfrec.kinematics.fk import root_from_link
-from tfrec.model import JointType, Mesh, Robot
+from tfrec.model import JointType, Link, Mesh, Robot
 from tfrec.recording import Transforms
 from tfrec.viewer._flush import disconnect, flush
 from tfrec.viewer.blueprint import Reach, blueprint_of, joint_colour, joint_units, robot_layout, tf_tree_columns
 from tfrec.viewer.columns import check_stamps, elapsed_column, no_joint_columns, repeated_strings, time_column
 from tfrec.viewer.geometry import (
+    MeshAsset,
     MeshLoader,
+    axial_extent,
     default_axis_length,
     missing_meshes,
     spoke_columns,
@@ -270,6 +272,7 @@ class RerunSink:
         missing: dict[tuple[str, str], str] = {}
         wheels = {j.child: j.axis for j in robot.joints if j.type is JointType.CONTINUOUS}
         for link in robot.links:
+            assets: list[MeshAsset | None] = []
             frame = [self._prefix + link.name]
             self._send_static(link_entity(link.name), [
                 *rr.CoordinateFrame.columns(frame=frame),
@@ -284,16 +287,24 @@ class RerunSink:
                     else:
                         asset = found
                 self._visual_radii[(link.name, index)] = visual_radius(visual, asset)
+                assets.append(asset)
                 self._send_static(visual_entity(link.name, index), [
                     *rr.CoordinateFrame.columns(frame=frame), *visual_columns(visual, asset, colour=self._colour)])
-            if link.name in wheels:  # a wheel turning looks still: a spoke shows its angle
-                radius = max((self._visual_radii[(link.name, i)] for i in range(len(link.visuals))),
-                             default=self._axis_length_m)
-                self._send_static(spoke_entity(link.name), [
-                    *rr.CoordinateFrame.columns(frame=frame), *spoke_columns(wheels[link.name], 1.05 * radius)])
+            if link.name in wheels:  # a wheel turning looks still: spokes on its faces show its angle
+                self._log_spokes(link, wheels[link.name], frame, assets)
         if missing:
             warnings.warn(missing_meshes(missing), TfrecWarning, stacklevel=3)
         self.log_tf_tree([(self._prefix + j.parent, self._prefix + j.child) for j in robot.tree_order])
+
+    def _log_spokes(self, link: Link, axis: tuple[float, float, float], frame: list[str],
+                    assets: list[MeshAsset | None]) -> None:
+        """Spokes on the faces of a wheel (:func:`tfrec.viewer.geometry.spoke_columns`), reaching a little past its
+        rim."""
+        radius = max((self._visual_radii[(link.name, i)] for i in range(len(link.visuals))), default=0.0)
+        radius = radius or self._axis_length_m
+        face = max((axial_extent(v, axis, asset) for v, asset in zip(link.visuals, assets)), default=0.0)
+        self._send_static(spoke_entity(link.name), [
+            *rr.CoordinateFrame.columns(frame=frame), *spoke_columns(axis, 1.1 * radius, 1.02 * face)])
 
     def log_frames(self, frames: Iterable[str]) -> None:
         """Log TF axes at ``/robot/<frame>`` for each frame that is no link of the robot, once."""

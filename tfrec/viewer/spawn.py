@@ -247,27 +247,32 @@ def open_live_rerun_sink(
     frame_prefix: str = "",
     package_paths: Sequence[str | os.PathLike[str]] = (),
     port: int = 9876,
+    reach: Transforms | None = None,
 ) -> LiveRerunSink:
     """What ``tfrec record`` logs (a :class:`tfrec.formats.RecordSink`), sent live to the viewer at ``connect`` or
-    to a spawned one (``tfrec serve --rerun``): the layout goes with the robot's static data, at :meth:`begin`.
+    to a spawned one (``tfrec serve --rerun``): the layout goes with the robot's static data, at :meth:`begin`, its
+    camera framing the robot at the dynamic transforms ``reach`` (poses it will take).
 
     Raises:
         WriteError: as :func:`open_rerun_sink`.
     """
     replay = open_rerun_sink(connect=connect, robot=robot, frame_prefix=frame_prefix, package_paths=package_paths,
                              port=port)
-    return LiveRerunSink(replay.sinks[0])
+    return LiveRerunSink(replay.sinks[0], reach=reach)
 
 
 class LiveRerunSink:
     """A :class:`RerunSink` to a viewer, as a :class:`tfrec.formats.RecordSink` whose :meth:`begin` also sends the
     layout and flushes (the viewer shows the robot at once) and whose chunks are flushed as they come."""
 
-    def __init__(self, sink: RerunSink) -> None:
+    def __init__(self, sink: RerunSink, *, reach: Transforms | None = None) -> None:
         self.sink = sink
+        self._reach = reach
 
     def begin(self, *, robot_description: str, static: Transforms, start_time_ns: int) -> None:
         self.sink.begin(robot_description=robot_description, static=static, start_time_ns=start_time_ns)
+        if self._reach is not None:
+            self.sink.fit_camera(self._reach)
         self.sink.send_blueprint()
         self.sink.flush()
 
