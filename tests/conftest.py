@@ -68,6 +68,8 @@ SLOW_TIER = (
     "tests/description/test_sandbox.py::test_exponential_macros_side_by_side_are_refused",
     "tests/trajectory/test_keyframes.py::test_many_rows_in_seconds",
     "tests/faults/test_deep_chains.py",
+    # tfrec serve --connect into the real rerun, started and stopped
+    "tests/live/test_serve.py::test_connect_streams_the_same_to_a_rerun_viewer",
     "tests/faults/test_many_channels.py",
 )
 """The slow tier (``make test-slow``, run by CI; ``make test`` leaves it out): test files, or test names

@@ -3,6 +3,7 @@ protocol (tests/live/foxglove_client.py), messages decoded with rosbags, compare
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -278,6 +279,12 @@ def test_bad_inputs_are_one_line_and_exit_2(tmp_path: Path, capsys: pytest.Captu
         err = capsys.readouterr().err
         assert err.startswith("tfrec: error: cannot serve on 127.0.0.1:") and len(err.strip().splitlines()) == 1
     assert cli.main(["serve", MARM, "--port", "0", "--start", "1"]) == 2
+    assert "--start and --end cut a recording" in capsys.readouterr().err
+    if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):  # headless: no viewer to spawn
+        assert cli.main(["serve", MARM, "--port", "0", "--rerun", "--duration", "1"]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("tfrec: error: --rerun: cannot spawn") and "--connect URL" in err
+        assert len(err.strip().splitlines()) == 1
 
 
 def _free_port() -> int:

@@ -95,12 +95,10 @@ def _serve_robot(ns: argparse.Namespace, robot: Robot, plan: RecordingPlan | Non
     import contextlib
     import time
 
-    from tfrec.description.packages import PackageFinder
     from tfrec.kinematics.fk import static_transforms
     from tfrec.live.joints import JointControl
     from tfrec.live.serve import DEFAULT_RATE_HZ, ServeOptions, reach_poses, serve_robot
-    from tfrec.live.server import mesh_assets
-    from tfrec.model import Mesh
+    from tfrec.live.server import description_assets
     from tfrec.recorder import open_sinks
     from tfrec.trajectory.generators import make_trajectory
 
@@ -112,9 +110,7 @@ def _serve_robot(ns: argparse.Namespace, robot: Robot, plan: RecordingPlan | Non
                                      soft_limits=not ns.hard_limits, interp=ns.interp)
     else:
         control = JointControl(robot, seed=ns.seed, soft_limits=not ns.hard_limits, overrides=overrides)
-    finder = PackageFinder(ns.package_path, near=robot.source)
-    uris = sorted({v.geometry.filename for link in robot.links for v in link.visuals if isinstance(v.geometry, Mesh)})
-    assets = mesh_assets(uris, lambda uri: finder.resolve_uri(uri, relative_to=robot.source))
+    assets = description_assets(robot, ns.package_path)
     options = ServeOptions(rate_hz=ns.rate or DEFAULT_RATE_HZ, loop=ns.loop,
                            duration_s=ns.duration if trajectory is None else None,
                            start_time_ns=ns.start_time if ns.start_time is not None else time.time_ns(),
@@ -148,7 +144,11 @@ def _check_viewer(ns: argparse.Namespace) -> None:
     if ns.connect is not None:
         check_can_connect(ns.connect)
     elif ns.rerun:
-        check_can_spawn()
+        try:
+            check_can_spawn()
+        except WriteError as err:
+            reason = str(err).split(";")[0]
+            raise WriteError(f"--rerun: {reason}; use --connect URL to a viewer running elsewhere") from None
 
 
 def _viewer(ns: argparse.Namespace, robot: Robot, frame_prefix: str, reach: Transforms) -> LiveRerunSink | None:

@@ -42,9 +42,10 @@ from tfrec.formats.mcap.sink import TOPICS
 from tfrec.formats.mcap.writer import message_definition
 from tfrec.formats.ros.encode import CDR_HEADER, JointStateEncoder, TFMessageEncoder, encode_string
 from tfrec.live.joints import JointControl
+from tfrec.model import Mesh, Robot
 from tfrec.recording import Transforms
 
-__all__ = ["MAX_ASSET_BYTES", "MESSAGE_BACKLOG", "SERVICES", "STOP_LINGER_S", "FoxgloveServer", "mesh_assets", "trigger_response"]
+__all__ = ["MAX_ASSET_BYTES", "MESSAGE_BACKLOG", "SERVICES", "STOP_LINGER_S", "FoxgloveServer", "description_assets", "trigger_response"]
 
 MESSAGE_BACKLOG = 1024
 """Messages the SDK queues per client; beyond them it drops the client's oldest data messages."""
@@ -271,12 +272,19 @@ def _service(name: str, handler: Callable[[foxglove.ServiceRequest], bytes]) -> 
     return foxglove.Service(name, schema=schema, handler=handler)
 
 
-def mesh_assets(uris: Sequence[str], resolve: Callable[[str], Path]) -> dict[str, Path]:
-    """URI → file for each mesh URI that resolves (``resolve`` raises TfrecError for the others)."""
+def description_assets(robot: Robot, package_paths: Sequence[str | os.PathLike[str]] = ()) -> dict[str, Path]:
+    """The meshes a client may fetch: each ``<mesh filename>`` URI of the description → the file it names, found as
+    ``record`` finds meshes (``package_paths``, the environment, the description's workspace, confined the same
+    way); URIs that resolve to no file are left out (a client asking for them is refused)."""
+    from tfrec.description.packages import PackageFinder
+
+    finder = PackageFinder(package_paths, near=robot.source)
+    uris = sorted({visual.geometry.filename for link in robot.links for visual in link.visuals
+                   if isinstance(visual.geometry, Mesh)})
     out: dict[str, Path] = {}
     for uri in uris:
         try:
-            out[uri] = Path(os.fspath(resolve(uri)))
+            out[uri] = finder.resolve_uri(uri, relative_to=robot.source)
         except TfrecError:
             continue
     return out
