@@ -70,6 +70,7 @@ SLOW_TIER = (
     "tests/faults/test_deep_chains.py",
     # tfrec serve --connect into the real rerun, started and stopped
     "tests/live/test_serve.py::test_connect_streams_the_same_to_a_rerun_viewer",
+    "tests/live/test_serve.py::test_a_whole_served_trajectory_leaves_the_files_record_writes",
     "tests/faults/test_many_channels.py",
 )
 """The slow tier (``make test-slow``, run by CI; ``make test`` leaves it out): test files, or test names

@@ -351,3 +351,26 @@ def test_connect_streams_the_same_to_a_rerun_viewer(tmp_path: Path) -> None:
             want = expected[stamp][(parent, child)]
             np.testing.assert_allclose(series.translation[i], want[:3], atol=1e-6)
             np.testing.assert_allclose(np.abs(series.rotation[i] @ want[3:]), 1.0, atol=1e-6)
+
+
+def test_a_whole_served_trajectory_leaves_the_files_record_writes(tmp_path: Path) -> None:
+    """serve --traj --record, run to its end, writes the same MCAP bytes as `tfrec record` of that trajectory, and an
+    .rrd Rerun finds identical to record's (the same sinks, fed in pieces as they were served)."""
+    import shutil
+    import subprocess
+    import sys
+
+    from tfrec import cli
+
+    served, recorded = tmp_path / "served.mcap", tmp_path / "recorded.mcap"
+    args = [MARM, "--traj", "random", "--duration", "2", "--start-time", str(START_S)]
+    run = subprocess.run([sys.executable, "-m", "tfrec", "serve", *args, "--port", "0", "--record", str(served)],
+                         check=False, capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert run.returncode == 0, run.stderr
+    assert cli.main(["record", *args, "-o", str(recorded)]) == 0
+    assert served.read_bytes() == recorded.read_bytes()
+    rerun = shutil.which("rerun", path=str(Path(sys.executable).parent))
+    if rerun is not None:
+        compare = subprocess.run([rerun, "rrd", "compare", str(served.with_suffix(".rrd")),
+                                  str(recorded.with_suffix(".rrd"))], check=False, capture_output=True, timeout=120)
+        assert compare.returncode == 0, compare.stdout + compare.stderr

@@ -99,7 +99,7 @@ def _serve_robot(ns: argparse.Namespace, robot: Robot, plan: RecordingPlan | Non
     from tfrec.live.joints import JointControl
     from tfrec.live.serve import DEFAULT_RATE_HZ, ServeOptions, reach_poses, serve_robot
     from tfrec.live.server import description_assets
-    from tfrec.recorder import open_sinks
+    from tfrec.recorder import open_sinks, recording_id
     from tfrec.trajectory.generators import make_trajectory
 
     overrides = parse_overrides(ns.overrides)
@@ -119,9 +119,11 @@ def _serve_robot(ns: argparse.Namespace, robot: Robot, plan: RecordingPlan | Non
     server = _start(ns, control, assets)
     try:
         with contextlib.ExitStack() as stack:
+            rid = None if trajectory is None or ns.loop else recording_id(  # as record names the same recording
+                robot, trajectory, start_time_ns=options.start_time_ns, frame_prefix=frame_prefix)
             sinks = [] if plan is None else stack.enter_context(open_sinks(
                 robot, plan, start_time_ns=options.start_time_ns, frame_prefix=frame_prefix,
-                package_paths=ns.package_path))
+                package_paths=ns.package_path, rerun_recording_id=rid))
             live = _viewer(ns, robot, frame_prefix, reach_poses(robot, trajectory=trajectory, control=control,
                                                                 frame_prefix=frame_prefix, seed=ns.seed))
             if live is not None:
