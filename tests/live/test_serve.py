@@ -374,3 +374,38 @@ def test_a_whole_served_trajectory_leaves_the_files_record_writes(tmp_path: Path
         compare = subprocess.run([rerun, "rrd", "compare", str(served.with_suffix(".rrd")),
                                   str(recorded.with_suffix(".rrd"))], check=False, capture_output=True, timeout=120)
         assert compare.returncode == 0, compare.stdout + compare.stderr
+
+
+def test_malformed_client_messages_are_ignored_and_serving_goes_on() -> None:
+    """Garbage from a client — text that is no JSON, unknown operations, a subscription to no channel, binary frames
+    of unknown opcodes or cut short, a service call to no service, parameters of the wrong types — leaves the server
+    serving: another client still gets every sample, and the run ends as asked."""
+    import struct
+
+    from websockets.exceptions import ConnectionClosed
+
+    with serving([MARM, "--duration", "4", "--rate", "50"]) as served:
+        bad = Client(served.port)
+        good = Client(served.port)
+        good.subscribe("/tf")
+        for text in ("{not json", '{"op": "launchMissiles"}', "[]", '{"op": "subscribe", "subscriptions": 7}',
+                     '{"op": "subscribe", "subscriptions": [{"id": 1, "channelId": 999999}]}',
+                     '{"op": "setParameters", "parameters": [{"name": "joint1", "value": {"x": 1}}]}',
+                     '{"op": "setParameters", "parameters": [{"name": "joint1", "value": [1, 2]}]}',
+                     '{"op": "fetchAsset", "uri": "../../etc/passwd", "requestId": 5}'):
+            try:
+                bad.ws.send(text)
+            except ConnectionClosed:  # the server may drop this client: that is fine
+                break
+        for frame in (b"\xff\x00", b"\x02\x01", struct.pack("<BIII", 2, 9999, 1, 3) + b"cdr",
+                      struct.pack("<BIII", 2, 1, 1, 1000) + b"cdr"):
+            try:
+                bad.ws.send(frame)
+            except ConnectionClosed:
+                break
+        good.read()
+        code, _, err = served.stop(interrupt=False)
+    assert code == 0, err
+    assert "served 201 samples" in err
+    stamps = np.array([_tf(m)[0] for m in good.on("/tf")])
+    assert len(stamps) > 100 and np.all(np.diff(stamps) == 20_000_000)
