@@ -384,7 +384,7 @@ def test_malformed_client_messages_are_ignored_and_serving_goes_on() -> None:
 
     from websockets.exceptions import ConnectionClosed
 
-    with serving([MARM, "--duration", "4", "--rate", "50"]) as served:
+    with serving([MARM, "--duration", "2", "--rate", "50"]) as served:
         bad = Client(served.port)
         good = Client(served.port)
         good.subscribe("/tf")
@@ -406,6 +406,6 @@ def test_malformed_client_messages_are_ignored_and_serving_goes_on() -> None:
         good.read()
         code, _, err = served.stop(interrupt=False)
     assert code == 0, err
-    assert "served 201 samples" in err
+    assert "served 101 samples" in err
     stamps = np.array([_tf(m)[0] for m in good.on("/tf")])
-    assert len(stamps) > 100 and np.all(np.diff(stamps) == 20_000_000)
+    assert len(stamps) > 50 and np.all(np.diff(stamps) == 20_000_000)
