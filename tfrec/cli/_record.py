@@ -66,17 +66,20 @@ def add_parser(sub: Any) -> None:
     rec.set_defaults(handler=_cmd_record)
 
 
-def add_trajectory_arguments(parser: argparse.ArgumentParser, *, default: str | None) -> None:
-    """The options of the trajectory a robot is driven along (``record``, ``serve``)."""
+def add_trajectory_arguments(parser: argparse.ArgumentParser, *, default: str | None, duration_help: str | None = None,
+                             rate_help: str | None = None) -> None:
+    """The options of the trajectory a robot is driven along (``record``, ``serve``: its own words for ``--duration``
+    and ``--rate``)."""
     traj = parser.add_argument_group("trajectory")
     traj.add_argument("--traj", metavar="KIND", default=default,
                       help="center, random, sine, sweep, or a CSV file (time column in s + one column per "
                            "joint) " + (f"(default: {default})" if default else
                                         "(default: none, the joints are parameters clients set)"))
-    traj.add_argument("--duration", metavar="S", type=float, default=None, help="seconds (default 10)")
+    traj.add_argument("--duration", metavar="S", type=float, default=None, help=duration_help or "seconds (default 10)")
     traj.add_argument("--rate", metavar="HZ", type=float, default=None,
-                      help="samples per second (default 50, or what a launch file gives joint_state_publisher); with "
-                           "a CSV file: resample its rows (keyframes) onto this clock")
+                      help=rate_help or "samples per second (default 50, or what a launch file gives "
+                                        "joint_state_publisher); with a CSV file: resample its rows (keyframes) onto "
+                                        "this clock")
     traj.add_argument("--interp", choices=("linear", "cubic", "hold"), default="linear",
                       help="how --rate resamples CSV keyframes: linear, cubic (smooth velocity, no overshoot) or "
                            "hold (steps) (default linear)")

@@ -39,7 +39,12 @@ def add_parser(sub: Any) -> None:
                   "  tfrec serve robots/marm.xacro --traj sine --loop --record live.mcap\n"
                   "  tfrec serve recordings/marm-sine.mcap --rate 2 --start 1 --end 5")
     add_robot_arguments(srv)
-    add_trajectory_arguments(srv, default=None)
+    add_trajectory_arguments(
+        srv, default=None,
+        duration_help="seconds of the trajectory (default 10); without --traj: stop after this many seconds (default: "
+                      "at Ctrl-C)",
+        rate_help="samples per second (default 50); with a CSV file: resample its rows onto this clock; for a "
+                  "recording: the speed, 2 = twice as fast (default 1)")
     live = srv.add_argument_group("serving")
     live.add_argument("--host", default="127.0.0.1",
                       help="address to listen on (default 127.0.0.1: this machine only; 0.0.0.0 lets any machine "
