@@ -12,8 +12,8 @@ What tfrec answers for (:func:`import_file`):
 - a ROS 1 ``.bag``, a rosbag2 folder (``metadata.yaml`` beside ``.db3`` or ``.mcap`` storage; Rerun passes the
   ``.db3`` file, whose folder is read), formats Rerun cannot open: the whole replay, as ``tfrec replay --save``
   writes it;
-- nothing else (exit 66): an ``.mcap`` is left to Rerun's own MCAP importer, which reads /tf, /joint_states and
-  /robot_description itself (docs/live.md says what that leaves out).
+- nothing else (exit 66). Rerun 0.41 gives an ``.mcap`` to its own MCAP importer alone, never to an external one
+  (docs/live.md).
 """
 
 from __future__ import annotations
