@@ -197,6 +197,11 @@ def test_the_description_and_its_meshes_are_fetchable_and_nothing_else(tmp_path:
         assert client.asset(2)[0] == 1 and client.asset(3)[0] == 1
         description = client.on("/robot_description")[0].decode("std_msgs/msg/String").data
         assert "package://demo_pkg/meshes/part.stl" in description
+        # latched: a client that comes long after the start gets the description and /tf_static on subscribing
+        late = Client(served.port)
+        late.subscribe("/robot_description", "/tf_static")
+        late.read(until=lambda c: c.on("/robot_description") and c.on("/tf_static"))
+        assert late.on("/robot_description")[0].decode("std_msgs/msg/String").data == description
         served.stop()
 
 
