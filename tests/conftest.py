@@ -71,6 +71,7 @@ SLOW_TIER = (
     # tfrec serve --connect into the real rerun, started and stopped
     "tests/live/test_serve.py::test_connect_streams_the_same_to_a_rerun_viewer",
     "tests/live/test_serve.py::test_a_whole_served_trajectory_leaves_the_files_record_writes",
+    "tests/live/test_serve.py::test_a_recording_served_with_connect_reaches_the_rerun_viewer_too",
     "tests/faults/test_many_channels.py",
 )
 """The slow tier (``make test-slow``, run by CI; ``make test`` leaves it out): test files, or test names

@@ -414,3 +414,35 @@ def test_malformed_client_messages_are_ignored_and_serving_goes_on() -> None:
     assert "served 101 samples" in err
     stamps = np.array([_tf(m)[0] for m in good.on("/tf")])
     assert len(stamps) > 50 and np.all(np.diff(stamps) == 20_000_000)
+
+
+def test_a_recording_served_with_connect_reaches_the_rerun_viewer_too(tmp_path: Path) -> None:
+    """serve FILE --connect: the replay goes to Foxglove's clients and to the real `rerun` (saving what it gets) at
+    once; the viewer's recording reads back with the recorded transforms."""
+    import signal
+    import subprocess
+    import sys
+
+    from tfrec import cli
+    from tfrec.replay.load import load_replay
+
+    mcap = tmp_path / "rec.mcap"
+    assert cli.main(["record", MARM, "--traj", "sine", "--duration", "2", "-o", str(mcap), "--no-rrd"]) == 0
+    out = tmp_path / "viewer.rrd"
+    proc, url = _rerun_saving(out)
+    try:
+        run = subprocess.run([sys.executable, "-m", "tfrec", "serve", str(mcap), "--rate", "4", "--port", "0",
+                              "--connect", url], check=False, capture_output=True, text=True, timeout=120, cwd=REPO)
+        assert run.returncode == 0, run.stderr
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=30)
+    got, want = load_replay(out), load_replay(mcap)
+    assert set(got.tf) == set(want.tf) and got.tf
+    for pair, series in want.tf.items():
+        np.testing.assert_array_equal(got.tf[pair].time_ns, series.time_ns)
+        np.testing.assert_allclose(got.tf[pair].translation, series.translation, atol=1e-6)
