@@ -56,6 +56,9 @@ class Shot:
     """Writes the .rrd into the folder given and returns it."""
     at_s: float
     """The instant shown, in seconds from the recording's start."""
+    timeline: str = "time"
+    """The timeline shown: ``time`` (seconds from the start, the recordings' default) or ``ros_time`` (a date: the
+    diff overlay's plots are on it)."""
 
 
 def _robot(name: str, **args: str):  # type: ignore[no-untyped-def]
@@ -114,13 +117,42 @@ def _mjcf(folder: Path) -> Path:
     return rrd
 
 
+def _served(folder: Path) -> Path:
+    """What a Rerun viewer receives from ``tfrec serve robots/marm.xacro --traj sine --connect URL``: the real
+    ``rerun`` as a gRPC server saving what it gets (``rerun --port P --save out.rrd``), the server a child process."""
+    out = folder / "served.rrd"
+    port = _free_port()
+    rerun_exe = Path(sys.executable).with_name("rerun")
+    saver = subprocess.Popen([os.fspath(rerun_exe) if rerun_exe.exists() else "rerun", "--port", str(port), "--save",
+                              os.fspath(out)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                             start_new_session=True)
+    try:
+        deadline = time.monotonic() + 30.0
+        while socket.socket().connect_ex(("127.0.0.1", port)) != 0:
+            if time.monotonic() > deadline:
+                raise SystemExit("screenshots: rerun --save did not listen")
+            time.sleep(0.2)
+        subprocess.run([sys.executable, "-m", "tfrec", "serve", os.fspath(ROBOTS / "marm.xacro"), "--traj", "sine",
+                        "--duration", "6", "--port", "0", "--start-time", str(DEFAULT_START_TIME_NS // 10**9),
+                        "--connect", f"rerun+http://127.0.0.1:{port}/proxy"], check=True, timeout=120,
+                       stdout=subprocess.DEVNULL)
+    finally:
+        saver.send_signal(signal.SIGINT)
+        try:
+            saver.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            _stop(saver)  # type: ignore[arg-type]
+    return out
+
+
 SHOTS = (
     Shot("marm", _record("marm", "random"), at_s=3.2),
     Shot("mbot", _record("mbot", "sine", amplitude=0.8), at_s=2.5),
     Shot("simple_cube", _record("simple_cube", "center"), at_s=1.0),
     Shot("replay-marm", _replay("marm", "sine"), at_s=4.0),
-    Shot("diff-overlay", _diff, at_s=3.2),
+    Shot("diff-overlay", _diff, at_s=3.2, timeline="ros_time"),
     Shot("mjcf-humanoid", _mjcf, at_s=2.0),
+    Shot("live-rerun", _served, at_s=2.3),
 )
 
 
@@ -143,7 +175,7 @@ def _free_port() -> int:
         return int(sock.getsockname()[1])
 
 
-def _screenshot(rrd: Path, png: Path, *, at_ns: int, settle_s: float, scratch: Path) -> None:
+def _screenshot(rrd: Path, png: Path, *, at_ns: int, settle_s: float, scratch: Path, timeline: str = "time") -> None:
     """Open ``rrd`` in a fresh headless viewer, pause at ``at_ns`` and save the window to ``png``."""
     from rerun.experimental import ViewerClient
 
@@ -172,7 +204,11 @@ def _screenshot(rrd: Path, png: Path, *, at_ns: int, settle_s: float, scratch: P
         deadline = time.monotonic() + 10.0
         while True:
             try:
-                client.set_time("ros_time", timestamp=np.datetime64(at_ns, "ns"), play_state="paused")
+                if timeline == "ros_time":
+                    client.set_time("ros_time", timestamp=np.datetime64(at_ns, "ns"), play_state="paused")
+                else:  # seconds from the start
+                    client.set_time(timeline, duration=np.timedelta64(at_ns - DEFAULT_START_TIME_NS, "ns"),
+                                    play_state="paused")
                 break
             except ConnectionError as err:  # "has no timelines yet": still loading, or all static
                 if time.monotonic() > deadline:
@@ -230,7 +266,7 @@ def main(argv: list[str] | None = None) -> int:
             png = ns.out / f"{shot.name}.png"
             # One viewer per recording: recordings of one application id share the active blueprint.
             _screenshot(rrd, png, at_ns=DEFAULT_START_TIME_NS + round(shot.at_s * 1e9), settle_s=ns.settle_s,
-                        scratch=folder)
+                        scratch=folder, timeline=shot.timeline)
             print(png)
             if ns.keep_rrd:
                 shutil.copy(rrd, ns.out / f"{shot.name}.rrd")

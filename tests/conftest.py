@@ -70,6 +70,10 @@ SLOW_TIER = (
     "tests/description/test_sandbox.py::test_exponential_macros_side_by_side_are_refused",
     "tests/trajectory/test_keyframes.py::test_many_rows_in_seconds",
     "tests/faults/test_deep_chains.py",
+    # tfrec serve --connect into the real rerun, started and stopped
+    "tests/live/test_serve.py::test_connect_streams_the_same_to_a_rerun_viewer",
+    "tests/live/test_serve.py::test_a_whole_served_trajectory_leaves_the_files_record_writes",
+    "tests/live/test_serve.py::test_a_recording_served_with_connect_reaches_the_rerun_viewer_too",
     "tests/faults/test_many_channels.py",
     "tests/faults/test_many_schemas.py::test_65000_",
     "tests/faults/test_address_space.py",

@@ -39,6 +39,7 @@ def test_format_libraries_only_in_formats_and_xacro_only_in_description() -> Non
                 assert top != "xacro" or inside == "description", f"{path} imports {name}"
                 assert top != "matplotlib" or inside == "plots", f"{path} imports {name}"
                 assert top != "ray" or inside == "fleet", f"{path} imports {name}"
+                assert top != "foxglove" or inside == "live", f"{path} imports {name}"
 
 
 def test_every_entry_of_the_slow_tier_names_a_test() -> None:

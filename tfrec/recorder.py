@@ -7,11 +7,12 @@ and older files of those names are untouched.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import time
 import uuid
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -38,6 +39,7 @@ __all__ = [
     "RecordingPlan",
     "default_stem",
     "needs_stem",
+    "open_sinks",
     "plan_outputs",
     "record",
     "recording_id",
@@ -219,6 +221,43 @@ def record(
         from tfrec.formats.rrd.paths import check_rerun_robot
 
         check_rerun_robot(robot, os.fspath(plan.rrd), hint="record without it (`no_rrd`)")
+    rid = (recording_id(robot, trajectory, start_time_ns=start_time_ns, frame_prefix=frame_prefix)
+           if plan.rrd is not None else None)
+    with open_sinks(robot, plan, compression=compression, start_time_ns=start_time_ns, frame_prefix=frame_prefix,
+                    package_paths=package_paths, rerun_recording_id=rid) as sinks:
+        done = 0
+        # a robot without moving joints gets an empty /joint_states message per sample (so the recording
+        # lasts what was asked) and nothing on /tf: robot_state_publisher publishes no /tf for it
+        for chunk in iter_dynamic_chunks(robot, trajectory, chunk_samples=chunk_samples, frame_prefix=frame_prefix):
+            stamps = chunk.time_ns + start_time_ns
+            for sink in sinks:
+                sink.write_chunk(stamp_ns=stamps, joint_names=chunk.names, positions=chunk.positions,
+                                 velocities=chunk.velocities, transforms=chunk.transforms)
+            done += len(chunk.time_ns)
+            if progress is not None:
+                progress(done, total)
+    return RecordResult(plan=plan, samples=total, start_time_ns=first, end_time_ns=last)
+
+
+@contextlib.contextmanager
+def open_sinks(
+    robot: Robot,
+    plan: RecordingPlan,
+    *,
+    compression: str | None = None,
+    start_time_ns: int = DEFAULT_START_TIME_NS,
+    frame_prefix: str = "",
+    package_paths: Sequence[str | os.PathLike[str]] = (),
+    rerun_recording_id: str | None = None,
+) -> Iterator[list[RecordSink]]:
+    """The outputs of ``plan`` as begun sinks (/robot_description and /tf_static written, stamped
+    ``start_time_ns``): the caller writes the samples; on leaving the block they are finished and renamed into
+    place, after an error or an interrupt aborted and removed (older files of those names untouched).
+    :func:`record` writes through it, and so does ``tfrec serve --record``.
+
+    Raises:
+        WriteError: the outputs could not be written; no partial output remains.
+    """
     static = static_transforms(robot, frame_prefix=frame_prefix)
     streams = []
     sinks: list[RecordSink] = []
@@ -245,22 +284,11 @@ def record(
 
                 sinks.append(RerunSink(
                     outputs.path(plan.rrd, kind=RRD), robot=robot, package_paths=package_paths, frame_prefix=frame_prefix,
-                    recording_id=recording_id(robot, trajectory, start_time_ns=start_time_ns,
-                                              frame_prefix=frame_prefix),
+                    recording_id=rerun_recording_id,
                 ))
             for sink in sinks:
                 sink.begin(robot_description=robot.urdf, static=static, start_time_ns=start_time_ns)
-            done = 0
-            # a robot without moving joints gets an empty /joint_states message per sample (so the recording
-            # lasts what was asked) and nothing on /tf: robot_state_publisher publishes no /tf for it
-            for chunk in iter_dynamic_chunks(robot, trajectory, chunk_samples=chunk_samples, frame_prefix=frame_prefix):
-                stamps = chunk.time_ns + start_time_ns
-                for sink in sinks:
-                    sink.write_chunk(stamp_ns=stamps, joint_names=chunk.names, positions=chunk.positions,
-                                     velocities=chunk.velocities, transforms=chunk.transforms)
-                done += len(chunk.time_ns)
-                if progress is not None:
-                    progress(done, total)
+            yield sinks
             for sink in sinks:
                 sink.finish()
             if bag_temp is not None and mcap_sink is not None and plan.mcap is not None:
@@ -272,4 +300,3 @@ def record(
             for stream in streams:
                 stream.close()
         outputs.commit()
-    return RecordResult(plan=plan, samples=total, start_time_ns=first, end_time_ns=last)

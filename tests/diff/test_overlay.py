@@ -78,13 +78,24 @@ def test_the_error_series_with_the_tolerance_and_the_first_exceeding(overlay: tu
     assert list(marks) == [stamps[0]] and values[0][0] == pytest.approx(1e-3)
 
 
+def test_the_colours_have_a_legend_with_the_errors_they_stand_for(overlay: tuple[Path, Rrd]) -> None:
+    """The error colouring's scale is shown: green within the tolerance, red at this diff's worst excess (1 mm)."""
+    _, rrd = overlay
+    legend = rrd.static["/diff/legend"]
+    assert legend["TextDocument:media_type"] == ["text/markdown"]
+    (text,) = legend["TextDocument:text"]
+    assert "green | within tolerance (1e-09 m" in text
+    assert "red | +0.001 m or +0 rad over it: this diff's worst" in text and "yellow | +0.0005 m" in text
+    assert "grey" in text
+
+
 def test_the_blueprint_frames_both_robots_beside_the_plots(overlay: tuple[Path, Rrd]) -> None:
     _, rrd = overlay
     rows = [row for chunk in rrd.blueprint_chunks for row in chunk]
     views = {(row["ViewBlueprint:class_identifier"][0], row["ViewBlueprint:space_origin"][0])
              for row in rows if row.get("ViewBlueprint:class_identifier")}
     assert views == {("3D", "/"), ("TimeSeries", "/diff/position"), ("TimeSeries", "/diff/rotation"),
-                     ("TextLog", "/diff/events")}
+                     ("TextLog", "/diff/events"), ("TextDocument", "/diff/legend")}
     (eye,) = [row for row in rows if row.get("EyeControls3D:position")]
     position, target = np.array(eye["EyeControls3D:position"][0]), np.array(eye["EyeControls3D:look_target"][0])
     assert eye["EyeControls3D:eye_up"][0] == [0.0, 0.0, 1.0]

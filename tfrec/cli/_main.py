@@ -31,7 +31,7 @@ __all__ = ["main", "main_exit"]
 
 
 def _build_parser() -> argparse.ArgumentParser:
-    from tfrec.cli import _convert, _diff, _fleet, _info, _inspect, _plot, _record, _replay
+    from tfrec.cli import _convert, _diff, _fleet, _info, _inspect, _plot, _record, _replay, _serve
 
     parser = Parser(
         prog=PROG,
@@ -46,7 +46,7 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for command in (_inspect, _record, _info, _diff, _replay, _convert, _plot, _fleet):
+    for command in (_inspect, _record, _serve, _info, _diff, _replay, _convert, _plot, _fleet):
         command.add_parser(sub)
     return parser
 

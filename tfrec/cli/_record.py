@@ -29,7 +29,7 @@ if TYPE_CHECKING:
     from tfrec.description.launch import LaunchRobot
     from tfrec.model import Robot
 
-__all__ = ["add_parser"]
+__all__ = ["add_parser", "add_trajectory_arguments", "parse_overrides"]
 
 
 def add_parser(sub: Any) -> None:
@@ -46,30 +46,7 @@ def add_parser(sub: Any) -> None:
                   "  tfrec record marm_description/launch/view_marm.launch --traj keyframes.csv --rate 100 "
                   "--interp cubic")
     add_robot_arguments(rec)
-    traj = rec.add_argument_group("trajectory")
-    traj.add_argument("--traj", metavar="KIND", default="sine",
-                      help="center, random, sine, sweep, or a CSV file (time column in s + one column per "
-                           "joint) (default: sine)")
-    traj.add_argument("--duration", metavar="S", type=float, default=None, help="seconds (default 10)")
-    traj.add_argument("--rate", metavar="HZ", type=float, default=None,
-                      help="samples per second (default 50, or what a launch file gives joint_state_publisher); with "
-                           "a CSV file: resample its rows (keyframes) onto this clock")
-    traj.add_argument("--interp", choices=("linear", "cubic", "hold"), default="linear",
-                      help="how --rate resamples CSV keyframes: linear, cubic (smooth velocity, no overshoot) or "
-                           "hold (steps) (default linear)")
-    traj.add_argument("--hard-limits", action="store_true",
-                      help="move joints within their hard <limit>s; by default, as joint_state_publisher does "
-                           "(use_smallest_joint_limits), within their <safety_controller> soft limits")
-    traj.add_argument("--seed", metavar="N", type=int, default=0, help="seed of --traj random (default 0)")
-    traj.add_argument("--period", metavar="S", type=float, default=2.0,
-                      help="seconds between random waypoints (Randomize presses); sine periods; at least 1/rate "
-                           "(default 2)")
-    traj.add_argument("--amplitude", metavar="F", type=float, default=0.8,
-                      help="sine amplitude, a fraction of each joint's half-range (default 0.8)")
-    traj.add_argument("--set", metavar="JOINT=VALUE", action="append", default=[], dest="overrides",
-                      help="hold a joint at a value (repeatable), like joint_state_publisher's zeros")
-    traj.add_argument("--frame-prefix", metavar="P", default=None,
-                      help="put P in front of every TF frame id, as robot_state_publisher's frame_prefix")
+    add_trajectory_arguments(rec, default="sine")
     out = rec.add_argument_group("output")
     out.add_argument("-o", "--output", metavar="OUT.mcap",
                      help="MCAP file, or a ROS 1 bag when it ends in .bag "
@@ -89,7 +66,39 @@ def add_parser(sub: Any) -> None:
     rec.set_defaults(handler=_cmd_record)
 
 
-def _parse_overrides(items: Sequence[str]) -> dict[str, float]:
+def add_trajectory_arguments(parser: argparse.ArgumentParser, *, default: str | None, duration_help: str | None = None,
+                             rate_help: str | None = None) -> None:
+    """The options of the trajectory a robot is driven along (``record``, ``serve``: its own words for ``--duration``
+    and ``--rate``)."""
+    traj = parser.add_argument_group("trajectory")
+    traj.add_argument("--traj", metavar="KIND", default=default,
+                      help="center, random, sine, sweep, or a CSV file (time column in s + one column per "
+                           "joint) " + (f"(default: {default})" if default else
+                                        "(default: none, the joints are parameters clients set)"))
+    traj.add_argument("--duration", metavar="S", type=float, default=None, help=duration_help or "seconds (default 10)")
+    traj.add_argument("--rate", metavar="HZ", type=float, default=None,
+                      help=rate_help or "samples per second (default 50, or what a launch file gives "
+                                        "joint_state_publisher); with a CSV file: resample its rows (keyframes) onto "
+                                        "this clock")
+    traj.add_argument("--interp", choices=("linear", "cubic", "hold"), default="linear",
+                      help="how --rate resamples CSV keyframes: linear, cubic (smooth velocity, no overshoot) or "
+                           "hold (steps) (default linear)")
+    traj.add_argument("--hard-limits", action="store_true",
+                      help="move joints within their hard <limit>s; by default, as joint_state_publisher does "
+                           "(use_smallest_joint_limits), within their <safety_controller> soft limits")
+    traj.add_argument("--seed", metavar="N", type=int, default=0, help="seed of --traj random (default 0)")
+    traj.add_argument("--period", metavar="S", type=float, default=2.0,
+                      help="seconds between random waypoints (Randomize presses); sine periods; at least 1/rate "
+                           "(default 2)")
+    traj.add_argument("--amplitude", metavar="F", type=float, default=0.8,
+                      help="sine amplitude, a fraction of each joint's half-range (default 0.8)")
+    traj.add_argument("--set", metavar="JOINT=VALUE", action="append", default=[], dest="overrides",
+                      help="hold a joint at a value (repeatable), like joint_state_publisher's zeros")
+    traj.add_argument("--frame-prefix", metavar="P", default=None,
+                      help="put P in front of every TF frame id, as robot_state_publisher's frame_prefix")
+
+
+def parse_overrides(items: Sequence[str]) -> dict[str, float]:
     out: dict[str, float] = {}
     for item in items:
         name, sep, value = item.partition("=")
@@ -124,7 +133,7 @@ def _cmd_record(ns: argparse.Namespace) -> int:
                 warnings.warn(f"{launch.launch_file if launch else ''}: robot_state_publisher publishes /tf at "
                               f"{params.publish_frequency_hz:g} Hz, below joint_state_publisher's {params.jsp_rate_hz:g} "
                               "Hz: both are recorded at the /tf rate (--rate overrides)", TfrecWarning, stacklevel=1)
-    overrides = _parse_overrides(ns.overrides)
+    overrides = parse_overrides(ns.overrides)
     if not overrides and params is not None and params.jsp_zeros and ns.traj == "center":
         overrides = dict(params.jsp_zeros)  # joint_state_publisher's zeros: where Center puts the joints
     frame_prefix = ns.frame_prefix

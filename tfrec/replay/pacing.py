@@ -116,3 +116,9 @@ class Pacer:
             return 0.0
         self._clock.sleep(delay)
         return delay
+
+    def lag_s(self, offset_ns: int) -> float:
+        """Seconds past the deadline of ``offset_ns`` (negative: before it); 0 before the first :meth:`wait`."""
+        if self._origin is None:
+            return 0.0
+        return self._clock.now() - (self._origin + offset_ns / 1e9 / self._rate)

@@ -26,10 +26,10 @@ import rerun.blueprint as rrb
 from numpy.typing import NDArray
 
 from tfrec.formats.rrd.paths import (
+    ELAPSED_TIMELINE,
     JOINTS_ROOT,
     ROBOT_ROOT,
     TF_TREE_ROOT,
-    TIMELINE,
     VELOCITIES_ROOT,
     joint_entity,
     velocity_entity,
@@ -295,7 +295,7 @@ def blueprint_of(*layouts: rrb.Container | rrb.View) -> rrb.Blueprint:
         layouts[0] if len(layouts) == 1 else rrb.Tabs(*layouts),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
-        rrb.TimePanel(state="collapsed", timeline=TIMELINE),
+        rrb.TimePanel(state="collapsed", timeline=ELAPSED_TIMELINE),
     ))
 
 

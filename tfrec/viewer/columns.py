@@ -10,9 +10,9 @@ import rerun as rr
 from numpy.typing import NDArray
 
 from tfrec.errors import WriteError
-from tfrec.formats.rrd.paths import JOINT_COUNT, TIMELINE
+from tfrec.formats.rrd.paths import ELAPSED_TIMELINE, JOINT_COUNT, TIMELINE
 
-__all__ = ["check_stamps", "no_joint_columns", "repeated_strings", "time_column"]
+__all__ = ["check_stamps", "elapsed_column", "no_joint_columns", "repeated_strings", "time_column"]
 
 
 def check_stamps(time_ns: NDArray[np.int64]) -> NDArray[np.int64]:
@@ -31,6 +31,12 @@ def time_column(stamps: NDArray[np.int64]) -> rr.TimeColumn:
     """The index column of :data:`~tfrec.formats.rrd.paths.TIMELINE` for ``send_columns``: integer
     nanoseconds as timestamps (float seconds would be truncated by Rerun)."""
     return rr.TimeColumn(TIMELINE, timestamp=stamps.astype("datetime64[ns]"))
+
+
+def elapsed_column(stamps: NDArray[np.int64], origin_ns: int) -> rr.TimeColumn:
+    """The index column of :data:`~tfrec.formats.rrd.paths.ELAPSED_TIMELINE`: the time since ``origin_ns`` (the
+    recording's start), integer nanoseconds as durations."""
+    return rr.TimeColumn(ELAPSED_TIMELINE, duration=(stamps - origin_ns).astype("timedelta64[ns]"))
 
 
 def no_joint_columns(n: int) -> Any:

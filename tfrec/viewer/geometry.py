@@ -27,11 +27,21 @@ import rerun as rr
 
 from tfrec.description.packages import PackageFinder
 from tfrec.errors import DescriptionError
-from tfrec.kinematics.rotations import quaternion_from_rpy
+from tfrec.kinematics.rotations import matrix_from_quaternion, quaternion_from_rpy
 from tfrec.model import Box, Cylinder, Material, Mesh, Robot, Sphere, Visual
 
-__all__ = ["MeshAsset", "MeshLoader", "colour_archetype", "default_axis_length", "missing_meshes", "rgba8",
-           "visual_columns", "visual_radius"]
+__all__ = [
+    "MeshAsset",
+    "MeshLoader",
+    "axial_extent",
+    "colour_archetype",
+    "default_axis_length",
+    "missing_meshes",
+    "rgba8",
+    "spoke_columns",
+    "visual_columns",
+    "visual_radius",
+]
 
 _NATIVE_MEDIA_TYPES = {
     ".stl": "model/stl",
@@ -283,3 +293,40 @@ def missing_meshes(missing: Mapping[tuple[str, str], str]) -> str:
         return f"{shown[0]}; link logged without it"
     more = f"; and {len(missing) - MESHES_LISTED} more" if len(missing) > MESHES_LISTED else ""
     return f"{len(missing)} meshes cannot be shown (their links are logged without them): {'; '.join(shown)}{more}"
+
+
+SPOKE_COLOUR = 0xFFC400FF
+"""A wheel's spoke: amber, seen against light and dark materials."""
+
+
+def axial_extent(visual: Visual, axis: Sequence[float], asset: MeshAsset | None = None) -> float:
+    """How far a visual reaches along ``axis`` (a unit vector of its link's frame) from the link's origin: where
+    a wheel's faces are."""
+    a = np.asarray(axis, dtype=np.float64)
+    a = a / np.linalg.norm(a)
+    rotation = matrix_from_quaternion(quaternion_from_rpy(visual.origin.rpy))
+    local = rotation.T @ a  # the axis in the visual's frame
+    offset = abs(float(np.dot(a, visual.origin.xyz)))
+    geometry = visual.geometry
+    if isinstance(geometry, Cylinder):
+        along = abs(float(local[2]))
+        half = along * geometry.length / 2.0 + np.sqrt(max(0.0, 1.0 - along * along)) * geometry.radius
+    elif isinstance(geometry, Box):
+        half = float(np.sum(np.abs(local) * np.asarray(geometry.size) / 2.0))
+    else:
+        half = visual_radius(visual, asset)
+    return offset + float(half)
+
+
+def spoke_columns(axis: Sequence[float], length_m: float, face_m: float) -> list[Any]:
+    """Spokes on a wheel turning about ``axis`` (its joint's axis, in the wheel's frame): on each face (``face_m``
+    from the centre along the axis), a line of ``length_m`` from the axis outwards, perpendicular to it, so that the
+    wheel's angle shows (a round wheel turning looks still)."""
+    a = np.asarray(axis, dtype=np.float64)
+    a = a / np.linalg.norm(a)
+    other = np.eye(3)[int(np.argmin(np.abs(a)))]  # the basis vector least along the axis
+    radial = np.cross(a, other)
+    radial /= np.linalg.norm(radial)
+    strips = [np.stack([side * face_m * a, side * face_m * a + radial * length_m]) for side in (1.0, -1.0)]
+    radius = max(length_m / 25.0, 1e-4)
+    return [*rr.LineStrips3D.columns(strips=strips, colors=[SPOKE_COLOUR] * 2, radii=[radius] * 2).partition([2])]

@@ -16,7 +16,8 @@ Entity paths (beside each robot's, as in :mod:`tfrec.formats.rrd.paths`, under `
 - ``/diff/position/tolerance`` and ``/diff/rotation/tolerance``: ``Scalars``, the tolerance;
 - ``/diff/position/first_exceeds``: ``Scalars`` + ``SeriesPoints``, one point per link, when it first
   exceeds its tolerance (its error then);
-- ``/diff/events``: ``TextLog``, the same moments in words.
+- ``/diff/events``: ``TextLog``, the same moments in words;
+- ``/diff/legend``: ``TextDocument`` (Markdown), the colour scale with the errors it stands for.
 
 Only plain data comes in (:class:`OverlayRobot`, :class:`OverlayErrors`); the diff computes it.
 """
@@ -49,6 +50,7 @@ __all__ = [
     "OVERLAY_APPLICATION_ID",
     "OverlayErrors",
     "OverlayRobot",
+    "colour_legend",
     "error_colours",
     "overlay_blueprint",
     "write_overlay",
@@ -107,8 +109,7 @@ def error_colours(errors: OverlayErrors) -> NDArray[np.uint32]:
     scores = []
     for error, tol in ((errors.position, errors.position_tol), (errors.rotation, errors.rotation_tol)):
         excess = np.where(np.isfinite(error), error - tol, np.inf)
-        finite = excess[np.isfinite(excess) & (excess > 0)]
-        worst = float(finite.max()) if finite.size else 0.0
+        worst = _worst_excess(error, tol)
         score = np.where(excess > 0, np.clip(excess / worst if worst > 0 else 1.0, 0.0, 1.0), -1.0)
         scores.append(np.where(np.isinf(excess), 1.0, score))
     score = np.maximum(*scores) if scores else np.zeros((0, 0))
@@ -118,6 +119,33 @@ def error_colours(errors: OverlayErrors) -> NDArray[np.uint32]:
     r, g, b = (np.rint(rgb[..., i]).astype(np.uint32) for i in range(3))
     out: NDArray[np.uint32] = (r << 24) | (g << 16) | (b << 8) | np.uint32(0xFF)
     return out
+
+
+def _worst_excess(error: Array, tol: Array) -> float:
+    """The largest finite amount by which an error exceeds its tolerance (0 when none does)."""
+    excess = np.where(np.isfinite(error), error - tol, np.inf)
+    finite = excess[np.isfinite(excess) & (excess > 0)]
+    return float(finite.max()) if finite.size else 0.0
+
+
+def colour_legend(errors: OverlayErrors) -> str:
+    """The scale of :func:`error_colours`, as Markdown: what green, yellow, red and grey mean in this diff, with the
+    errors the colours stand for."""
+    position, rotation = (_worst_excess(errors.position, errors.position_tol),
+                          _worst_excess(errors.rotation, errors.rotation_tol))
+    tol_p = float(errors.position_tol.max()) if errors.position_tol.size else 0.0
+    tol_r = float(errors.rotation_tol.max()) if errors.rotation_tol.size else 0.0
+    return "\n".join([
+        "| A's link colour | its error against B |",
+        "| --- | --- |",
+        f"| green | within tolerance ({tol_p:.3g} m, {tol_r:.3g} rad) |",
+        f"| yellow | +{position / 2:.3g} m or +{rotation / 2:.3g} rad over it |",
+        f"| red | +{position:.3g} m or +{rotation:.3g} rad over it: this diff's worst |",
+        "| grey | not in B |",
+        "",
+        ("Colours blend in between; position and orientation each count against their own worst, the larger wins. "
+         "B is the translucent blue ghost."),
+    ])
 
 
 def write_overlay(
@@ -173,6 +201,8 @@ def write_overlay(
         if len(stamp_ns):
             _log_colours(stream, a.robot, stamp_ns, errors)
             _log_errors(stream, stamp_ns, errors)
+        _send(stream, f"/{DIFF_ROOT}/legend", rr.TextDocument.columns(text=[colour_legend(errors)],
+                                                                         media_type=["text/markdown"]))
         reaches = [r for r in (sink_a.reach, sink_b.reach) if r is not None]
         sink_a.send_blueprint(overlay_blueprint(_merged(reaches), root_frame=f"a/{_root(a)}"))
         sink_a.finish()
@@ -191,8 +221,10 @@ def overlay_blueprint(reach: Reach | None, *, root_frame: str) -> rrb.Blueprint:
     position = rrb.TimeSeriesView(name="largest link position error (m)", origin=f"/{DIFF_ROOT}/position")
     rotation = rrb.TimeSeriesView(name="largest link orientation error (rad)", origin=f"/{DIFF_ROOT}/rotation")
     events = rrb.TextLogView(name="first above tolerance", origin=f"/{DIFF_ROOT}/events")
+    legend = rrb.TextDocumentView(name="colour scale", origin=f"/{DIFF_ROOT}/legend")
     return stable_ids(rrb.Blueprint(
-        rrb.Horizontal(view3d, rrb.Vertical(position, rotation, events, row_shares=[2, 2, 1]), column_shares=[5, 3]),
+        rrb.Horizontal(view3d, rrb.Vertical(position, rotation, events, legend, row_shares=[2, 2, 1, 2]),
+                       column_shares=[5, 3]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="expanded", timeline=TIMELINE),

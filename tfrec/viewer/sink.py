@@ -35,6 +35,7 @@ from tfrec.formats.rrd.paths import (
     joint_entity,
     link_entity,
     pair_entity,
+    spoke_entity,
     static_pair_entity,
     tf_entity,
     tf_static_entity,
@@ -42,12 +43,21 @@ from tfrec.formats.rrd.paths import (
     visual_entity,
 )
 from tfrec.kinematics.fk import root_from_link
-from tfrec.model import Mesh, Robot
+from tfrec.model import JointType, Link, Mesh, Robot
 from tfrec.recording import Transforms
 from tfrec.viewer._flush import disconnect, flush
 from tfrec.viewer.blueprint import Reach, blueprint_of, joint_colour, joint_units, robot_layout, tf_tree_columns
-from tfrec.viewer.columns import check_stamps, no_joint_columns, repeated_strings, time_column
-from tfrec.viewer.geometry import MeshLoader, default_axis_length, missing_meshes, visual_columns, visual_radius
+from tfrec.viewer.columns import check_stamps, elapsed_column, no_joint_columns, repeated_strings, time_column
+from tfrec.viewer.geometry import (
+    MeshAsset,
+    MeshLoader,
+    axial_extent,
+    default_axis_length,
+    missing_meshes,
+    spoke_columns,
+    visual_columns,
+    visual_radius,
+)
 
 __all__ = ["RerunSink"]
 
@@ -176,6 +186,7 @@ class RerunSink:
         self._has_velocities = False
         self._blueprint_sent = False
         self._unflushed_bytes = 0
+        self._origin_ns: int | None = None
 
     @property
     def reach(self) -> Reach | None:  # the space the robot took up in what was logged (None without a robot)
@@ -219,6 +230,7 @@ class RerunSink:
         the rest of the robot is logged.
         """
         self._static = static
+        self._origin_ns = int(start_time_ns)
         robot = self._robot
         if name is None and robot is not None:
             name = robot.name
@@ -258,7 +270,9 @@ class RerunSink:
             return
         meshes = MeshLoader(self._package_paths, source=robot.source)
         missing: dict[tuple[str, str], str] = {}
+        wheels = {j.child: j.axis for j in robot.joints if j.type is JointType.CONTINUOUS}
         for link in robot.links:
+            assets: list[MeshAsset | None] = []
             frame = [self._prefix + link.name]
             self._send_static(link_entity(link.name), [
                 *rr.CoordinateFrame.columns(frame=frame),
@@ -273,11 +287,24 @@ class RerunSink:
                     else:
                         asset = found
                 self._visual_radii[(link.name, index)] = visual_radius(visual, asset)
+                assets.append(asset)
                 self._send_static(visual_entity(link.name, index), [
                     *rr.CoordinateFrame.columns(frame=frame), *visual_columns(visual, asset, colour=self._colour)])
+            if link.name in wheels:  # a wheel turning looks still: spokes on its faces show its angle
+                self._log_spokes(link, wheels[link.name], frame, assets)
         if missing:
             warnings.warn(missing_meshes(missing), TfrecWarning, stacklevel=3)
         self.log_tf_tree([(self._prefix + j.parent, self._prefix + j.child) for j in robot.tree_order])
+
+    def _log_spokes(self, link: Link, axis: tuple[float, float, float], frame: list[str],
+                    assets: list[MeshAsset | None]) -> None:
+        """Spokes on the faces of a wheel (:func:`tfrec.viewer.geometry.spoke_columns`), reaching a little past its
+        rim."""
+        radius = max((self._visual_radii[(link.name, i)] for i in range(len(link.visuals))), default=0.0)
+        radius = radius or self._axis_length_m
+        face = max((axial_extent(v, axis, asset) for v, asset in zip(link.visuals, assets)), default=0.0)
+        self._send_static(spoke_entity(link.name), [
+            *rr.CoordinateFrame.columns(frame=frame), *spoke_columns(axis, 1.1 * radius, 1.02 * face)])
 
     def log_frames(self, frames: Iterable[str]) -> None:
         """Log TF axes at ``/robot/<frame>`` for each frame that is no link of the robot, once."""
@@ -326,7 +353,7 @@ class RerunSink:
         if np.any(np.diff(stamps) < 0) or (self._last_time_ns is not None and stamps[0] < self._last_time_ns):
             raise WriteError("chunk stamps go back in time")
         self._last_time_ns = int(stamps[-1])
-        index = [time_column(stamps)]
+        index = self._index(stamps)
         if not joint_names:  # empty joint states: their stamps alone
             self._send(NO_JOINTS_ENTITY, index, no_joint_columns(n), nbytes=2 * stamps.nbytes)
         # each logged column made contiguous in one pass, transforms as the float32 Rerun stores them: Rerun's own
@@ -367,7 +394,7 @@ class RerunSink:
             raise WriteError(f"transforms '{parent}' -> '{child}': {n} stamps with translation "
                                  f"{np.shape(translation)} and rotation {np.shape(rotation)}")
         if n:
-            self._write_pair(parent, child, [time_column(stamps)], stamps, translation, rotation)
+            self._write_pair(parent, child, self._index(stamps), stamps, translation, rotation)
 
     def write_joint_positions(self, time_ns: NDArray[np.int64], names: Sequence[str], positions: Array) -> None:
         """Log joint positions at ``/joints/<joint>``; NaN (no position in that message) is skipped.
@@ -384,7 +411,7 @@ class RerunSink:
         if np.shape(positions) != (len(stamps), len(names)):
             raise WriteError(f"{len(stamps)} stamps of {len(names)} joints have positions {np.shape(positions)}")
         if len(stamps):
-            index = [time_column(stamps)]
+            index = self._index(stamps)
             if not names:
                 self._send(NO_JOINTS_ENTITY, index, no_joint_columns(len(stamps)), nbytes=2 * stamps.nbytes)
             for j, name in enumerate(names):
@@ -476,6 +503,12 @@ class RerunSink:
         if velocity:
             self._send_static(velocity_entity(name), style)
 
+    def _index(self, stamps: NDArray[np.int64]) -> list[rr.TimeColumn]:
+        """The index columns of ``stamps``: ROS time, and the time since the start given to :meth:`begin`."""
+        if self._origin_ns is None:
+            return [time_column(stamps)]
+        return [time_column(stamps), elapsed_column(stamps, self._origin_ns)]
+
     def _write_scalars(self, entity: str, index: list[rr.TimeColumn], stamps: NDArray[np.int64],
                        values: Array) -> None:
         """One column of joint values at ``index`` (the ``stamps``); values that are NaN are left out."""
@@ -484,7 +517,7 @@ class RerunSink:
             self._send(entity, index, rr.Scalars.columns(scalars=values), nbytes=stamps.nbytes + values.nbytes)
         elif given.any():
             kept = stamps[given]
-            self._send(entity, [time_column(kept)], rr.Scalars.columns(scalars=values[given]), nbytes=2 * kept.nbytes)
+            self._send(entity, self._index(kept), rr.Scalars.columns(scalars=values[given]), nbytes=2 * kept.nbytes)
 
     def _write_pair(self, parent: str, child: str, index: list[rr.TimeColumn], stamps: NDArray[np.int64],
                     translation: Array, rotation: Array) -> None:

@@ -41,7 +41,10 @@ from tfrec.recording import Transforms
 from tfrec.viewer.blueprint import blueprint_of
 from tfrec.viewer.sink import RerunSink
 
-__all__ = ["RerunReplaySink", "check_can_connect", "check_can_spawn", "open_rerun_sink"]
+__all__ = [
+    "RerunReplaySink", "check_can_connect", "check_can_spawn", "open_live_rerun_sink", "open_rerun_sink",
+    "open_stdout_sink", "wait_for_viewer",
+]
 
 _SCHEMES = ("rerun", "rerun+http", "rerun+https")
 """The URL schemes of a Rerun viewer's gRPC endpoint."""
@@ -119,6 +122,11 @@ class RerunReplaySink:
             self._sinks[0].send_blueprint(blueprint_of(*layouts) if len(layouts) > 1 else None)
             if self._live:
                 sink.flush()
+
+    @property
+    def sinks(self) -> list[RerunSink]:
+        """The Rerun sinks, one per robot (each a :class:`tfrec.formats.RecordSink`)."""
+        return self._sinks
 
     def write_transforms(self, parent: str, child: str, time_ns: NDArray[np.int64], translation: Array,
                          rotation: Array, *, robot: int = 0) -> None:
@@ -202,10 +210,82 @@ def open_rerun_sink(
                 f"cannot spawn the Rerun viewer ({err}); use `save` OUT.rrd or `connect` URL"
             ) from err
         target = f"the Rerun viewer on port {port}"
+        wait_for_viewer(port)  # a replay starts playing when the viewer can show it, not before its window is up
+    return _on_stream(stream, target, parts, names, package_paths, display_prefixes, live=True)
+
+
+def open_stdout_sink(
+    *,
+    application_id: str | None,
+    recording_id: str | None,
+    robots: Sequence[tuple[Robot | None, str, str]],
+    names: Sequence[str] = (),
+    package_paths: Sequence[str | os.PathLike[str]] = (),
+    display_prefixes: Sequence[str] = (),
+) -> RerunReplaySink:
+    """A sink writing an RRD stream to standard output, what a Rerun importer answers (``rerun-importer-tfrec``);
+    the options as for :func:`open_rerun_sink`, ``application_id`` the one Rerun asks for (default tfrec's)."""
+    stream = rr.RecordingStream(application_id or APPLICATION_ID, recording_id=recording_id)
+    stream.stdout()
+    return _on_stream(stream, "standard output", list(robots), names, package_paths, display_prefixes, live=False)
+
+
+def _on_stream(stream: rr.RecordingStream, target: str, parts: Sequence[tuple[Robot | None, str, str]],
+               names: Sequence[str], package_paths: Sequence[str | os.PathLike[str]],
+               display_prefixes: Sequence[str], *, live: bool) -> RerunReplaySink:
+    model, prefix, root = parts[0]
     first = RerunSink.from_stream(stream, target=target, robot=model, frame_prefix=prefix, entity_prefix=root,
                                   package_paths=package_paths)
-    return RerunReplaySink([first, *_more_sinks(first, parts[1:], package_paths)], names=names, live=True,
+    return RerunReplaySink([first, *_more_sinks(first, parts[1:], package_paths)], names=names, live=live,
                            display_prefixes=display_prefixes)
+
+
+def open_live_rerun_sink(
+    *,
+    connect: str | None,
+    robot: Robot,
+    frame_prefix: str = "",
+    package_paths: Sequence[str | os.PathLike[str]] = (),
+    port: int = 9876,
+    reach: Transforms | None = None,
+) -> LiveRerunSink:
+    """What ``tfrec record`` logs (a :class:`tfrec.formats.RecordSink`), sent live to the viewer at ``connect`` or
+    to a spawned one (``tfrec serve --rerun``): the layout goes with the robot's static data, at :meth:`begin`, its
+    camera framing the robot at the dynamic transforms ``reach`` (poses it will take).
+
+    Raises:
+        WriteError: as :func:`open_rerun_sink`.
+    """
+    replay = open_rerun_sink(connect=connect, robot=robot, frame_prefix=frame_prefix, package_paths=package_paths,
+                             port=port)
+    return LiveRerunSink(replay.sinks[0], reach=reach)
+
+
+class LiveRerunSink:
+    """A :class:`RerunSink` to a viewer, as a :class:`tfrec.formats.RecordSink` whose :meth:`begin` also sends the
+    layout and flushes (the viewer shows the robot at once) and whose chunks are flushed as they come."""
+
+    def __init__(self, sink: RerunSink, *, reach: Transforms | None = None) -> None:
+        self.sink = sink
+        self._reach = reach
+
+    def begin(self, *, robot_description: str, static: Transforms, start_time_ns: int) -> None:
+        self.sink.begin(robot_description=robot_description, static=static, start_time_ns=start_time_ns)
+        if self._reach is not None:
+            self.sink.fit_camera(self._reach)
+        self.sink.send_blueprint()
+        self.sink.flush()
+
+    def write_chunk(self, *, stamp_ns: NDArray[np.int64], joint_names: Sequence[str], positions: Array,
+                    velocities: Array, transforms: Transforms) -> None:
+        self.sink.write_chunk(stamp_ns=stamp_ns, joint_names=joint_names, positions=positions, velocities=velocities,
+                              transforms=transforms)
+
+    def finish(self) -> None:
+        self.sink.finish()
+
+    def abort(self) -> None:
+        self.sink.abort()
 
 
 def _more_sinks(first: RerunSink, parts: Sequence[tuple[Robot | None, str, str]],
@@ -246,6 +326,19 @@ def check_can_connect(url: str) -> None:
         reason = "timed out" if isinstance(err, TimeoutError) else err.strerror or str(err)
         raise WriteError(f"cannot connect to the Rerun viewer at {url}: {reason} "
                              "(is the viewer running? start it with 'rerun', or use `save` OUT.rrd)") from err
+
+
+def wait_for_viewer(port: int) -> bool:
+    """Wait until the viewer listening on ``port`` answers as an application (its window up and running), at most
+    the 15 s Rerun's viewer client waits; True when it answered. A spawned viewer accepts connections before its
+    window shows: a short replay would be over before anyone saw it."""
+    from rerun.experimental import ViewerClient
+
+    try:
+        ViewerClient.connect(f"rerun+http://127.0.0.1:{port}/proxy").get_state()
+    except (OSError, RuntimeError, ValueError):  # no viewer there, or one that cannot answer: play anyway
+        return False
+    return True
 
 
 def check_can_spawn() -> None:

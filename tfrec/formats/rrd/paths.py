@@ -49,6 +49,7 @@ __all__ = [
     "APPLICATION_ID",
     "DESCRIPTION_ROOT",
     "DISPLAY_PREFIX_ROOT",
+    "ELAPSED_TIMELINE",
     "JOINTS_ROOT",
     "JOINT_COUNT",
     "MAX_LINKS",
@@ -64,6 +65,7 @@ __all__ = [
     "link_entity",
     "pair_entity",
     "parse_entity",
+    "spoke_entity",
     "static_pair_entity",
     "tf_entity",
     "tf_static_entity",
@@ -76,6 +78,10 @@ APPLICATION_ID = "tfrec"
 
 TIMELINE = "ros_time"
 """The timeline holding the ROS stamps (timestamps, integer nanoseconds)."""
+
+ELAPSED_TIMELINE = "time"
+"""The timeline of the time since the recording's start (durations, integer nanoseconds): what the viewer shows
+first, as seconds from 0 rather than a date."""
 
 ROBOT_ROOT = "robot"
 TF_ROOT = "tf"
@@ -139,6 +145,12 @@ def link_entity(link: str) -> str:
 def visual_entity(link: str, index: int) -> str:
     """``/robot/<link>/visual_<index>``: the link's visual number ``index`` (document order)."""
     return f"{link_entity(link)}/visual_{index}"
+
+
+def spoke_entity(link: str) -> str:
+    """``/robot/<link>/spoke``: a radius drawn on a wheel (the child link of a continuous joint), so that its turning
+    shows."""
+    return f"{link_entity(link)}/spoke"
 
 
 def tf_entity(joint: str) -> str:
