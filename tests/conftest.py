@@ -69,6 +69,8 @@ SLOW_TIER = (
     "tests/trajectory/test_keyframes.py::test_many_rows_in_seconds",
     "tests/faults/test_deep_chains.py",
     "tests/faults/test_many_channels.py",
+    # a scratch pytest project run again and again: goldens made, compared, failed with artefacts, remade
+    "tests/test_pytest_plugin.py::test_the_golden_workflow",
 )
 """The slow tier (``make test-slow``, run by CI; ``make test`` leaves it out): test files, or test names
 (a prefix: every parametrization, and every test whose name starts so), kept in this one list."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import sys
 import warnings
 from collections.abc import Iterator, Sequence
@@ -46,6 +47,13 @@ def add_parser(sub: Any) -> None:
                   "  tfrec record marm_description/launch/view_marm.launch --traj keyframes.csv --rate 100 "
                   "--interp cubic")
     add_robot_arguments(rec)
+    for action in rec._actions:  # ROBOT may be left out for --like
+        if action.dest == "robot":
+            action.nargs, action.default = "?", None
+    rec.add_argument("--like", metavar="REC", default=None,
+                     help="make the recording REC was made as (its description, xacro arguments, trajectory and "
+                          "options, kept in its MCAP metadata): byte for byte the same when nothing changed; ROBOT "
+                          "and the trajectory options are not given with it")
     traj = rec.add_argument_group("trajectory")
     traj.add_argument("--traj", metavar="KIND", default="sine",
                       help="center, random, sine, sweep, or a CSV file (time column in s + one column per "
@@ -106,6 +114,11 @@ def _cmd_record(ns: argparse.Namespace) -> int:
     from tfrec.recorder import needs_stem, plan_outputs
     from tfrec.trajectory.types import TrajectoryKind
 
+    ns.recipe_paths = None
+    if ns.like is not None:
+        _take_recipe(ns)
+    elif ns.robot is None:
+        raise TrajectoryError("record: ROBOT (a description or launch file) or `--like REC` is required")
     start_ns = DEFAULT_START_TIME_NS if ns.start_time is None else ns.start_time
     csv = ns.traj not in TrajectoryKind._value2member_map_
     if not needs_stem(out=ns.output, rrd=ns.rrd, bag=ns.bag, no_mcap=ns.no_mcap):
@@ -132,6 +145,61 @@ def _cmd_record(ns: argparse.Namespace) -> int:
         frame_prefix = params.frame_prefix if params is not None and params.frame_prefix else ""
     with _naming_the_robot(ns.robot):
         return _record_robot(ns, robot, launch, csv, rate, overrides, frame_prefix, start_ns)
+
+
+_TRAJECTORY_DEFAULTS: dict[str, Any] = {"traj": "sine", "duration": None, "rate": None, "interp": "linear", "hard_limits": False,
+                        "seed": 0, "period": 2.0, "amplitude": 0.8, "overrides": [], "frame_prefix": None,
+                        "start_time": None, "compression": None, "strict_xacro": False}
+
+
+def _take_recipe(ns: argparse.Namespace) -> None:
+    """``--like REC``: the options of the recording REC's recipe (:mod:`tfrec.recorder`) in ``ns``.
+
+    Raises:
+        TrajectoryError: ROBOT, its arguments or a trajectory option given too.
+        ReadError: REC holds no recipe.
+    """
+    from tfrec.recorder import read_recipe, resolve_path
+
+    given = [f"--{dest.replace('_', '-')}" for dest, default in _TRAJECTORY_DEFAULTS.items()
+             if getattr(ns, dest) != default]
+    if ns.robot is not None or ns.xacro_args or given:
+        what = "ROBOT" if ns.robot is not None or ns.xacro_args else f"`{given[0]}`"
+        raise TrajectoryError(f"record: {what} goes with no `--like`: {ns.like} says how the recording is made")
+    recipe = read_recipe(ns.like)
+    beside = os.path.dirname(os.path.abspath(ns.like))
+    ns.robot = resolve_path(recipe.description, beside=beside)
+    ns.xacro_args = [f"{name}:={value}" for name, value in recipe.args.items()]
+    csv = recipe.traj not in _kinds()
+    ns.traj = resolve_path(recipe.traj, beside=beside) if csv else recipe.traj
+    ns.duration, ns.rate, ns.seed, ns.period = recipe.duration_s, recipe.rate_hz, recipe.seed, recipe.period_s
+    ns.amplitude, ns.interp, ns.hard_limits = recipe.amplitude, recipe.interp, recipe.hard_limits
+    ns.overrides = [f"{name}={value!r}" for name, value in recipe.overrides.items()]
+    ns.frame_prefix, ns.start_time, ns.compression = recipe.frame_prefix, recipe.start_time_ns, recipe.compression
+    ns.strict_xacro = recipe.strict_xacro
+    ns.recipe_paths = (recipe.description, recipe.traj)  # kept as the recipe gives them, not as resolved
+
+
+def _kinds() -> frozenset[str]:
+    from tfrec.trajectory.types import TrajectoryKind
+
+    return frozenset(TrajectoryKind._value2member_map_)
+
+
+def _recipe(ns: argparse.Namespace, robot: Robot, csv: bool, rate: float | None, overrides: dict[str, float],
+            frame_prefix: str, start_ns: int) -> dict[str, dict[str, str]]:
+    """The metadata that says how this recording is made (:mod:`tfrec.recorder`)."""
+    from tfrec.description import parse_xacro_args
+    from tfrec.recorder import RECIPE, Recipe, with_hashes
+
+    description, traj = ns.recipe_paths or (ns.robot, ns.traj)
+    recipe = Recipe(description=description, args=parse_xacro_args(ns.xacro_args), traj=traj,
+                    duration_s=None if csv else ns.duration, rate_hz=rate, seed=ns.seed, period_s=ns.period,
+                    amplitude=ns.amplitude, interp=ns.interp, hard_limits=ns.hard_limits, overrides=overrides,
+                    frame_prefix=frame_prefix, start_time_ns=start_ns, compression=ns.compression,
+                    strict_xacro=ns.strict_xacro)
+    made = with_hashes(recipe, description_path=ns.robot, urdf=robot.urdf, traj_path=ns.traj if csv else None)
+    return {RECIPE: made.metadata()}
 
 
 def _outputs(ns: argparse.Namespace, csv: bool) -> dict[str, Any]:
@@ -169,7 +237,8 @@ def _record_robot(ns: argparse.Namespace, robot: Robot, launch: LaunchRobot | No
     progress = Progress(sys.stderr)
     try:
         result = record(robot, trajectory, plan, compression=ns.compression, start_time_ns=start_ns,
-                        frame_prefix=frame_prefix, package_paths=ns.package_path, progress=progress)
+                        frame_prefix=frame_prefix, package_paths=ns.package_path, progress=progress,
+                        metadata=_recipe(ns, robot, csv, rate, overrides, frame_prefix, start_ns))
     finally:
         progress.close()
     seconds = (result.end_time_ns - result.start_time_ns) / NS_PER_S
