@@ -83,9 +83,10 @@ def add_parser(sub: Any) -> None:
                    "  tfrec diff arm.xacro arm.xacro hand:=true --traj sweep\n"
                    "  tfrec diff robot_log.mcap arm-v2.xacro\n"
                    "  tfrec diff goldens/ tonight/ --report diff.parquet --jobs 8     (folders: pairs by relative path)")
-    from tfrec.cli._fleet import add_engine_arguments
+    from tfrec.cli._fleet import add_ci_arguments, add_engine_arguments
 
     add_engine_arguments(diff)
+    add_ci_arguments(diff)
     diff.set_defaults(handler=_cmd_diff)
 
 
@@ -156,6 +157,9 @@ def _check_outputs(ns: argparse.Namespace, inputs: list[str | None]) -> None:
 
         plot_format(ns.plot)
         outputs.append((Path(ns.plot), picture_kind(ns.plot)))
+    from tfrec.cli._fleet import ci_targets
+
+    outputs += ci_targets(ns)
     check_outputs(outputs, force=ns.force, inputs=[path for path in inputs
                                                    if path not in TrajectoryKind._value2member_map_])
 
@@ -221,4 +225,12 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
         show(f"wrote {ns.plot}", file=sys.stderr if ns.json else sys.stdout)
     if ns.rrd is not None:
         show(f"wrote {ns.rrd}   (open with: rerun {ns.rrd})", file=sys.stderr if ns.json else sys.stdout)
+    if ns.junit is not None or ns.summary is not None or ns.format != "text":
+        from tfrec.cli._fleet import emit_ci
+        from tfrec.fleet.ci import case_from_diff
+
+        files = [None if recordings or is_recording_path(path) else path for path in (a, b)]
+        artefacts = [path for path in (ns.rrd, ns.plot) if path is not None]
+        emit_ci(ns, [case_from_diff(report, a=a, b=b, files=files, artefacts=artefacts)], suite="diff",
+                title=f"tfrec diff {a} {b}", artefacts=[])
     return 0 if report.equal else 1
