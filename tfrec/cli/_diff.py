@@ -176,9 +176,19 @@ def _refuse(options: Iterable[tuple[object, str]], why: str) -> None:
 
 
 def _cmd_diff(ns: argparse.Namespace) -> int:
+    from tfrec.diff.revision import Revisions
+
+    with Revisions() as revisions:  # REV:PATH inputs: the revision's files in a temporary folder, removed after
+        return _diff(ns, revisions)
+
+
+def _diff(ns: argparse.Namespace, revisions: Any) -> int:
     from tfrec.diff.inputs import is_recording_path
 
-    (a, args_a), (b, args_b) = split_inputs(ns.inputs, ns.package_path)
+    (given_a, args_a), (given_b, args_b) = split_inputs(ns.inputs, ns.package_path)
+    a, b = revisions.path(given_a), revisions.path(given_b)
+    if ns.joints is not None:
+        ns.joints = revisions.path(ns.joints)
     if _folder_of_recordings(a) and _folder_of_recordings(b) and not args_a and not args_b:
         from tfrec.cli._fleet import run_diff_folders
 
@@ -212,7 +222,7 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
         from tfrec.diff.overlay import write_overlay
 
         write_overlay(comparison, ns.rrd, force=ns.force, package_paths=ns.package_path)
-    show(*(report.to_json() if ns.json else as_flags(report.to_text()).rstrip("\n")).split("\n"))
+    show(*revisions.shown(report.to_json() if ns.json else as_flags(report.to_text()).rstrip("\n")).split("\n"))
     if ns.plot is not None and recordings:
         from tfrec.plots import plot_diff
 
@@ -229,8 +239,9 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
         from tfrec.cli._fleet import emit_ci
         from tfrec.fleet.ci import case_from_diff
 
-        files = [None if recordings or is_recording_path(path) else path for path in (a, b)]
+        files = [None if recordings or is_recording_path(path) or path != given else path
+                 for path, given in ((a, given_a), (b, given_b))]  # a REV:PATH side has no line to point at
         artefacts = [path for path in (ns.rrd, ns.plot) if path is not None]
-        emit_ci(ns, [case_from_diff(report, a=a, b=b, files=files, artefacts=artefacts)], suite="diff",
-                title=f"tfrec diff {a} {b}", artefacts=[])
+        emit_ci(ns, [case_from_diff(report, a=given_a, b=given_b, files=files, artefacts=artefacts)], suite="diff",
+                title=f"tfrec diff {given_a} {given_b}", artefacts=[])
     return 0 if report.equal else 1
