@@ -313,6 +313,7 @@ class Recipe:
         seed, period_s, amplitude, interp, hard_limits, overrides: the trajectory options.
         frame_prefix, start_time_ns, compression: the recording options (compression None: the default).
         strict_xacro: xacro expanded as ROS 2's xacro does (``--strict-xacro``).
+        velocity_limits: generated trajectories within the joints' velocity limits (not ``--ignore-velocity-limits``).
         description_sha256, urdf_sha256, traj_sha256: hashes of the description file, the expanded
             URDF and a CSV trajectory ("" for a generated one), filled in by the recorder.
         tfrec_version: the version that made the recording.
@@ -333,6 +334,7 @@ class Recipe:
     start_time_ns: int = DEFAULT_START_TIME_NS
     compression: str | None = None
     strict_xacro: bool = False
+    velocity_limits: bool = True
     description_sha256: str = ""
     urdf_sha256: str = ""
     traj_sha256: str = ""
@@ -361,6 +363,7 @@ class Recipe:
             "start_time_ns": str(self.start_time_ns),
             "compression": self.compression or "",
             "strict_xacro": "true" if self.strict_xacro else "false",
+            "velocity_limits": "true" if self.velocity_limits else "false",
             "command": self.command(),
         }
 
@@ -377,6 +380,7 @@ class Recipe:
                 words += [flag, f"{value:g}" if isinstance(value, float) else str(value)]
         words += [word for name, value in self.overrides.items() for word in ("--set", f"{name}={value:g}")]
         words += ["--hard-limits"] * self.hard_limits + ["--strict-xacro"] * self.strict_xacro
+        words += ["--ignore-velocity-limits"] * (not self.velocity_limits)
         if self.frame_prefix:
             words += ["--frame-prefix", self.frame_prefix]
         if self.start_time_ns != DEFAULT_START_TIME_NS:
@@ -407,6 +411,7 @@ def parse_recipe(values: Mapping[str, str], *, source: str) -> Recipe:
             start_time_ns=int(values.get("start_time_ns", str(DEFAULT_START_TIME_NS))),
             compression=values.get("compression") or None,
             strict_xacro=values.get("strict_xacro") == "true",
+            velocity_limits=values.get("velocity_limits", "true") == "true",
             description_sha256=values.get("description_sha256", ""),
             urdf_sha256=values.get("urdf_sha256", ""),
             traj_sha256=values.get("traj_sha256", ""),
@@ -496,7 +501,8 @@ def record_recipe(recipe: Recipe, out: str | os.PathLike[str], *, beside: str | 
                              strict_xacro=recipe.strict_xacro)
     trajectory = make_trajectory(robot, traj, duration_s=recipe.duration_s, rate_hz=recipe.rate_hz, seed=recipe.seed,
                                  period_s=recipe.period_s, amplitude=recipe.amplitude, overrides=recipe.overrides,
-                                 soft_limits=not recipe.hard_limits, interp=recipe.interp)
+                                 soft_limits=not recipe.hard_limits, interp=recipe.interp,
+                                 velocity_limits=recipe.velocity_limits)
     made = with_hashes(recipe, description_path=description, urdf=robot.urdf, traj_path=traj if csv else None)
     return record(robot, trajectory, plan, compression=recipe.compression, start_time_ns=recipe.start_time_ns,
                   frame_prefix=recipe.frame_prefix, package_paths=package_paths, metadata={RECIPE: made.metadata()})

@@ -100,6 +100,9 @@ def add_parser(sub: Any) -> None:
                        help=f"rotation tolerance (default {number(CHECK_ROT_TOL)})")
     check.add_argument("--gap-periods", metavar="N", type=float, default=None,
                        help="a gap longer than N periods of a stream's rate is a finding (default 5)")
+    check.add_argument("--max-accel", metavar="X", type=float, default=None,
+                       help="a joint acceleration over X (rad/s² or m/s²) is a finding (default: not checked; URDF "
+                            "gives velocity limits only)")
     check.add_argument("--force", action="store_true",
                        help="replace an existing --report (only a tfrec report; --resume replaces it too)")
     add_engine_arguments(check)
@@ -119,7 +122,7 @@ def _cmd_check(ns: argparse.Namespace) -> int:
     tasks = check_tasks(
         recordings, robot_path=ns.robot[0] if ns.robot else None, robot_args=tuple(ns.robot[1:]) if ns.robot else (),
         package_paths=ns.package_path, strict_xacro=ns.strict_xacro, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol,
-        gap_periods=DEFAULT_GAP_PERIODS if ns.gap_periods is None else ns.gap_periods,
+        gap_periods=DEFAULT_GAP_PERIODS if ns.gap_periods is None else ns.gap_periods, max_accel=ns.max_accel,
     )
     return _run(ns, tasks, what="recordings")
 

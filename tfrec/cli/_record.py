@@ -68,6 +68,10 @@ def add_parser(sub: Any) -> None:
     traj.add_argument("--hard-limits", action="store_true",
                       help="move joints within their hard <limit>s; by default, as joint_state_publisher does "
                            "(use_smallest_joint_limits), within their <safety_controller> soft limits")
+    traj.add_argument("--ignore-velocity-limits", action="store_true",
+                      help="move random, sine and sweep as fast as --period and --duration make them; by default no "
+                           "joint moves faster than its <limit velocity> (joint_state_publisher's Randomize is a jump; "
+                           "tfrec interpolates)")
     traj.add_argument("--seed", metavar="N", type=int, default=0, help="seed of --traj random (default 0)")
     traj.add_argument("--period", metavar="S", type=float, default=2.0,
                       help="seconds between random waypoints (Randomize presses); sine periods; at least 1/rate "
@@ -149,7 +153,8 @@ def _cmd_record(ns: argparse.Namespace) -> int:
 
 _TRAJECTORY_DEFAULTS: dict[str, Any] = {"traj": "sine", "duration": None, "rate": None, "interp": "linear", "hard_limits": False,
                         "seed": 0, "period": 2.0, "amplitude": 0.8, "overrides": [], "frame_prefix": None,
-                        "start_time": None, "compression": None, "strict_xacro": False}
+                        "start_time": None, "compression": None, "strict_xacro": False,
+                        "ignore_velocity_limits": False}
 
 
 def _take_recipe(ns: argparse.Namespace) -> None:
@@ -176,7 +181,7 @@ def _take_recipe(ns: argparse.Namespace) -> None:
     ns.amplitude, ns.interp, ns.hard_limits = recipe.amplitude, recipe.interp, recipe.hard_limits
     ns.overrides = [f"{name}={value!r}" for name, value in recipe.overrides.items()]
     ns.frame_prefix, ns.start_time, ns.compression = recipe.frame_prefix, recipe.start_time_ns, recipe.compression
-    ns.strict_xacro = recipe.strict_xacro
+    ns.strict_xacro, ns.ignore_velocity_limits = recipe.strict_xacro, not recipe.velocity_limits
     ns.recipe_paths = (recipe.description, recipe.traj)  # kept as the recipe gives them, not as resolved
 
 
@@ -197,9 +202,21 @@ def _recipe(ns: argparse.Namespace, robot: Robot, csv: bool, rate: float | None,
                     duration_s=None if csv else ns.duration, rate_hz=rate, seed=ns.seed, period_s=ns.period,
                     amplitude=ns.amplitude, interp=ns.interp, hard_limits=ns.hard_limits, overrides=overrides,
                     frame_prefix=frame_prefix, start_time_ns=start_ns, compression=ns.compression,
-                    strict_xacro=ns.strict_xacro)
+                    strict_xacro=ns.strict_xacro, velocity_limits=not ns.ignore_velocity_limits)
     made = with_hashes(recipe, description_path=ns.robot, urdf=robot.urdf, traj_path=ns.traj if csv else None)
     return {RECIPE: made.metadata()}
+
+
+def _warn_of_motion(robot: Robot, trajectory: Any, where: str) -> None:
+    """A CSV trajectory that moves a joint beyond its limits or faster than its velocity limit: one warning each
+    (:class:`tfrec.replay.motion_checks.MotionChecker`, which ``tfrec check`` runs on recordings)."""
+    from tfrec.replay.motion_checks import MotionChecker
+
+    checker = MotionChecker(robot)
+    for chunk in trajectory.chunks(65536):
+        checker.feed(chunk.joint_names, chunk.time_ns, chunk.positions)
+    for finding in checker.findings():
+        warnings.warn(f"{where}: {finding.detail()}", TfrecWarning, stacklevel=1)
 
 
 def _outputs(ns: argparse.Namespace, csv: bool) -> dict[str, Any]:
@@ -228,7 +245,10 @@ def _record_robot(ns: argparse.Namespace, robot: Robot, launch: LaunchRobot | No
     trajectory = make_trajectory(
         robot, ns.traj, duration_s=ns.duration, rate_hz=rate, seed=ns.seed, period_s=ns.period,
         amplitude=ns.amplitude, overrides=overrides, soft_limits=not ns.hard_limits, interp=ns.interp,
+        velocity_limits=not ns.ignore_velocity_limits,
     )
+    if csv:
+        _warn_of_motion(robot, trajectory, ns.traj)
     plan = plan_outputs(stem=default_stem(robot, ns.traj), **_outputs(ns, csv))
     allowed = ROS1_COMPRESSIONS if plan.ros1_bag is not None else COMPRESSIONS
     if ns.compression is not None and ns.compression not in allowed and plan.main is not None:

@@ -105,8 +105,9 @@ def check_recording(
     rot_tol: float = CHECK_ROT_TOL,
     gap_periods: float = DEFAULT_GAP_PERIODS,
     config: str = "",
+    max_accel: float | None = None,
 ) -> list[Row]:
-    """Check one recording as a fleet needs it: re-simulation and health.
+    """Check one recording as a fleet needs it: re-simulation, health and motion.
 
     Findings (``fail`` rows), in this order:
 
@@ -122,6 +123,9 @@ def check_recording(
       (rad) from TF re-simulated from the joint states, with the time it first exceeds it; a
       frame that cannot be compared (wrong parent, moving joint on /tf_static); or a recording
       that cannot be re-simulated (no /joint_states, no /tf).
+    - ``motion``: what the robot could not have done (:mod:`tfrec.replay.motion_checks`): a joint beyond its
+      limits or soft limits, faster than its velocity limit, accelerating over ``max_accel``, jumping, a
+      non-finite position, a mimic joint not following its master; ``frame`` is the joint.
 
     Args:
         path: a recording (``.mcap``, rosbag2 folder, ROS 1 ``.bag``, ``.rrd``).
@@ -132,6 +136,7 @@ def check_recording(
         pos_tol, rot_tol: the re-simulation's tolerances (m, rad), as ``replay --check``'s.
         gap_periods: a gap longer than this many median periods is a finding.
         config: the run's :func:`tfrec.fleet.plan.check_config`, copied to every row.
+        max_accel: the largest joint acceleration (rad/s² or m/s²); None: not checked.
 
     Returns:
         The summary row (verdict ``pass``, ``fail``, or ``error`` when the recording cannot
@@ -162,7 +167,7 @@ def check_recording(
         except TfrecError as err:
             return [_row(base, verdict=ERROR, detail=one_line(str(err)), read_s=time.perf_counter() - started)]
         read_s = time.perf_counter() - started
-        examined = _examine(replay, pos_tol=pos_tol, rot_tol=rot_tol, gap_periods=gap_periods)
+        examined = _examine(replay, pos_tol=pos_tol, rot_tol=rot_tol, gap_periods=gap_periods, max_accel=max_accel)
     notes = _notes(caught, skip=[replay.read_error or "", "/robot_description"])
     base["robot"] = replay.robot.name if replay.robot is not None else ""
     findings = examined.findings
@@ -189,7 +194,8 @@ class _Examined:
     frames: list[FrameCheck] = field(default_factory=list)
 
 
-def _examine(replay: Replay, *, pos_tol: float, rot_tol: float, gap_periods: float) -> _Examined:
+def _examine(replay: Replay, *, pos_tol: float, rot_tol: float, gap_periods: float,
+             max_accel: float | None = None) -> _Examined:
     """The findings about a loaded recording, and the summary's text."""
     findings: list[Finding] = []
     if replay.read_error is not None:
@@ -224,7 +230,21 @@ def _examine(replay: Replay, *, pos_tol: float, rot_tol: float, gap_periods: flo
             frames, resim = _frame_findings(replay, report)
             parts.insert(0, _check_summary(report))
             parts.extend(report.notes)
-    return _Examined([*findings, *health, *frames, *resim], "; ".join(parts), compared)
+    motion = _motion_findings(replay, max_accel) if replay.robot is not None and js is not None else []
+    return _Examined([*findings, *health, *frames, *resim, *motion], "; ".join(parts), compared)
+
+
+def _motion_findings(replay: Replay, max_accel: float | None) -> list[Finding]:
+    """The joint states against the robot's limits (:class:`tfrec.replay.motion_checks.MotionChecker`)."""
+    from tfrec.replay.motion_checks import MotionChecker
+
+    assert replay.robot is not None and replay.joint_states is not None
+    checker = MotionChecker(replay.robot, max_accel=max_accel)
+    js = replay.joint_states
+    checker.feed(js.names, js.time_ns, js.positions)
+    return [Finding("motion", "/joint_states", f.joint, f.detail(replay.origin_ns),
+                    f.value if math.isfinite(f.value) else None, f.unit,
+                    (f.first_ns - replay.origin_ns) / 1e9) for f in checker.findings()]
 
 
 def _unusable(description: str) -> str:
