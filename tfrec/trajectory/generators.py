@@ -324,8 +324,8 @@ def sweep_trajectory(
         length = slot
         for _ in range(64):  # longer until no snapped segment is faster than the velocity limit
             knot_s, knot_q = _sweep_knots(start, length, values, lengths, rate_hz, duration_s, len(time_ns) - 1)
-            speed = _MIN_JERK_PEAK * np.abs(np.diff(knot_q[:, 0])) / np.diff(knot_s)
-            with np.errstate(invalid="ignore"):
+            with np.errstate(over="ignore", invalid="ignore"):  # limits of ±1.8e308: refused in _trajectory
+                speed = _MIN_JERK_PEAK * np.abs(np.diff(knot_q[:, 0])) / np.diff(knot_s)
                 worst = float(np.nanmax(speed / limits[i], initial=0.0))
             if worst <= 1.0 or not math.isfinite(worst):
                 break
