@@ -56,13 +56,13 @@ def _found(positions: np.ndarray, time_ns: np.ndarray | None = None, *, batches:
 
 
 def test_a_clean_motion_has_no_finding() -> None:
-    time_ns, positions = _clean()
+    _, positions = _clean()
     assert _found(positions, max_accel=5.0) == []
 
 
 @pytest.mark.parametrize("batches", [1, 3, 101])
 def test_each_violation_is_found_with_joint_value_limit_and_first_time(batches: int) -> None:
-    time_ns, positions = _clean()
+    _, positions = _clean()
     positions[30:33, 0] = 1.25  # beyond the hard limit (and a jump there and back)
     positions[60, 0] = 0.95  # beyond the soft limit only (a smaller step)
     positions[:, 3] = 2 * positions[:, 0] + 0.1
@@ -88,7 +88,7 @@ def test_each_violation_is_found_with_joint_value_limit_and_first_time(batches: 
 
 
 def test_acceleration_only_with_max_accel() -> None:
-    time_ns, positions = _clean()
+    _, positions = _clean()
     positions[:, 0] = np.where(np.arange(101) < 50, 0.0, 0.02 * (np.arange(101) - 50))  # 0 → 1 rad/s in one step
     positions[:, 3] = 2 * positions[:, 0] + 0.1
     assert not [f for f in _found(positions) if f.check == "acceleration"]
@@ -104,7 +104,7 @@ def test_a_continuous_joint_wrapping_around_is_no_jump() -> None:
 
 
 def test_a_nan_is_found_where_messages_name_the_joint_not_where_they_leave_it_out() -> None:
-    time_ns, positions = _clean()
+    _, positions = _clean()
     bad = positions.copy()
     bad[10, 2] = math.nan  # a message of all four joints with a NaN for slide
     (finding,) = _found(bad)
