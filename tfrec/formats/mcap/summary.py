@@ -46,6 +46,7 @@ __all__ = [
     "Statistics",
     "chunk_fields",
     "id_map",
+    "METADATA_LIMIT",
     "listed_extras",
     "metadata_records",
     "parse_channel",
@@ -252,14 +253,18 @@ def listed_extras(stream: IO[bytes], size: int, path: Path) -> list[Extra]:
     return found
 
 
+METADATA_LIMIT = 1 << 20
+"""Bytes of a metadata record :func:`metadata_records` reads at most (tfrec's recipe takes about one KiB)."""
+
+
 def metadata_records(path: Path) -> dict[str, dict[str, str]]:
     """The metadata records an MCAP file's summary indexes (its ``rosbag2`` one left out): name → map;
-    none without a summary, a damaged record left out."""
+    none without a summary, a damaged record or one over :data:`METADATA_LIMIT` bytes left out."""
     found: dict[str, dict[str, str]] = {}
     with open(path, "rb") as stream:
         size = os.fstat(stream.fileno()).st_size
         for extra in listed_extras(stream, size, path):
-            if extra.kind != "metadata":
+            if extra.kind != "metadata" or extra.length > METADATA_LIMIT:
                 continue
             try:
                 body = memoryview(_record_at(stream, size, extra.offset, OP_METADATA, "metadata record"))
