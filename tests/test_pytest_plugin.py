@@ -20,6 +20,7 @@ import tfrec.plots
 import tfrec.recorder
 import tfrec.viewer.sink
 from tfrec.cli import main
+from tfrec.errors import ReadError
 
 # pytester runs the scratch project in this process and forgets the modules it imported afterwards: numpy's
 # (and so everything above) cannot be imported twice, so they are imported here, before
@@ -169,3 +170,33 @@ def test_the_plugin_imports_nothing_heavy() -> None:
             "'xacro', 'tfrec.recorder') if m in sys.modules]; print(heavy)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_a_recipe_from_another_writer_is_read_and_a_huge_or_malformed_one_is_not(tmp_path: Path,
+                                                                                capsys: pytest.CaptureFixture[str]) -> None:
+    """Recipes written by mcap's own writer: a good one is taken by --like; one over 1 MiB is not read; one
+    without its description is one line."""
+    from mcap.writer import Writer
+
+    from tfrec.recorder import RECIPE, Recipe, read_recipe
+
+    def write(path: Path, values: dict[str, str]) -> Path:
+        with open(path, "wb") as stream:
+            writer = Writer(stream)
+            writer.start(profile="ros2", library="other")
+            writer.add_metadata(RECIPE, values)
+            writer.finish()
+        return path
+
+    arm = tmp_path / "arm.urdf"
+    arm.write_text(ARM.format(z="0.1"))
+    good = write(tmp_path / "good.mcap", Recipe(description="arm.urdf", traj="sweep", duration_s=1.0).metadata())
+    assert read_recipe(good).traj == "sweep"
+    assert main(["record", "--like", str(good), "-o", str(tmp_path / "out.mcap"), "--no-rrd"]) == 0
+    assert "--traj sweep" in capsys.readouterr().out
+    huge = write(tmp_path / "huge.mcap", {**Recipe(description="arm.urdf").metadata(), "pad": "x" * (1 << 20)})
+    with pytest.raises(ReadError, match="holds no recipe"):
+        read_recipe(huge)
+    broken = write(tmp_path / "broken.mcap", {"traj": "sine"})
+    assert main(["record", "--like", str(broken), "-o", str(tmp_path / "b.mcap")]) == 2
+    assert capsys.readouterr().err == f"tfrec: error: {broken}: its tfrec.recipe metadata has no 'description'\n"
