@@ -202,3 +202,14 @@ def test_the_documented_ci_jobs_run_as_written(doc: str, tmp_path: Path) -> None
         SCHEMA.validate(report)
     summary = tmp_path / ("step-summary.md" if doc.startswith(".github") else "summary.md")
     assert summary.read_text().startswith("<!-- tfrec summary -->\n## tfrec check: goldens/")
+
+
+def test_a_summary_of_names_that_are_no_utf8_is_written(tmp_path: Path) -> None:
+    from tfrec.fleet.ci import Case, write_ci_outputs
+
+    case = Case(name="bags/\udcff|x.mcap", verdict="fail", detail="bad \x1b[2J", file="bags/\udcff|x.mcap")
+    write_ci_outputs([case], suite="check", title="t", junit=tmp_path / "j.xml", summary=tmp_path / "s.md",
+                     force=False)
+    text = (tmp_path / "s.md").read_text(encoding="utf-8")
+    assert "`bags/\\udcff\\|x.mcap`" in text and "\x1b" not in text
+    SCHEMA.validate(tmp_path / "j.xml")

@@ -26,6 +26,7 @@ from typing import Any
 from xml.etree import ElementTree
 
 from tfrec._outputs import FileKind
+from tfrec.errors import printable
 from tfrec.fleet.row import ERROR, FAIL, PASS, SUMMARY, Row
 
 __all__ = [
@@ -284,7 +285,9 @@ _ICON: dict[str, str] = {PASS: "✅ pass", FAIL: "❌ fail", ERROR: "⚠️ erro
 
 
 def _cell(text: str) -> str:
-    return text.replace("|", "\\|").replace("\n", " ").replace("`", "'")
+    """Text for a Markdown table cell: escaped as the terminal shows it (:func:`tfrec.errors.printable`: control
+    characters, a file name's bytes that are not UTF-8), no ``|`` or backquote that would end the cell or the code."""
+    return printable(text.replace("\n", " ")).replace("|", "\\|").replace("`", "'")
 
 
 def markdown_summary(cases: Sequence[Case], *, title: str, artefacts: Sequence[str] = ()) -> str:
@@ -308,7 +311,7 @@ def markdown_summary(cases: Sequence[Case], *, title: str, artefacts: Sequence[s
         lines += [f"- {_cell(_finding_text(finding))}" for finding in failing]
     shown = [*artefacts, *(path for case in cases for path in case.artefacts)]
     if shown:
-        lines += ["", "### Artefacts", ""] + [f"- [{_cell(path)}]({path})" for path in shown]
+        lines += ["", "### Artefacts", ""] + [f"- [{_cell(path)}]({_cell(path).replace(' ', '%20')})" for path in shown]
     return "\n".join(lines) + "\n"
 
 
