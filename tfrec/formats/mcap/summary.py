@@ -39,6 +39,7 @@ from tfrec.formats.mcap.records import (
 from tfrec.formats.ros.connection import Extra
 
 __all__ = [
+    "METADATA_LIMIT",
     "ChannelRecord",
     "ChunkHead",
     "ChunkIndex",
@@ -46,7 +47,6 @@ __all__ = [
     "Statistics",
     "chunk_fields",
     "id_map",
-    "METADATA_LIMIT",
     "listed_extras",
     "metadata_records",
     "parse_channel",
