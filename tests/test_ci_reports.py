@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 import xmlschema
+import yaml
 from junitparser import Error, Failure, JUnitXml
 
 from tfrec.cli import main
@@ -181,6 +182,11 @@ def test_the_documented_ci_jobs_run_as_written(doc: str, tmp_path: Path) -> None
     recordings made by `tfrec record`; the commands run in a shell, with $GITHUB_STEP_SUMMARY set."""
     commands = _commands(doc)
     assert len(commands) >= 2, commands
+    text = (REPO / "docs" / "ci.md").read_text()
+    job = yaml.safe_load(text.split(f"```yaml\n# {doc}", 1)[1].split("```", 1)[0])  # valid YAML, the right shape
+    steps = job["jobs"]["robot"]["steps"] if doc.startswith(".github") else job["robot"]["script"]
+    assert [c for step in steps for c in ([step.get("run", "")] if isinstance(step, dict) else [step])
+            if c.startswith("tfrec ")] == commands
     (tmp_path / "robots").mkdir()
     shutil.copy(REPO / "robots" / "marm.xacro", tmp_path / "robots" / "marm.xacro")
     if (REPO / "robots" / "marm").is_dir():

@@ -80,8 +80,10 @@ def test_the_golden_workflow(project: pytest.Pytester) -> None:
     result.stdout.fnmatch_lines([f"*test_arm.mcap: no golden recording yet; make it with: {made_with}"])
     assert "Traceback" not in result.stdout.str() and "def test_arm" not in result.stdout.str()
     assert not goldens.exists()
-    # --tfrec-update makes them; then the tests pass
-    project.runpytest("--tfrec-update").assert_outcomes(passed=2)
+    # --tfrec-update makes them, and says so; then the tests pass
+    result = project.runpytest("--tfrec-update")
+    result.assert_outcomes(passed=2)
+    result.stdout.fnmatch_lines(["*tfrec: goldens written (--tfrec-update)*", f"{goldens / 'test_arm.mcap'}"])
     assert sorted(path.name for path in goldens.iterdir()) == ["arm-random.mcap", "test_arm.mcap"]
     recipe = _recipe(goldens / "test_arm.mcap")
     assert recipe["description"] == "../robot/arm.urdf" and recipe["traj"] == "sine"

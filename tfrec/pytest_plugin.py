@@ -31,6 +31,7 @@ __all__ = ["TfrecGolden"]
 
 _USED = pytest.StashKey[set[Path]]()
 _FOLDERS = pytest.StashKey[set[Path]]()
+_WRITTEN = pytest.StashKey[list[Path]]()
 _NOT_RUN = pytest.StashKey[set[Path]]()  # golden folders of modules of which a test did not run
 
 
@@ -47,6 +48,7 @@ def pytest_configure(config: pytest.Config) -> None:
     config.stash[_USED] = set()
     config.stash[_FOLDERS] = set()
     config.stash[_NOT_RUN] = set()
+    config.stash[_WRITTEN] = []
 
 
 def pytest_deselected(items: list[pytest.Item]) -> None:
@@ -208,6 +210,7 @@ class TfrecGolden:
             temp.write_bytes(fresh.read_bytes())
             outputs.commit()
         self._request.node.user_properties.append(("tfrec_golden_written", os.fspath(golden)))
+        self._request.config.stash[_WRITTEN].append(golden)
 
     def _compare(self, golden: Path, fresh: Path, tolerances: dict[str, Any],
                  package_paths: tuple[str | os.PathLike[str], ...]) -> None:
@@ -256,6 +259,11 @@ def pytest_terminal_summary(terminalreporter: Any, exitstatus: int, config: pyte
     used, not_run = config.stash[_USED], config.stash[_NOT_RUN]
     unused = [path for folder in sorted(config.stash[_FOLDERS] - not_run) for path in sorted(folder.glob("*.mcap"))
               if path.resolve() not in used]
+    written = config.stash[_WRITTEN]
+    if written:
+        terminalreporter.section("tfrec: goldens written (--tfrec-update)")
+        for path in written:
+            terminalreporter.write_line(os.fspath(path))
     if unused:
         terminalreporter.section("tfrec: goldens no test used")
         for path in unused:
