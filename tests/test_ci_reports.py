@@ -72,6 +72,8 @@ def test_check_junit_github_and_summary(fleet: Path, capsys: pytest.CaptureFixtu
                  "--format", "github"]) == 0
     assert "::error" not in capsys.readouterr().out
     suites = list(_junit(junit))
+    assert len(suites) == 1 and suites[0].name == "check" and suites[0].tests == 2 and suites[0].hostname
+    assert re.fullmatch(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d", suites[0].timestamp)  # xs:dateTime, as Ant's schema wants
     cases = [case for suite in suites for case in suite]
     assert sorted(case.name for case in cases) == sorted(str(fleet / "bags" / f"{n}.mcap") for n in ("one", "two"))
     assert all(case.is_passed for case in cases)
