@@ -77,6 +77,8 @@ SLOW_TIER = (
     "tests/faults/test_many_channels.py",
     "tests/faults/test_many_schemas.py::test_65000_",
     "tests/faults/test_address_space.py",
+    # a scratch pytest project run again and again: goldens made, compared, failed with artefacts, remade
+    "tests/test_pytest_plugin.py::test_the_golden_workflow",
 )
 """The slow tier (``make test-slow``, run by CI; ``make test`` leaves it out): test files, or test names
 (a prefix: every parametrization, and every test whose name starts so), kept in this one list."""

@@ -7,6 +7,7 @@ To accept an intended change, re-run the commands in tests/golden/README.md and 
 
 from __future__ import annotations
 
+import os
 import shlex
 import struct
 from pathlib import Path
@@ -31,9 +32,15 @@ TOLERANCE = {"pos_tol": 1e-9, "rot_tol": 1e-9, "joint_tol": 1e-9}
 
 
 def _record(tmp_path: Path, name: str, *extra: str) -> int:
+    """The golden's command, run from the repository root as the README says (the recipe inside the recording keeps
+    the description's path as given)."""
     argv = shlex.split(COMMANDS[name])
-    argv[1] = str(REPO / argv[1])
-    return cli.main([*argv, *extra])
+    here = os.getcwd()
+    os.chdir(REPO)
+    try:
+        return cli.main([*argv, *extra])
+    finally:
+        os.chdir(here)
 
 
 @pytest.mark.parametrize("name", sorted(COMMANDS))

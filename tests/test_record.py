@@ -184,7 +184,8 @@ def test_bag_folder_read_by_rosbag2_reader(tmp_path: Path, capsys: pytest.Captur
     from mcap.reader import make_reader
 
     with open(bag / "run1_0.mcap", "rb") as stream:  # metadata.yaml holds what the MCAP embeds, and names the file
-        (embedded,) = make_reader(stream).iter_metadata()
+        embedded, recipe = make_reader(stream).iter_metadata()  # and how the recording was made
+    assert recipe.name == "tfrec.recipe" and recipe.metadata["traj"] == "sine"
     meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     assert meta["relative_file_paths"] == ["run1_0.mcap"] and meta["files"][0]["path"] == "run1_0.mcap"
     assert {**meta, "relative_file_paths": [], "files": []} == yaml.safe_load(embedded.metadata["serialized_metadata"])

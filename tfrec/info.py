@@ -18,6 +18,7 @@ import os
 import warnings
 from collections.abc import Iterable, Mapping
 from datetime import datetime, timezone
+from pathlib import Path
 from typing import Any
 
 from tfrec.conventions import CLOCK_GAP_NS, JOINT_STATES, NS_PER_S, TF, namespace_name
@@ -54,7 +55,8 @@ def summarize(path: str | os.PathLike[str], *, namespace: str | None = None,
         problem, joints, tf_frames), ``robot_name``, ``joints`` and ``tf_frames`` (of every
         robot together), ``stamps`` (None, or the first header stamp of /joint_states and /tf
         when they are on another clock than the log times: ``first_ns``, ``clock``) and
-        ``read_error`` (None, or what a damaged file lost).
+        ``read_error`` (None, or what a damaged file lost), ``recipe`` (how ``tfrec record`` made it: the
+        ``tfrec.recipe`` metadata map of :mod:`tfrec.recipe`, or None).
 
     Raises:
         ReadError: a missing file, one that is not a recording, one with nothing readable,
@@ -104,7 +106,23 @@ def summarize(path: str | os.PathLike[str], *, namespace: str | None = None,
         "tf_frames": [frame for robot in listed for frame in robot["tf_frames"]],
         "stamps": _stamps(recording),
         "read_error": recording.read_error,
+        "recipe": _recipe(source.files if source.format in ("mcap", "rosbag2") else ()),
     }
+
+
+def _recipe(files: Iterable[Path]) -> dict[str, str] | None:
+    """How ``tfrec record`` made the recording: its ``tfrec.recipe`` metadata (:mod:`tfrec.recipe`), or None."""
+    from tfrec.formats.mcap.summary import metadata_records
+
+    for file in files:
+        if os.fspath(file).endswith(".mcap"):
+            try:
+                found = metadata_records(file).get("tfrec.recipe")
+            except OSError:
+                continue
+            if found is not None:
+                return found
+    return None
 
 
 def _robot(robot: RecordedRobot) -> dict[str, Any]:
@@ -208,6 +226,12 @@ def format_summary(summary: dict[str, Any]) -> str:
     elif stamps is not None:
         lines.append(f"Stamps:      header stamps of /joint_states and /tf from {stamps['first_ns'] / NS_PER_S:.3f} s: "
                      f"{stamps['clock']}; replay, diff and --check use the header stamps (--use-log-time: the log times)")
+    recipe = summary.get("recipe")
+    if recipe is not None:
+        lines.append(f"Made with:   {recipe.get('command', '?')}   (tfrec {recipe.get('tfrec_version') or '?'}; "
+                     f"remake: tfrec record --like {summary['path']})")
+        lines.append(f"             description sha256 {recipe.get('description_sha256') or '?'}, expanded URDF "
+                     f"sha256 {recipe.get('urdf_sha256') or '?'}")
     lines.append(f"Messages:    {summary['message_count']}")
     topics = summary["topics"]
     lines.append(f"Topics ({len(topics)}):")

@@ -3,17 +3,28 @@
 Every output of one recording is written to a temporary file (or folder) beside its target and
 renamed only when all of them are complete; after an error or Ctrl-C no partial output remains
 and older files of those names are untouched.
+
+How a recording was made is kept in it: the recipe (:class:`Recipe`) ``tfrec record`` writes into an MCAP's
+metadata, a record named :data:`RECIPE` (a map of strings): the description's path as it was given and the
+sha256 of its bytes and of the expanded URDF, the xacro arguments, the trajectory (a kind, or a CSV file's
+path and sha256), its seed, rate, duration and the other trajectory options, the start time, the chunk
+compression and tfrec's version. ``tfrec record --like REC`` reads it back (:func:`read_recipe`) and makes
+the same recording again — byte for byte when nothing it names has changed — and ``tfrec info`` shows it.
+The pytest plugin's goldens are made with :func:`record_recipe`. Paths are kept as given; a relative one
+is looked up beside the recording first, then in the current folder (:func:`resolve_path`), so a golden
+and its description can move together.
 """
 
 from __future__ import annotations
 
 import contextlib
 import hashlib
+import json
 import os
 import time
 import uuid
-from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -22,8 +33,9 @@ import numpy as np
 from tfrec._address_space import check_rerun_address_space
 from tfrec._atomic import AtomicOutputs
 from tfrec._outputs import OutputKind, check_outputs
+from tfrec._version import __version__
 from tfrec.conventions import DEFAULT_START_TIME_NS
-from tfrec.errors import WriteError
+from tfrec.errors import ReadError, WriteError
 from tfrec.formats.kinds import MCAP, ROS1_BAG, ROSBAG2, RRD
 from tfrec.formats.mcap.sink import McapSink
 from tfrec.formats.mcap.writer import check_time_range
@@ -35,14 +47,19 @@ from tfrec.trajectory.types import JointTrajectory, TrajectoryKind
 
 __all__ = [
     "DEFAULT_START_TIME_NS",  # re-exported from tfrec.conventions
+    "RECIPE",
+    "Recipe",
     "RecordResult",
     "RecordingPlan",
     "default_stem",
     "needs_stem",
     "open_sinks",
     "plan_outputs",
+    "read_recipe",
     "record",
+    "record_recipe",
     "recording_id",
+    "resolve_path",
 ]
 
 
@@ -192,6 +209,7 @@ def record(
     package_paths: Sequence[str | os.PathLike[str]] = (),
     chunk_samples: int = DEFAULT_CHUNK_SAMPLES,
     progress: Callable[[int, int], None] | None = None,
+    metadata: Mapping[str, Mapping[str, str]] | None = None,
 ) -> RecordResult:
     """Write the recording ``plan`` describes, streaming the trajectory in chunks.
 
@@ -207,6 +225,8 @@ def record(
         package_paths: where meshes' packages are looked up (Rerun geometry).
         chunk_samples: samples per chunk; memory is bounded by it.
         progress: called with (samples done, samples in all) after every chunk.
+        metadata: MCAP metadata records (name → map of strings) written into the MCAP (also the one of a
+            rosbag2 folder): how the recording was made (:mod:`tfrec.recipe`); a ROS 1 bag has no place for them.
 
     Raises:
         WriteError: the outputs could not be written (or an unknown compression); no partial
@@ -224,7 +244,7 @@ def record(
     rid = (recording_id(robot, trajectory, start_time_ns=start_time_ns, frame_prefix=frame_prefix)
            if plan.rrd is not None else None)
     with open_sinks(robot, plan, compression=compression, start_time_ns=start_time_ns, frame_prefix=frame_prefix,
-                    package_paths=package_paths, rerun_recording_id=rid) as sinks:
+                    package_paths=package_paths, rerun_recording_id=rid, metadata=metadata) as sinks:
         done = 0
         # a robot without moving joints gets an empty /joint_states message per sample (so the recording
         # lasts what was asked) and nothing on /tf: robot_state_publisher publishes no /tf for it
@@ -249,11 +269,13 @@ def open_sinks(
     frame_prefix: str = "",
     package_paths: Sequence[str | os.PathLike[str]] = (),
     rerun_recording_id: str | None = None,
+    metadata: Mapping[str, Mapping[str, str]] | None = None,
 ) -> Iterator[list[RecordSink]]:
     """The outputs of ``plan`` as begun sinks (/robot_description and /tf_static written, stamped
     ``start_time_ns``): the caller writes the samples; on leaving the block they are finished and renamed into
     place, after an error or an interrupt aborted and removed (older files of those names untouched).
-    :func:`record` writes through it, and so does ``tfrec serve --record``.
+    :func:`record` writes through it, and so does ``tfrec serve --record``. ``metadata``: MCAP metadata
+    records written into the MCAP (:func:`record`'s).
 
     Raises:
         WriteError: the outputs could not be written; no partial output remains.
@@ -273,7 +295,7 @@ def open_sinks(
                     mcap_temp = outputs.path(plan.mcap, kind=MCAP)
                 stream = open(mcap_temp, "wb")  # noqa: SIM115 - closed below
                 streams.append(stream)
-                mcap_sink = McapSink(stream, compression=compression or "zstd")
+                mcap_sink = McapSink(stream, compression=compression or "zstd", metadata=metadata)
                 sinks.append(mcap_sink)
             if plan.ros1_bag is not None:
                 from tfrec.formats.rosbag1 import Ros1BagSink
@@ -300,3 +322,218 @@ def open_sinks(
             for stream in streams:
                 stream.close()
         outputs.commit()
+
+
+# -- the recipe: how a recording was made --------------------------------------------------
+
+RECIPE = "tfrec.recipe"
+"""The name of the MCAP metadata record that holds a recording's recipe."""
+
+_VERSION = "1"
+
+
+@dataclass(frozen=True, slots=True)
+class Recipe:
+    """What ``tfrec record`` was given (its effective values): enough to make the recording again.
+
+    Attributes:
+        description: the description's path, as given.
+        args: xacro (or launch) arguments.
+        traj: a trajectory kind, or a CSV file's path as given.
+        duration_s, rate_hz: None where the default (or a CSV file's own clock) was used.
+        seed, period_s, amplitude, interp, hard_limits, overrides: the trajectory options.
+        frame_prefix, start_time_ns, compression: the recording options (compression None: the default).
+        strict_xacro: xacro expanded as ROS 2's xacro does (``--strict-xacro``).
+        velocity_limits: generated trajectories within the joints' velocity limits (not ``--ignore-velocity-limits``).
+        description_sha256, urdf_sha256, traj_sha256: hashes of the description file, the expanded
+            URDF and a CSV trajectory ("" for a generated one), filled in by the recorder.
+        tfrec_version: the version that made the recording.
+    """
+
+    description: str
+    args: Mapping[str, str] = field(default_factory=dict)
+    traj: str = "sine"
+    duration_s: float | None = None
+    rate_hz: float | None = None
+    seed: int = 0
+    period_s: float = 2.0
+    amplitude: float = 0.8
+    interp: str = "linear"
+    hard_limits: bool = False
+    overrides: Mapping[str, float] = field(default_factory=dict)
+    frame_prefix: str = ""
+    start_time_ns: int = DEFAULT_START_TIME_NS
+    compression: str | None = None
+    strict_xacro: bool = False
+    velocity_limits: bool = True
+    description_sha256: str = ""
+    urdf_sha256: str = ""
+    traj_sha256: str = ""
+    tfrec_version: str = __version__
+
+    def metadata(self) -> dict[str, str]:
+        """The recipe as an MCAP metadata map (strings; floats as their exact ``repr``)."""
+        return {
+            "recipe_version": _VERSION,
+            "tfrec_version": self.tfrec_version,
+            "description": self.description,
+            "description_sha256": self.description_sha256,
+            "urdf_sha256": self.urdf_sha256,
+            "args": json.dumps(dict(self.args), sort_keys=True),
+            "traj": self.traj,
+            "traj_sha256": self.traj_sha256,
+            "duration_s": "" if self.duration_s is None else repr(float(self.duration_s)),
+            "rate_hz": "" if self.rate_hz is None else repr(float(self.rate_hz)),
+            "seed": str(self.seed),
+            "period_s": repr(float(self.period_s)),
+            "amplitude": repr(float(self.amplitude)),
+            "interp": self.interp,
+            "hard_limits": "true" if self.hard_limits else "false",
+            "overrides": json.dumps({name: float(value) for name, value in self.overrides.items()}, sort_keys=True),
+            "frame_prefix": self.frame_prefix,
+            "start_time_ns": str(self.start_time_ns),
+            "compression": self.compression or "",
+            "strict_xacro": "true" if self.strict_xacro else "false",
+            "velocity_limits": "true" if self.velocity_limits else "false",
+            "command": self.command(),
+        }
+
+    def command(self) -> str:
+        """The ``tfrec record`` command line that makes this recording (shell-quoted)."""
+        import shlex
+
+        words = ["tfrec", "record", self.description, *(f"{k}:={v}" for k, v in self.args.items()), "--traj", self.traj]
+        for flag, value, default in (("--duration", self.duration_s, None), ("--rate", self.rate_hz, None),
+                                     ("--seed", self.seed, 0), ("--period", self.period_s, 2.0),
+                                     ("--amplitude", self.amplitude, 0.8), ("--interp", self.interp, "linear"),
+                                     ("--compression", self.compression, None)):
+            if value != default:
+                words += [flag, f"{value:g}" if isinstance(value, float) else str(value)]
+        words += [word for name, value in self.overrides.items() for word in ("--set", f"{name}={value:g}")]
+        words += ["--hard-limits"] * self.hard_limits + ["--strict-xacro"] * self.strict_xacro
+        words += ["--ignore-velocity-limits"] * (not self.velocity_limits)
+        if self.frame_prefix:
+            words += ["--frame-prefix", self.frame_prefix]
+        if self.start_time_ns != DEFAULT_START_TIME_NS:
+            words += ["--start-time", f"{self.start_time_ns / 1e9:.9f}"]
+        return shlex.join(words)
+
+
+def parse_recipe(values: Mapping[str, str], *, source: str) -> Recipe:
+    """A recipe from its metadata map.
+
+    Raises:
+        ReadError: a field missing or malformed (``source`` names the recording).
+    """
+    try:
+        return Recipe(
+            description=values["description"],
+            args={str(k): str(v) for k, v in json.loads(values.get("args", "{}")).items()},
+            traj=values["traj"],
+            duration_s=float(values["duration_s"]) if values.get("duration_s") else None,
+            rate_hz=float(values["rate_hz"]) if values.get("rate_hz") else None,
+            seed=int(values.get("seed", "0")),
+            period_s=float(values.get("period_s", "2.0")),
+            amplitude=float(values.get("amplitude", "0.8")),
+            interp=values.get("interp", "linear"),
+            hard_limits=values.get("hard_limits") == "true",
+            overrides={str(k): float(v) for k, v in json.loads(values.get("overrides", "{}")).items()},
+            frame_prefix=values.get("frame_prefix", ""),
+            start_time_ns=int(values.get("start_time_ns", str(DEFAULT_START_TIME_NS))),
+            compression=values.get("compression") or None,
+            strict_xacro=values.get("strict_xacro") == "true",
+            velocity_limits=values.get("velocity_limits", "true") == "true",
+            description_sha256=values.get("description_sha256", ""),
+            urdf_sha256=values.get("urdf_sha256", ""),
+            traj_sha256=values.get("traj_sha256", ""),
+            tfrec_version=values.get("tfrec_version", ""),
+        )
+    except KeyError as err:
+        raise ReadError(f"{source}: its {RECIPE} metadata has no '{err.args[0]}'") from None
+    except (ValueError, TypeError, AttributeError) as err:
+        raise ReadError(f"{source}: its {RECIPE} metadata is malformed: {err}") from None
+
+
+def read_recipe(path: str | os.PathLike[str]) -> Recipe:
+    """The recipe kept in a recording (an MCAP file, or a rosbag2 folder holding one).
+
+    Raises:
+        ReadError: no such recording, or one without a recipe (made by another tool, or by
+            ``tfrec record`` to a ROS 1 bag).
+    """
+    from tfrec.formats.mcap.summary import metadata_records
+
+    given = Path(path)
+    files = sorted(given.glob("*.mcap")) if given.is_dir() else [given]
+    for file in files:
+        try:
+            records = metadata_records(file)
+        except OSError as err:
+            raise ReadError(f"{path}: cannot read: {err.strerror or err}") from err
+        if RECIPE in records:
+            return parse_recipe(records[RECIPE], source=os.fspath(path))
+    raise ReadError(f"{path}: holds no recipe (no '{RECIPE}' metadata: not made by `tfrec record` into an MCAP)")
+
+
+def resolve_path(given: str, *, beside: str | os.PathLike[str] | None) -> str:
+    """A recipe's relative path: beside the recording (``beside``, a folder) when it is there, else as given
+    (the current folder)."""
+    if beside is not None and not os.path.isabs(given):
+        candidate = os.path.normpath(os.path.join(beside, given))  # ``..`` of a folder not made yet too
+        if os.path.exists(candidate):
+            return candidate
+    return given
+
+
+def file_sha256(path: str | os.PathLike[str]) -> str:
+    """The sha256 of a file's bytes ("" when it cannot be read: the loader then says why)."""
+    digest = hashlib.sha256()
+    try:
+        with open(path, "rb") as stream:
+            for piece in iter(lambda: stream.read(1 << 20), b""):
+                digest.update(piece)
+    except OSError:
+        return ""
+    return digest.hexdigest()
+
+
+def with_hashes(recipe: Recipe, *, description_path: str | os.PathLike[str], urdf: str,
+                traj_path: str | os.PathLike[str] | None) -> Recipe:
+    """The recipe with the hashes of the files it was made from, and this tfrec's version."""
+    return replace(recipe, description_sha256=file_sha256(description_path),
+                   urdf_sha256=hashlib.sha256(urdf.encode()).hexdigest(),
+                   traj_sha256=file_sha256(traj_path) if traj_path is not None else "", tfrec_version=__version__)
+
+
+def record_recipe(recipe: Recipe, out: str | os.PathLike[str], *, beside: str | os.PathLike[str] | None = None,
+                  force: bool = False, package_paths: Sequence[str | os.PathLike[str]] = ()) -> RecordResult:
+    """Make the recording a recipe describes (an MCAP file, no ``.rrd``), as ``tfrec record`` does, with the
+    recipe in it.
+
+    Args:
+        recipe: what to record (its hashes are computed anew).
+        out: the MCAP file.
+        beside: where the recipe's relative paths are looked up first (:func:`resolve_path`).
+        force: replace an existing MCAP tfrec wrote.
+        package_paths: for ``$(find pkg)``.
+
+    Raises:
+        DescriptionError, TrajectoryError, WriteError: as ``tfrec record``.
+    """
+    from tfrec.description import load_description
+    from tfrec.trajectory.generators import make_trajectory
+    from tfrec.trajectory.types import TrajectoryKind
+
+    description = resolve_path(recipe.description, beside=beside)
+    csv = recipe.traj not in TrajectoryKind._value2member_map_
+    traj = resolve_path(recipe.traj, beside=beside) if csv else recipe.traj
+    plan = plan_outputs(stem=None, out=out, no_rrd=True, force=force, inputs=[description, traj if csv else None])
+    robot = load_description(description, args=dict(recipe.args), package_paths=package_paths,
+                             strict_xacro=recipe.strict_xacro)
+    trajectory = make_trajectory(robot, traj, duration_s=recipe.duration_s, rate_hz=recipe.rate_hz, seed=recipe.seed,
+                                 period_s=recipe.period_s, amplitude=recipe.amplitude, overrides=recipe.overrides,
+                                 soft_limits=not recipe.hard_limits, interp=recipe.interp,
+                                 velocity_limits=recipe.velocity_limits)
+    made = with_hashes(recipe, description_path=description, urdf=robot.urdf, traj_path=traj if csv else None)
+    return record(robot, trajectory, plan, compression=recipe.compression, start_time_ns=recipe.start_time_ns,
+                  frame_prefix=recipe.frame_prefix, package_paths=package_paths, metadata={RECIPE: made.metadata()})

@@ -19,6 +19,20 @@ def _record(args: list[str], out: Path) -> None:
         assert main(["record", *args, "-o", str(out), "--no-rrd", "--duration", "2"]) == 0
 
 
+def _recipe(path: Path) -> dict[str, str]:
+    from mcap.reader import make_reader
+
+    with open(path, "rb") as stream:
+        return next(dict(m.metadata) for m in make_reader(stream).iter_metadata() if m.name == "tfrec.recipe")
+
+
+def _without_recipe(path: Path) -> bytes:
+    """The file's bytes up to its recipe's record (the messages, the rosbag2 metadata record): opcode, uint64 length
+    and uint32 name length before the name."""
+    data = path.read_bytes()
+    return data[: data.index(b"\x0c\x00\x00\x00tfrec.recipe") - 9]
+
+
 def test_a_launch_file_records_the_robot_of_the_xacro_it_names(ws: Path, tmp_path: Path,  # noqa: F811
                                                                  capsys: pytest.CaptureFixture[str]) -> None:
     src = ws / "src"
@@ -27,7 +41,8 @@ def test_a_launch_file_records_the_robot_of_the_xacro_it_names(ws: Path, tmp_pat
         a, b = tmp_path / "from_launch" / f"{launch.stem}.mcap", tmp_path / "from_xacro" / f"{launch.stem}.mcap"
         _record([str(launch), "--traj", "random"], a)
         _record([str(xacro), "--traj", "random"], b)
-        assert a.read_bytes() == b.read_bytes()  # the same robot, the same bytes
+        assert _without_recipe(a) == _without_recipe(b)  # the same robot, the same bytes; each says what made it
+        assert _recipe(a)["description"] == str(launch) and _recipe(b)["description"] == str(xacro)
     capsys.readouterr()
     assert main(["inspect", str(src / "marm_description" / "launch" / "view_marm.launch")]) == 0
     assert "robot name is: marm" in capsys.readouterr().out

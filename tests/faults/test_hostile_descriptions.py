@@ -298,7 +298,7 @@ UNLIMITED = ('<robot name="slider"><link name="a"/><link name="b"/><joint name="
 """A prismatic joint whose limits are ±DBL_MAX, as exporters write an unlimited one."""
 
 
-@pytest.mark.parametrize("traj", ["center", "random"])
+@pytest.mark.parametrize("traj", ["center", "random", "sine"])
 def test_limits_of_dbl_max_move_within_float64(tmp_path: Path, traj: str) -> None:
     """--traj random drew between them with numpy's uniform, whose range overflowed: OverflowError, a traceback."""
     from tfrec.formats import read_recording
@@ -312,13 +312,14 @@ def test_limits_of_dbl_max_move_within_float64(tmp_path: Path, traj: str) -> Non
     assert all(np.isfinite(series.translation).all() for series in recording.tf.values())
 
 
-@pytest.mark.parametrize("traj", ["sine", "sweep"])
-def test_limits_too_far_apart_to_move_between_are_one_line(tmp_path: Path, traj: str) -> None:
+@pytest.mark.parametrize(("traj", "options"), [("sine", ("--ignore-velocity-limits",)), ("sweep", ()),
+                                                ("sweep", ("--ignore-velocity-limits",))])
+def test_limits_too_far_apart_to_move_between_are_one_line(tmp_path: Path, traj: str, options: tuple[str, ...]) -> None:
     """sine's half-range overflowed to a NaN position (after a numpy warning); sweep's segment lengths to NaN, and
-    the joint silently did not move."""
+    the joint silently did not move. (Within its velocity limit of 1 m/s, sine moves it: its period is stretched.)"""
     path = write(tmp_path / "slider.urdf", UNLIMITED)
     code, _, err = tfrec("record", str(path), "--traj", traj, "-o", str(tmp_path / "s.mcap"), "--no-rrd",
-                         "--duration", "1")
+                         "--duration", "1", *options)
     assert code == 2
     assert err == (f"tfrec: error: {path}: joint 'p': its limits [-1.79769e+308, 1.79769e+308] are too far apart to move "
                    "between in float64; hold it still with --set\n")
@@ -362,7 +363,7 @@ def test_joint_errors_of_record_name_the_description(tmp_path: Path) -> None:
         'link="a"/><child link="b"/><axis xyz="1 0 0"/><limit lower="-1e308" upper="1e308" effort="1" velocity="1"/></joint>'
         '<joint name="k" type="prismatic"><parent link="a"/><child link="c"/><axis xyz="1 0 0"/><limit lower="-1e308" '
         'upper="1e308" effort="1" velocity="1"/><mimic joint="j" multiplier="1e308"/></joint></robot>'))
-    code, _, err = tfrec("record", str(mimic), "-o", str(tmp_path / "m.mcap"), "--no-rrd")
+    code, _, err = tfrec("record", str(mimic), "-o", str(tmp_path / "m.mcap"), "--no-rrd", "--ignore-velocity-limits")
     assert code == 2 and err == f"tfrec: error: {mimic}: joint 'k' has position inf at sample 1\n"
     slider = write(tmp_path / "slider.urdf", UNLIMITED)
     code, _, err = tfrec("record", str(slider), "--traj", "sweep", "-o", str(tmp_path / "s.mcap"), "--no-rrd")
@@ -385,7 +386,8 @@ def test_a_plot_of_frames_at_1e308_m_draws_the_joints(tmp_path: Path) -> None:
     slider = write(tmp_path / "slider.urdf", UNLIMITED)
     for robot in (far, slider):
         mcap = tmp_path / f"{robot.stem}.mcap"
-        assert tfrec("record", str(robot), "--traj", "random", "-o", str(mcap), "--no-rrd", "--duration", "1")[0] == 0
+        assert tfrec("record", str(robot), "--traj", "random", "-o", str(mcap), "--no-rrd", "--duration", "1",
+                     "--ignore-velocity-limits")[0] == 0  # far: 1 m/s from 0 stays near it
         code, _, err = tfrec("plot", str(mcap), "-o", str(tmp_path / f"{robot.stem}.png"))
         assert code == 0, err
         assert err == f"tfrec: warning: {mcap}: frame paths not drawn: b reaches more than 1e+100 m from the root\n"

@@ -87,9 +87,10 @@ def add_parser(sub: Any) -> None:
                    "  tfrec diff robot.urdf robot.xml --pos-tol 1e-5 --rot-tol 1e-5     (a URDF and its MuJoCo model)\n"
                    "  tfrec diff robot_log.mcap arm-v2.xacro\n"
                    "  tfrec diff goldens/ tonight/ --report diff.parquet --jobs 8     (folders: pairs by relative path)")
-    from tfrec.cli._fleet import add_engine_arguments
+    from tfrec.cli._fleet import add_ci_arguments, add_engine_arguments
 
     add_engine_arguments(diff)
+    add_ci_arguments(diff)
     diff.set_defaults(handler=_cmd_diff)
 
 
@@ -168,6 +169,9 @@ def _check_outputs(ns: argparse.Namespace, inputs: list[str | None]) -> None:
 
         plot_format(ns.plot)
         outputs.append((Path(ns.plot), picture_kind(ns.plot)))
+    from tfrec.cli._fleet import ci_targets
+
+    outputs += ci_targets(ns)
     check_outputs(outputs, force=ns.force, inputs=[path for path in inputs
                                                    if path not in TrajectoryKind._value2member_map_])
 
@@ -184,9 +188,19 @@ def _refuse(options: Iterable[tuple[object, str]], why: str) -> None:
 
 
 def _cmd_diff(ns: argparse.Namespace) -> int:
+    from tfrec.diff.revision import Revisions
+
+    with Revisions() as revisions:  # REV:PATH inputs: the revision's files in a temporary folder, removed after
+        return _diff(ns, revisions)
+
+
+def _diff(ns: argparse.Namespace, revisions: Any) -> int:
     from tfrec.diff.inputs import is_recording_path
 
-    (a, args_a), (b, args_b) = split_inputs(ns.inputs, ns.package_path)
+    (given_a, args_a), (given_b, args_b) = split_inputs(ns.inputs, ns.package_path)
+    a, b = revisions.path(given_a), revisions.path(given_b)
+    if ns.joints is not None:
+        ns.joints = revisions.path(ns.joints)
     if _folder_of_recordings(a) and _folder_of_recordings(b) and not args_a and not args_b:
         from tfrec.cli._fleet import run_diff_folders
 
@@ -220,7 +234,7 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
         from tfrec.diff.overlay import write_overlay
 
         write_overlay(comparison, ns.rrd, force=ns.force, package_paths=ns.package_path)
-    show(*(report.to_json() if ns.json else as_flags(report.to_text()).rstrip("\n")).split("\n"))
+    show(*revisions.shown(report.to_json() if ns.json else as_flags(report.to_text()).rstrip("\n")).split("\n"))
     if ns.plot is not None and recordings:
         from tfrec.plots import plot_diff
 
@@ -233,4 +247,13 @@ def _cmd_diff(ns: argparse.Namespace) -> int:
         show(f"wrote {ns.plot}", file=sys.stderr if ns.json else sys.stdout)
     if ns.rrd is not None:
         show(f"wrote {ns.rrd}   (open with: rerun {ns.rrd})", file=sys.stderr if ns.json else sys.stdout)
+    if ns.junit is not None or ns.summary is not None or ns.format != "text":
+        from tfrec.cli._fleet import emit_ci
+        from tfrec.fleet.ci import case_from_diff
+
+        files = [None if recordings or is_recording_path(path) or path != given else path
+                 for path, given in ((a, given_a), (b, given_b))]  # a REV:PATH side has no line to point at
+        artefacts = [path for path in (ns.rrd, ns.plot) if path is not None]
+        emit_ci(ns, [case_from_diff(report, a=given_a, b=given_b, files=files, artefacts=artefacts)], suite="diff",
+                title=f"tfrec diff {given_a} {given_b}", artefacts=[])
     return 0 if report.equal else 1

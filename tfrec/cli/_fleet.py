@@ -34,6 +34,45 @@ def add_engine_arguments(parser: argparse.ArgumentParser) -> None:
                        help="skip recordings whose rows are in --report and that are unchanged since")
 
 
+def add_ci_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--junit``, ``--summary`` and ``--format``: what ``check`` and ``diff`` give a CI job (docs/ci.md)."""
+    group = parser.add_argument_group("reports for CI")
+    group.add_argument("--junit", metavar="OUT.xml", default=None,
+                       help="JUnit XML: one testcase per recording (pair, or comparison), findings as failures "
+                            "(GitLab's and GitHub's test reporters read it)")
+    group.add_argument("--summary", metavar="OUT.md", default=None,
+                       help="a Markdown summary: verdicts, worst errors, artefacts (e.g. $GITHUB_STEP_SUMMARY)")
+    group.add_argument("--format", choices=("text", "github"), default="text",
+                       help="github: also print GitHub Actions ::error annotations, at the description's line "
+                            "where a finding is about one of its elements (default text)")
+
+
+def ci_targets(ns: argparse.Namespace) -> list[tuple[Any, Any]]:
+    """``--junit`` and ``--summary`` with their kinds, for :func:`tfrec._outputs.check_outputs`."""
+    from pathlib import Path
+
+    from tfrec.fleet.ci import JUNIT, SUMMARY_MD
+
+    return [(Path(path), kind) for path, kind in ((ns.junit, JUNIT), (ns.summary, SUMMARY_MD)) if path is not None]
+
+
+def emit_ci(ns: argparse.Namespace, cases: Sequence[Any], *, suite: str, title: str,
+            artefacts: Sequence[str] = ()) -> None:
+    """Print the GitHub annotations (``--format github``) and write ``--junit`` and ``--summary``."""
+    if ns.format == "github":
+        from tfrec.fleet.ci import github_annotations
+
+        show(*github_annotations(cases))
+    if ns.junit is not None or ns.summary is not None:
+        from tfrec.fleet.ci import write_ci_outputs
+
+        write_ci_outputs(cases, suite=suite, title=title, junit=ns.junit, summary=ns.summary, force=ns.force,
+                         artefacts=artefacts)
+        for path in (ns.junit, ns.summary):
+            if path is not None:
+                show(f"wrote {path}", file=sys.stderr)
+
+
 def add_parser(sub: Any) -> None:
     """Add ``tfrec check`` to ``sub`` (argparse subparsers)."""
     check = sub.add_parser(
@@ -61,9 +100,13 @@ def add_parser(sub: Any) -> None:
                        help=f"rotation tolerance (default {number(CHECK_ROT_TOL)})")
     check.add_argument("--gap-periods", metavar="N", type=float, default=None,
                        help="a gap longer than N periods of a stream's rate is a finding (default 5)")
+    check.add_argument("--max-accel", metavar="X", type=float, default=None,
+                       help="a joint acceleration over X (rad/s² or m/s²) is a finding (default: not checked; URDF "
+                            "gives velocity limits only)")
     check.add_argument("--force", action="store_true",
                        help="replace an existing --report (only a tfrec report; --resume replaces it too)")
     add_engine_arguments(check)
+    add_ci_arguments(check)
     check.set_defaults(handler=_cmd_check)
 
 
@@ -79,7 +122,7 @@ def _cmd_check(ns: argparse.Namespace) -> int:
     tasks = check_tasks(
         recordings, robot_path=ns.robot[0] if ns.robot else None, robot_args=tuple(ns.robot[1:]) if ns.robot else (),
         package_paths=ns.package_path, strict_xacro=ns.strict_xacro, pos_tol=ns.pos_tol, rot_tol=ns.rot_tol,
-        gap_periods=DEFAULT_GAP_PERIODS if ns.gap_periods is None else ns.gap_periods,
+        gap_periods=DEFAULT_GAP_PERIODS if ns.gap_periods is None else ns.gap_periods, max_accel=ns.max_accel,
     )
     return _run(ns, tasks, what="recordings")
 
@@ -98,6 +141,10 @@ def run_diff_folders(ns: argparse.Namespace) -> int:
 def _check_report(ns: argparse.Namespace, inputs: Sequence[Any]) -> None:
     """``--report`` before anything is read: an existing one only with ``--force`` or ``--resume`` (which reads it
     first), and only a tfrec report; never a recording of the run (:func:`tfrec._outputs.check_target`)."""
+    if ns.junit is not None or ns.summary is not None:
+        from tfrec._outputs import check_outputs
+
+        check_outputs(ci_targets(ns), force=ns.force, inputs=[*inputs, ns.report])
     if ns.report is None:
         return
     import os
@@ -127,7 +174,10 @@ def _run(ns: argparse.Namespace, tasks: Sequence[Any], *, what: str) -> int:
     bar = _Bar(sys.stderr, total=len(tasks) + before.done, what=what)
     failing: list[str] = []
 
+    collected: list[Any] = list(kept)
+
     def on_result(rows: list[Row], progress: Progress) -> None:
+        collected.extend(rows)
         if writer is not None:
             writer.write(row.to_dict() for row in rows)
         for row in rows:
@@ -155,6 +205,14 @@ def _run(ns: argparse.Namespace, tasks: Sequence[Any], *, what: str) -> int:
         bar.close()
     for line in failing:
         show(line)
+    if ns.junit is not None or ns.summary is not None or ns.format != "text":
+        from tfrec.fleet.ci import cases_from_rows
+
+        robot = ns.robot[0] if getattr(ns, "robot", None) else None
+        suite = "check" if what == "recordings" else "diff"
+        emit_ci(ns, cases_from_rows(collected, description=robot), suite=suite,
+                title=f"tfrec {suite}: {' '.join(ns.paths) if suite == 'check' else f'{ns.a} vs {ns.b}'}",
+                artefacts=[ns.report] if ns.report else [])
     passed, failed = progress.passed + before.passed, progress.failed + before.failed
     errors, total = progress.errors + before.errors, progress.total + before.total
     skipped = f" ({before.done} unchanged, from the report)" if before.done else ""

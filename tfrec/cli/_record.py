@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import sys
 import warnings
 from collections.abc import Iterator, Sequence
@@ -46,6 +47,13 @@ def add_parser(sub: Any) -> None:
                   "  tfrec record marm_description/launch/view_marm.launch --traj keyframes.csv --rate 100 "
                   "--interp cubic")
     add_robot_arguments(rec)
+    for action in rec._actions:  # ROBOT may be left out for --like
+        if action.dest == "robot":
+            action.nargs, action.default = "?", None
+    rec.add_argument("--like", metavar="REC", default=None,
+                     help="make the recording REC was made as (its description, xacro arguments, trajectory and "
+                          "options, kept in its MCAP metadata): byte for byte the same when nothing changed; ROBOT "
+                          "and the trajectory options are not given with it")
     add_trajectory_arguments(rec, default="sine")
     out = rec.add_argument_group("output")
     out.add_argument("-o", "--output", metavar="OUT.mcap",
@@ -86,6 +94,10 @@ def add_trajectory_arguments(parser: argparse.ArgumentParser, *, default: str | 
     traj.add_argument("--hard-limits", action="store_true",
                       help="move joints within their hard <limit>s; by default, as joint_state_publisher does "
                            "(use_smallest_joint_limits), within their <safety_controller> soft limits")
+    traj.add_argument("--ignore-velocity-limits", action="store_true",
+                      help="move random, sine and sweep as fast as --period and --duration make them; by default no "
+                           "joint moves faster than its <limit velocity> (joint_state_publisher's Randomize is a jump; "
+                           "tfrec interpolates)")
     traj.add_argument("--seed", metavar="N", type=int, default=0, help="seed of --traj random (default 0)")
     traj.add_argument("--period", metavar="S", type=float, default=2.0,
                       help="seconds between random waypoints (Randomize presses); sine periods; at least 1/rate "
@@ -115,6 +127,11 @@ def _cmd_record(ns: argparse.Namespace) -> int:
     from tfrec.recorder import needs_stem, plan_outputs
     from tfrec.trajectory.types import TrajectoryKind
 
+    ns.recipe_paths = None
+    if ns.like is not None:
+        _take_recipe(ns)
+    elif ns.robot is None:
+        raise TrajectoryError("record: ROBOT (a description or launch file) or `--like REC` is required")
     start_ns = DEFAULT_START_TIME_NS if ns.start_time is None else ns.start_time
     csv = ns.traj not in TrajectoryKind._value2member_map_
     if not needs_stem(out=ns.output, rrd=ns.rrd, bag=ns.bag, no_mcap=ns.no_mcap):
@@ -143,6 +160,74 @@ def _cmd_record(ns: argparse.Namespace) -> int:
         return _record_robot(ns, robot, launch, csv, rate, overrides, frame_prefix, start_ns)
 
 
+_TRAJECTORY_DEFAULTS: dict[str, Any] = {"traj": "sine", "duration": None, "rate": None, "interp": "linear", "hard_limits": False,
+                        "seed": 0, "period": 2.0, "amplitude": 0.8, "overrides": [], "frame_prefix": None,
+                        "start_time": None, "compression": None, "strict_xacro": False,
+                        "ignore_velocity_limits": False}
+
+
+def _take_recipe(ns: argparse.Namespace) -> None:
+    """``--like REC``: the options of the recording REC's recipe (:mod:`tfrec.recorder`) in ``ns``.
+
+    Raises:
+        TrajectoryError: ROBOT, its arguments or a trajectory option given too.
+        ReadError: REC holds no recipe.
+    """
+    from tfrec.recorder import read_recipe, resolve_path
+
+    given = [f"--{dest.replace('_', '-')}" for dest, default in _TRAJECTORY_DEFAULTS.items()
+             if getattr(ns, dest) != default]
+    if ns.robot is not None or ns.xacro_args or given:
+        what = "ROBOT" if ns.robot is not None or ns.xacro_args else f"`{given[0]}`"
+        raise TrajectoryError(f"record: {what} goes with no `--like`: {ns.like} says how the recording is made")
+    recipe = read_recipe(ns.like)
+    beside = os.path.dirname(os.path.abspath(ns.like))
+    ns.robot = resolve_path(recipe.description, beside=beside)
+    ns.xacro_args = [f"{name}:={value}" for name, value in recipe.args.items()]
+    csv = recipe.traj not in _kinds()
+    ns.traj = resolve_path(recipe.traj, beside=beside) if csv else recipe.traj
+    ns.duration, ns.rate, ns.seed, ns.period = recipe.duration_s, recipe.rate_hz, recipe.seed, recipe.period_s
+    ns.amplitude, ns.interp, ns.hard_limits = recipe.amplitude, recipe.interp, recipe.hard_limits
+    ns.overrides = [f"{name}={value!r}" for name, value in recipe.overrides.items()]
+    ns.frame_prefix, ns.start_time, ns.compression = recipe.frame_prefix, recipe.start_time_ns, recipe.compression
+    ns.strict_xacro, ns.ignore_velocity_limits = recipe.strict_xacro, not recipe.velocity_limits
+    ns.recipe_paths = (recipe.description, recipe.traj)  # kept as the recipe gives them, not as resolved
+
+
+def _kinds() -> frozenset[str]:
+    from tfrec.trajectory.types import TrajectoryKind
+
+    return frozenset(TrajectoryKind._value2member_map_)
+
+
+def _recipe(ns: argparse.Namespace, robot: Robot, csv: bool, rate: float | None, overrides: dict[str, float],
+            frame_prefix: str, start_ns: int) -> dict[str, dict[str, str]]:
+    """The metadata that says how this recording is made (:mod:`tfrec.recorder`)."""
+    from tfrec.description import parse_xacro_args
+    from tfrec.recorder import RECIPE, Recipe, with_hashes
+
+    description, traj = ns.recipe_paths or (ns.robot, ns.traj)
+    recipe = Recipe(description=description, args=parse_xacro_args(ns.xacro_args), traj=traj,
+                    duration_s=None if csv else ns.duration, rate_hz=rate, seed=ns.seed, period_s=ns.period,
+                    amplitude=ns.amplitude, interp=ns.interp, hard_limits=ns.hard_limits, overrides=overrides,
+                    frame_prefix=frame_prefix, start_time_ns=start_ns, compression=ns.compression,
+                    strict_xacro=ns.strict_xacro, velocity_limits=not ns.ignore_velocity_limits)
+    made = with_hashes(recipe, description_path=ns.robot, urdf=robot.urdf, traj_path=ns.traj if csv else None)
+    return {RECIPE: made.metadata()}
+
+
+def _warn_of_motion(robot: Robot, trajectory: Any, where: str) -> None:
+    """A CSV trajectory that moves a joint beyond its limits or faster than its velocity limit: one warning each
+    (:class:`tfrec.replay.motion_checks.MotionChecker`, which ``tfrec check`` runs on recordings)."""
+    from tfrec.replay.motion_checks import MotionChecker
+
+    checker = MotionChecker(robot)
+    for chunk in trajectory.chunks(65536):
+        checker.feed(chunk.joint_names, chunk.time_ns, chunk.positions)
+    for finding in checker.findings():
+        warnings.warn(f"{where}: {finding.detail()}", TfrecWarning, stacklevel=1)
+
+
 def _outputs(ns: argparse.Namespace, csv: bool) -> dict[str, Any]:
     """The options of :func:`tfrec.recorder.plan_outputs` from the command line: the outputs, and the inputs
     they must not be."""
@@ -169,7 +254,10 @@ def _record_robot(ns: argparse.Namespace, robot: Robot, launch: LaunchRobot | No
     trajectory = make_trajectory(
         robot, ns.traj, duration_s=ns.duration, rate_hz=rate, seed=ns.seed, period_s=ns.period,
         amplitude=ns.amplitude, overrides=overrides, soft_limits=not ns.hard_limits, interp=ns.interp,
+        velocity_limits=not ns.ignore_velocity_limits,
     )
+    if csv:
+        _warn_of_motion(robot, trajectory, ns.traj)
     plan = plan_outputs(stem=default_stem(robot, ns.traj), **_outputs(ns, csv))
     allowed = ROS1_COMPRESSIONS if plan.ros1_bag is not None else COMPRESSIONS
     if ns.compression is not None and ns.compression not in allowed and plan.main is not None:
@@ -178,7 +266,8 @@ def _record_robot(ns: argparse.Namespace, robot: Robot, launch: LaunchRobot | No
     progress = Progress(sys.stderr)
     try:
         result = record(robot, trajectory, plan, compression=ns.compression, start_time_ns=start_ns,
-                        frame_prefix=frame_prefix, package_paths=ns.package_path, progress=progress)
+                        frame_prefix=frame_prefix, package_paths=ns.package_path, progress=progress,
+                        metadata=_recipe(ns, robot, csv, rate, overrides, frame_prefix, start_ns))
     finally:
         progress.close()
     seconds = (result.end_time_ns - result.start_time_ns) / NS_PER_S

@@ -112,7 +112,8 @@ def _serve_robot(ns: argparse.Namespace, robot: Robot, plan: RecordingPlan | Non
     if ns.traj is not None:
         trajectory = make_trajectory(robot, ns.traj, duration_s=ns.duration, rate_hz=ns.rate, seed=ns.seed,
                                      period_s=ns.period, amplitude=ns.amplitude, overrides=overrides,
-                                     soft_limits=not ns.hard_limits, interp=ns.interp)
+                                     soft_limits=not ns.hard_limits, interp=ns.interp,
+                                     velocity_limits=not ns.ignore_velocity_limits)
     else:
         control = JointControl(robot, seed=ns.seed, soft_limits=not ns.hard_limits, overrides=overrides)
     assets = description_assets(robot, ns.package_path)

@@ -289,6 +289,7 @@ def _shared_trajectories(a: DiffInput, b: DiffInput, kind: str | os.PathLike[str
     if kind == "random":
         options["period_s"] = DEFAULT_PERIOD_S
     assert a.robot is not None and b.robot is not None
+    options["velocity_limits"] = False  # one motion for both, whatever their limits: B's may differ from A's
     ta = make_trajectory(a.robot, kind, **options)
     tb = make_trajectory(b.robot, kind, **options)
     column_a = {name: k for k, name in enumerate(ta.joint_names)}

@@ -54,6 +54,7 @@ def check_config(
     pos_tol: float = CHECK_POS_TOL,
     rot_tol: float = CHECK_ROT_TOL,
     gap_periods: float = DEFAULT_GAP_PERIODS,
+    max_accel: float | None = None,
 ) -> str:
     """The digest of ``tfrec check``'s options (and tfrec's version): rows of a previous run
     with another digest are not kept by :func:`resume`. A description file counts by its path,
@@ -64,8 +65,10 @@ def check_config(
         stat = os.stat(where) if os.path.exists(where) else None
         robot = [where, list(robot_args), [os.path.abspath(p) for p in package_paths], strict_xacro,
                  None if stat is None else [stat.st_size, stat.st_mtime_ns]]
-    return _digest({"kind": "check", "robot": robot, "pos_tol": pos_tol, "rot_tol": rot_tol,
-                    "gap_periods": gap_periods})
+    options = {"kind": "check", "robot": robot, "pos_tol": pos_tol, "rot_tol": rot_tol, "gap_periods": gap_periods}
+    if max_accel is not None:  # (absent from the digest when not given: earlier reports stay resumable)
+        options["max_accel"] = max_accel
+    return _digest(options)
 
 
 def check_tasks(
@@ -78,6 +81,7 @@ def check_tasks(
     pos_tol: float = CHECK_POS_TOL,
     rot_tol: float = CHECK_ROT_TOL,
     gap_periods: float = DEFAULT_GAP_PERIODS,
+    max_accel: float | None = None,
 ) -> list[Task]:
     """One :func:`~tfrec.fleet.tasks.check_recording` task per recording.
 
@@ -92,6 +96,8 @@ def check_tasks(
     rot_tol = _tolerance("rot_tol", rot_tol)
     if not (isinstance(gap_periods, (int, float)) and math.isfinite(gap_periods) and gap_periods >= 1):
         raise FleetError(f"gap_periods {gap_periods!r} is not a number of periods >= 1")
+    if max_accel is not None and not (isinstance(max_accel, (int, float)) and math.isfinite(max_accel) and max_accel > 0):
+        raise FleetError(f"max_accel {max_accel!r} is not a positive number")
     if robot_path is not None:
         from tfrec.description import load_description, parse_xacro_args
 
@@ -106,6 +112,8 @@ def check_tasks(
         "rot_tol": rot_tol,
         "gap_periods": float(gap_periods),
     }
+    if max_accel is not None:
+        options["max_accel"] = float(max_accel)
     config = check_config(**options)
     out = []
     for recording in recordings:

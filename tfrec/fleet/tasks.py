@@ -38,6 +38,7 @@ from tfrec.fleet.row import ERROR, FAIL, PASS, Row
 if TYPE_CHECKING:
     from tfrec.model import Robot
     from tfrec.replay.check import CheckReport, FrameCheck
+    from tfrec.replay.motion_checks import MotionChecker
     from tfrec.replay.pieces import ReplayPiece
     from tfrec.replay.prepared import Replay
 
@@ -107,8 +108,9 @@ def check_recording(
     rot_tol: float = CHECK_ROT_TOL,
     gap_periods: float = DEFAULT_GAP_PERIODS,
     config: str = "",
+    max_accel: float | None = None,
 ) -> list[Row]:
-    """Check one recording as a fleet needs it: re-simulation and health.
+    """Check one recording as a fleet needs it: re-simulation, health and motion.
 
     Findings (``fail`` rows), in this order:
 
@@ -124,6 +126,9 @@ def check_recording(
       (rad) from TF re-simulated from the joint states, with the time it first exceeds it; a
       frame that cannot be compared (wrong parent, moving joint on /tf_static); or a recording
       that cannot be re-simulated (no /joint_states, no /tf).
+    - ``motion``: what the robot could not have done (:mod:`tfrec.replay.motion_checks`): a joint beyond its
+      limits or soft limits, faster than its velocity limit, accelerating over ``max_accel``, jumping, a
+      non-finite position, a mimic joint not following its master; ``frame`` is the joint.
 
     Args:
         path: a recording (``.mcap``, rosbag2 folder, ROS 1 ``.bag``, ``.rrd``).
@@ -134,6 +139,7 @@ def check_recording(
         pos_tol, rot_tol: the re-simulation's tolerances (m, rad), as ``replay --check``'s.
         gap_periods: a gap longer than this many median periods is a finding.
         config: the run's :func:`tfrec.fleet.plan.check_config`, copied to every row.
+        max_accel: the largest joint acceleration (rad/s² or m/s²); None: not checked.
 
     Returns:
         The summary row (verdict ``pass``, ``fail``, or ``error`` when the recording cannot
@@ -159,7 +165,8 @@ def check_recording(
         started = time.perf_counter()
         try:
             # one read, piece by piece: each piece re-simulated, its stamps kept for the health checks
-            replay, stamps, checked = _check_pieces(path, robot, pos_tol=pos_tol, rot_tol=rot_tol)
+            replay, stamps, checked = _check_pieces(path, robot, pos_tol=pos_tol, rot_tol=rot_tol,
+                                                    max_accel=max_accel)
         except _Unreadable as err:
             return [_row(base, verdict=ERROR, detail=one_line(str(err.error)), read_s=time.perf_counter() - started)]
         read_s = stamps.read_s
@@ -210,6 +217,23 @@ class _Stamps(Mapping[tuple[str, str], NDArray[np.int64]]):
         self.last_joint_ns: int | None = None
         self.joint_count = 0
         self.read_s = 0.0  # spent reading and preparing the pieces
+        self.motion: MotionChecker | None = None  # the joint states against the robot's limits
+        self._motion_fed: int | None = None  # the last stamp fed to it
+
+    def feed_motion(self, replay: Replay, max_accel: float | None) -> None:
+        """Feed the piece's joint states that are its own (later than those fed: a piece begins with the last
+        positions of the piece before it) to the motion checks."""
+        js = replay.joint_states
+        if replay.robot is None or js is None or not len(js):
+            return
+        if self.motion is None:
+            from tfrec.replay.motion_checks import MotionChecker
+
+            self.motion = MotionChecker(replay.robot, max_accel=max_accel)
+        rows = slice(None) if self._motion_fed is None else slice(
+            int(np.searchsorted(js.time_ns, self._motion_fed, side="right")), None)
+        self.motion.feed(js.names, js.time_ns[rows], js.positions[rows])
+        self._motion_fed = int(js.time_ns[-1])
 
     @staticmethod
     def _packed(stamps: NDArray[np.int64]) -> tuple[int, bytes]:
@@ -252,10 +276,11 @@ class _Stamps(Mapping[tuple[str, str], NDArray[np.int64]]):
         return len(self.tf)
 
 
-def _check_pieces(path: str | os.PathLike[str], robot: Robot | None, *, pos_tol: float,
-                  rot_tol: float) -> tuple[Replay, _Stamps, CheckReport | TfrecError | None]:
+def _check_pieces(path: str | os.PathLike[str], robot: Robot | None, *, pos_tol: float, rot_tol: float,
+                  max_accel: float | None = None) -> tuple[Replay, _Stamps, CheckReport | TfrecError | None]:
     """Read a recording piece by piece (:func:`tfrec.replay.pieces.replay_pieces`), re-simulating each
-    (:func:`tfrec.replay.check.check_pieces`) when it has a usable robot model and keeping the stamps.
+    (:func:`tfrec.replay.check.check_pieces`) when it has a usable robot model, keeping the stamps and feeding
+    each piece's own joint states to the motion checks (``stamps.motion``).
 
     Returns:
         (the last piece's replay, the stamps, the re-simulation: its report, why it could not be done, or None
@@ -283,6 +308,7 @@ def _check_pieces(path: str | os.PathLike[str], robot: Robot | None, *, pos_tol:
             if piece is None:
                 return
             stamps.add(piece)
+            stamps.feed_motion(piece.replay, max_accel)
             last[:] = [piece.replay]
             yield piece
 
@@ -329,7 +355,16 @@ def _examine(replay: Replay, stamps: _Stamps, checked: CheckReport | TfrecError 
         frames, resim = _frame_findings(replay, checked)
         parts.insert(0, _check_summary(checked))
         parts.extend(checked.notes)
-    return _Examined([*findings, *health, *frames, *resim], "; ".join(parts), compared)
+    motion = _motion_findings(stamps.motion, replay.origin_ns) if replay.robot is not None else []
+    return _Examined([*findings, *health, *frames, *resim, *motion], "; ".join(parts), compared)
+
+
+def _motion_findings(checker: MotionChecker | None, origin_ns: int) -> list[Finding]:
+    """What the motion checks found (:class:`tfrec.replay.motion_checks.MotionChecker`), as findings."""
+    if checker is None:
+        return []
+    return [Finding("motion", "/joint_states", f.joint, f.detail(origin_ns), f.value if math.isfinite(f.value) else None,
+                    f.unit, (f.first_ns - origin_ns) / 1e9) for f in checker.findings()]
 
 
 def _unusable(description: str) -> str:

@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -31,10 +32,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.errors import TrajectoryError
+from tfrec.errors import TfrecWarning, TrajectoryError
 from tfrec.model import Robot
 from tfrec.trajectory.clock import sample_times_ns
 from tfrec.trajectory.joints import bounds_arrays, center_positions, pinned_columns, position_range
+from tfrec.trajectory.joints import velocity_limits as joint_velocity_limits
 from tfrec.trajectory.types import GeneratedTrajectory, JointTrajectory, Sampler, TrajectoryKind
 
 __all__ = [
@@ -67,7 +69,7 @@ Array = NDArray[np.float64]
 Floats = NDArray[np.floating[Any]]
 
 
-def make_trajectory(
+def make_trajectory(  # noqa: PLR0913 - the keyword options of `tfrec record`'s trajectory
     robot: Robot,
     kind: str | os.PathLike[str],
     *,
@@ -79,6 +81,7 @@ def make_trajectory(
     overrides: Mapping[str, float] = {},
     soft_limits: bool = True,
     interp: str = "linear",
+    velocity_limits: bool = True,
 ) -> JointTrajectory:
     """Make the trajectory ``--traj KIND`` asks for.
 
@@ -102,6 +105,9 @@ def make_trajectory(
             hard limits.
         interp: how CSV keyframes are resampled onto ``rate_hz``: ``linear``, ``cubic`` (monotone
             cubic: continuous velocity, no overshoot between keyframes) or ``hold`` (steps).
+        velocity_limits: ``random``, ``sine`` and ``sweep`` move no joint faster than its ``<limit
+            velocity>`` (see each); False: as fast as their periods and duration make them (what ``tfrec diff``
+            drives two descriptions along, so that both follow the same motion). A CSV file is as it is.
 
     Raises:
         TrajectoryError: an option is out of range (the duration reaches past what ROS 2
@@ -134,14 +140,12 @@ def make_trajectory(
                                      soft_limits=soft_limits)
         if which is TrajectoryKind.RANDOM:
             return random_trajectory(robot, duration_s=duration, rate_hz=rate, seed=seed, period_s=period_s,
-                                     overrides=overrides,
-                                     soft_limits=soft_limits)
+                                     overrides=overrides, soft_limits=soft_limits, velocity_limits=velocity_limits)
         if which is TrajectoryKind.SINE:
             return sine_trajectory(robot, duration_s=duration, rate_hz=rate, period_s=period_s, amplitude=amplitude,
-                                   overrides=overrides,
-                                     soft_limits=soft_limits)
+                                   overrides=overrides, soft_limits=soft_limits, velocity_limits=velocity_limits)
         return sweep_trajectory(robot, duration_s=duration, rate_hz=rate, overrides=overrides,
-                                     soft_limits=soft_limits)
+                                soft_limits=soft_limits, velocity_limits=velocity_limits)
     path = Path(kind)
     if not path.exists():
         text = os.fspath(kind)
@@ -186,6 +190,7 @@ def random_trajectory(
     period_s: float = 2.0,
     overrides: Mapping[str, float] = {},
     soft_limits: bool = True,
+    velocity_limits: bool = True,
 ) -> JointTrajectory:
     """The Randomize button pressed every ``period_s`` seconds, with smooth motion between.
 
@@ -194,7 +199,13 @@ def random_trajectory(
     stream, ``numpy.random.default_rng([seed, j])``, so a longer duration extends the same
     trajectory and adding a joint leaves the others' waypoints as they were. Between waypoints
     each joint follows a minimum-jerk (quintic) segment: continuous velocity, at rest on every
-    waypoint, never beyond either end.
+    waypoint, never beyond either end. (joint_state_publisher's own Randomize is a jump: the joints
+    are at the new positions in the next message.)
+
+    With ``velocity_limits`` a segment lasts at least what the joint's ``<limit velocity>`` needs
+    (a minimum-jerk segment peaks at 15/8 of its mean speed): a joint heads for its next waypoint
+    when it has reached the last one, at ``period_s`` at the earliest, so it never moves faster
+    than its limit.
     """
     pinned = pinned_columns(robot, overrides)
     center = center_positions(robot, overrides=overrides, soft_limits=soft_limits)
@@ -214,9 +225,18 @@ def random_trajectory(
                 middle, half = lower[j] / 2.0 + upper[j] / 2.0, upper[j] / 2.0 - lower[j] / 2.0
                 waypoints[1:, j] = middle + half * rng.uniform(-1.0, 1.0, size=count - 1)
     knot_s = np.arange(count) * period_s
+    limits = joint_velocity_limits(robot) if velocity_limits else np.full(len(center), np.inf)
+    with np.errstate(over="ignore", invalid="ignore"):
+        needed = _MIN_JERK_PEAK * np.abs(np.diff(waypoints, axis=0)) / limits * (1.0 + _VELOCITY_MARGIN)
+    slow = [j for j in range(len(center)) if j not in pinned and bool((needed[:, j] > period_s).any())]
+    own_knots = {j: np.concatenate([[0.0], np.cumsum(np.maximum(needed[:, j], period_s))]) for j in slow}
 
     def sample(times: NDArray[np.int64]) -> tuple[Array, Array]:
-        return _min_jerk(times * 1e-9, knot_s, waypoints)
+        positions, velocities = _min_jerk(times * 1e-9, knot_s, waypoints)
+        for j, knots in own_knots.items():  # joints whose velocity limit stretches their segments
+            pos, vel = _min_jerk(times * 1e-9, knots, waypoints[:, j : j + 1])
+            positions[:, j], velocities[:, j] = pos[:, 0], vel[:, 0]
+        return positions, velocities
 
     return _trajectory(robot, time_ns, sample)
 
@@ -230,6 +250,7 @@ def sine_trajectory(
     amplitude: float = 0.8,
     overrides: Mapping[str, float] = {},
     soft_limits: bool = True,
+    velocity_limits: bool = True,
 ) -> JointTrajectory:
     """Every joint oscillates about the middle of its bounds.
 
@@ -237,6 +258,8 @@ def sine_trajectory(
     ``a = amplitude · half-range`` (continuous joints: ``amplitude · π``),
     ``T_j = 2·period_s·(1 + f_j)`` and ``f_j = frac(j·φ)``, φ the golden ratio: no two joints
     share a period and phase, and a joint's motion does not depend on how many joints follow it.
+    With ``velocity_limits`` a joint whose peak speed ``a·2π/T_j`` would exceed its ``<limit velocity>``
+    oscillates with the longer period that reaches it exactly.
     """
     pinned = pinned_columns(robot, overrides)
     lower, upper = bounds_arrays(robot, soft_limits=soft_limits)
@@ -248,6 +271,9 @@ def sine_trajectory(
         middle = np.where(np.isfinite(lower + upper), (lower + upper) / 2.0, lower / 2.0 + upper / 2.0)
         reach = np.where(np.isfinite(upper - lower), amplitude * (upper - lower) / 2.0,
                          amplitude * (upper / 2.0 - lower / 2.0))
+        if velocity_limits:  # the longer period whose peak speed reach·ω is the limit
+            limits = joint_velocity_limits(robot)
+            omega = np.where(reach * omega > limits, limits / np.where(reach > 0, reach, 1.0), omega)
 
     def sample(times: NDArray[np.int64]) -> tuple[Array, Array]:
         angle = np.outer(times * 1e-9, omega) + phase
@@ -268,13 +294,17 @@ def sweep_trajectory(
     rate_hz: float = 50.0,
     overrides: Mapping[str, float] = {},
     soft_limits: bool = True,
+    velocity_limits: bool = True,
 ) -> JointTrajectory:
     """One joint at a time goes center → lower → upper → center; the others stay at center.
 
     Each joint that is not overridden gets an equal slot of the duration, in actuated order;
     within its slot the three moves take time in proportion to their lengths, each a
     minimum-jerk segment (at rest at center and at both limits). The turning points are moved
-    to the nearest sample, so the limits themselves are among the positions.
+    to the nearest sample, so the limits themselves are among the positions. With
+    ``velocity_limits`` a joint's slot is as long as its ``<limit velocity>`` needs at least; the joints
+    whose sweep then ends after the duration are not swept (or not to the end), with a warning saying
+    what duration sweeps them all.
     """
     pinned = pinned_columns(robot, overrides)
     center = center_positions(robot, overrides=overrides, soft_limits=soft_limits)
@@ -282,20 +312,32 @@ def sweep_trajectory(
     time_ns = sample_times_ns(duration_s, rate_hz)
     swept = [i for i in range(len(center)) if i not in pinned]
     slot = duration_s / max(len(swept), 1)
+    limits = joint_velocity_limits(robot) if velocity_limits else np.full(len(center), np.inf)
     segments: list[tuple[int, Floats, Floats]] = []  # (column, knot times, knot positions (K, 1))
-    for k, i in enumerate(swept):
+    start, cut = 0.0, []
+    for i in swept:
         values = np.array([center[i], lower[i], upper[i], center[i]])
         lengths = np.abs(np.diff(values / 8.0))  # in proportion only; eighths: limits of ±1.8e308 do not overflow
         if lengths.sum() == 0.0:
+            start += slot
             continue
-        start = k * slot
-        fraction = np.cumsum(np.r_[0.0, lengths]) / lengths.sum()  # before `slot`: lengths near 1e308 do not overflow
-        knot_s = np.concatenate([[0.0], start + slot * fraction, [duration_s]])
-        on_sample = np.clip(np.rint(knot_s * rate_hz).astype(np.int64), 0, len(time_ns) - 1)
-        knot_s = time_ns[on_sample] * 1e-9  # on samples: limits are hit
-        knot_q = np.concatenate([[center[i]], values, [center[i]]])
-        keep = np.diff(knot_s, prepend=-np.inf) > 0.0  # drop empty segments (zero length or less than a sample)
-        segments.append((i, knot_s[keep], knot_q[keep, np.newaxis]))
+        length = slot
+        for _ in range(64):  # longer until no snapped segment is faster than the velocity limit
+            knot_s, knot_q = _sweep_knots(start, length, values, lengths, rate_hz, duration_s, len(time_ns) - 1)
+            with np.errstate(over="ignore", invalid="ignore"):  # limits of ±1.8e308: refused in _trajectory
+                speed = _MIN_JERK_PEAK * np.abs(np.diff(knot_q[:, 0])) / np.diff(knot_s)
+                worst = float(np.nanmax(speed / limits[i], initial=0.0))
+            if worst <= 1.0 or not math.isfinite(worst):
+                break
+            length = length * worst * (1.0 + _VELOCITY_MARGIN) + 2.0 / rate_hz
+        segments.append((i, knot_s, knot_q))
+        start += length
+        if start > duration_s * (1.0 + 1e-12) + 0.5 / rate_hz:
+            cut.append(robot.actuated_joints[i].name)
+    if cut:
+        warnings.warn(f"sweep: within their velocity limits the joints need {start:.6g} s; in {duration_s:g} s "
+                      f"{', '.join(cut)} {'is' if len(cut) == 1 else 'are'} not swept to the end (give a duration of "
+                      f"{math.ceil(start)} s, or ignore the velocity limits)", TfrecWarning, stacklevel=3)
 
     def sample(times: NDArray[np.int64]) -> tuple[Array, Array]:
         t = times * 1e-9
@@ -308,6 +350,26 @@ def sweep_trajectory(
         return positions, velocities
 
     return _trajectory(robot, time_ns, sample)
+
+
+_MIN_JERK_PEAK = 1.875
+"""A minimum-jerk segment's peak speed over its mean speed (15/8)."""
+_VELOCITY_MARGIN = 1e-6
+"""Segments are this fraction longer than a velocity limit needs: rounding keeps them within it."""
+
+
+def _sweep_knots(start: float, slot: float, values: Array, lengths: Array, rate_hz: float,
+                 duration_s: float, last: int) -> tuple[Array, Array]:
+    """One joint's sweep in ``[start, start + slot]``: knot times on samples (so that the limits are among the
+    positions; past the duration too, where the sweep does not fit) and positions (K, 1), empty segments left out."""
+    fraction = np.cumsum(np.r_[0.0, lengths]) / lengths.sum()  # before `slot`: lengths near 1e308 do not overflow
+    knot_s = np.concatenate([[0.0], start + slot * fraction, [max(duration_s, start + slot)]])
+    on_sample = np.clip(np.rint(knot_s * rate_hz), 0.0, last if start + slot <= duration_s else None)
+    knot_s = np.rint(on_sample * 1e9 / rate_hz).astype(np.int64) * 1e-9  # the sample times' rule (clock.py)
+    knot_q = np.concatenate([[values[0]], values, [values[0]]])
+    keep = np.diff(knot_s, prepend=-np.inf) > 0.0  # drop empty segments (zero length or less than a sample)
+    times: Array = knot_s[keep].astype(np.float64)
+    return times, knot_q[keep, np.newaxis].astype(np.float64)
 
 
 def _min_jerk(t: Floats, knot_s: Floats, knot_q: Floats) -> tuple[Array, Array]:

@@ -24,6 +24,7 @@ __all__ = [
     "joint_bounds",
     "pinned_columns",
     "position_range",
+    "velocity_limits",
 ]
 
 Array = NDArray[np.float64]
@@ -121,6 +122,16 @@ def pinned_columns(robot: Robot, overrides: Mapping[str, float]) -> dict[int, fl
             raise TrajectoryError(f"{where}: beyond the limits [{lower!r}, {upper!r}] of joint '{name}'")
         pinned[column] = float(value)
     return pinned
+
+
+def velocity_limits(robot: Robot) -> Array:
+    """The ``<limit velocity>`` of each actuated joint, float64 (J,); inf where there is none (no ``<limit>``, or a
+    velocity of 0 or less, which limits nothing)."""
+    out = np.full(len(robot.actuated_joints), np.inf)
+    for i, joint in enumerate(robot.actuated_joints):
+        if joint.limit is not None and math.isfinite(joint.limit.velocity) and joint.limit.velocity > 0:
+            out[i] = joint.limit.velocity
+    return out
 
 
 def bounds_arrays(robot: Robot, *, soft_limits: bool = True) -> tuple[Array, Array]:

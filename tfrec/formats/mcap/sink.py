@@ -19,7 +19,7 @@ wall clock or on the file's name, so the same inputs give the same bytes. See do
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import IO, Any
 
 import numpy as np
@@ -67,12 +67,15 @@ class McapSink:
         compression: chunk compression, one of :data:`~tfrec.conventions.COMPRESSIONS`:
             ``"zstd"`` (default), ``"lz4"`` or ``"none"``.
         chunk_bytes: uncompressed bytes per MCAP chunk (whole samples; at least one).
+        metadata: metadata records (name → map of strings) written after the ``rosbag2`` one, such as the
+            recipe :mod:`tfrec.recorder` stores.
 
     Raises:
         WriteError: an unknown compression.
     """
 
-    def __init__(self, stream: IO[bytes], *, compression: str = "zstd", chunk_bytes: int = DEFAULT_CHUNK_BYTES) -> None:
+    def __init__(self, stream: IO[bytes], *, compression: str = "zstd", chunk_bytes: int = DEFAULT_CHUNK_BYTES,
+                 metadata: Mapping[str, Mapping[str, str]] | None = None) -> None:
         if chunk_bytes < 1:
             raise ValueError(f"chunk size must be positive, got {chunk_bytes}")
         chunk_compressor(compression)  # checks the name before anything is written
@@ -86,6 +89,7 @@ class McapSink:
         self._joint_states: JointStateEncoder | None = None
         self._tf: TFMessageEncoder | None = None
         self._rows: SampleRows | None = None  # a chunk's samples
+        self._metadata = dict(metadata or {})  # metadata records written at finish() (tfrec's recipe)
 
     # -- public API ---------------------------------------------------------------------------
 
@@ -170,6 +174,8 @@ class McapSink:
         if self._state != "open":
             raise RuntimeError(f"McapSink.finish() called {'before begin()' if self._state == 'new' else 'twice'}")
         assert self._writer is not None
+        for name, values in self._metadata.items():
+            self._writer.add_metadata(name, values)
         self._writer.finish()
         self._state = "done"
 

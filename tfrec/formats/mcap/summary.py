@@ -12,6 +12,7 @@ damaged records.
 
 from __future__ import annotations
 
+import os
 import struct
 import zlib
 from dataclasses import dataclass, field
@@ -27,6 +28,7 @@ from tfrec.formats.mcap.records import (
     OP_CHANNEL,
     OP_CHUNK_INDEX,
     OP_FOOTER,
+    OP_METADATA,
     OP_METADATA_INDEX,
     OP_SCHEMA,
     OP_STATISTICS,
@@ -37,6 +39,7 @@ from tfrec.formats.mcap.records import (
 from tfrec.formats.ros.connection import Extra
 
 __all__ = [
+    "METADATA_LIMIT",
     "ChannelRecord",
     "ChunkHead",
     "ChunkIndex",
@@ -45,6 +48,7 @@ __all__ = [
     "chunk_fields",
     "id_map",
     "listed_extras",
+    "metadata_records",
     "parse_channel",
     "parse_header",
     "parse_schema",
@@ -246,6 +250,28 @@ def listed_extras(stream: IO[bytes], size: int, path: Path) -> list[Extra]:
                     found.append(Extra("metadata", name, path, offset, length))
         except struct.error:
             break
+    return found
+
+
+METADATA_LIMIT = 1 << 20
+"""Bytes of a metadata record :func:`metadata_records` reads at most (tfrec's recipe takes about one KiB)."""
+
+
+def metadata_records(path: Path) -> dict[str, dict[str, str]]:
+    """The metadata records an MCAP file's summary indexes (its ``rosbag2`` one left out): name → map;
+    none without a summary, a damaged record or one over :data:`METADATA_LIMIT` bytes left out."""
+    found: dict[str, dict[str, str]] = {}
+    with open(path, "rb") as stream:
+        size = os.fstat(stream.fileno()).st_size
+        for extra in listed_extras(stream, size, path):
+            if extra.kind != "metadata" or extra.length > METADATA_LIMIT:
+                continue
+            try:
+                body = memoryview(_record_at(stream, size, extra.offset, OP_METADATA, "metadata record"))
+                _, at = _text(body, 0)
+            except (ValueError, struct.error):
+                continue
+            found.setdefault(extra.name, _metadata(body, at, len(body)))
     return found
 
 

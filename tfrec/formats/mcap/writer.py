@@ -21,7 +21,7 @@ import struct
 import threading
 import zlib
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from functools import cache
 from typing import IO, Any
@@ -247,6 +247,7 @@ class McapWriter:
         self._pool: ThreadPoolExecutor | None = None
         self._bag_info: dict[str, Any] = {}
         self._extra_indexes: list[Any] = []  # AttachmentIndex and MetadataIndex of the records copied
+        self._metadata: list[tuple[str, dict[str, str]]] = []  # written after the rosbag2 record
         self._state = "open"
         self._write(MCAP_MAGIC + serialize_records(Header(profile=PROFILE, library=LIBRARY)))
 
@@ -573,6 +574,12 @@ class McapWriter:
             raise ReadError(f"{extra.path}: cannot read: {err.strerror or err}") from err
         return extra.kind != "attachment" or int.from_bytes(tail, "little") in (0, crc)  # 0: no CRC written
 
+    def add_metadata(self, name: str, values: Mapping[str, str]) -> None:
+        """Write a metadata record ``name`` (a map of strings) after the ``rosbag2`` one, at :meth:`finish`
+        (tfrec's ``tfrec.recipe``: how a recording was made)."""
+        self._check_open()
+        self._metadata.append((name, dict(values)))
+
     # -- the end ------------------------------------------------------------------------------
 
     def finish(self) -> None:
@@ -620,9 +627,13 @@ class McapWriter:
              for (topic, msgtype, profiles, type_hash), channel, count in zip(self._topics, self._channels, self._counts)],
             message_count=self.message_count, start_ns=start, end_ns=self._end_ns,
         )
-        metadata = serialize_records(Metadata(name="rosbag2", metadata={"serialized_metadata": bag_metadata_yaml(self._bag_info)}))
-        metadata_indexes = [MetadataIndex(offset=self._offset, length=len(metadata), name="rosbag2"),
-                            *(index for index in self._extra_indexes if isinstance(index, MetadataIndex))]
+        metadata = b""
+        metadata_indexes = []
+        for name, values in [("rosbag2", {"serialized_metadata": bag_metadata_yaml(self._bag_info)}), *self._metadata]:
+            record = serialize_records(Metadata(name=name, metadata=values))
+            metadata_indexes.append(MetadataIndex(offset=self._offset + len(metadata), length=len(record), name=name))
+            metadata += record
+        metadata_indexes += [index for index in self._extra_indexes if isinstance(index, MetadataIndex)]
         attachment_indexes = [index for index in self._extra_indexes if not isinstance(index, MetadataIndex)]
         self._write(metadata + serialize_records(DataEnd(data_section_crc=0)))
         statistics = Statistics(
