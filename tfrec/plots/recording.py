@@ -243,7 +243,7 @@ def one_robot(recording: Recording, namespace: str | None = None) -> Recording:
     """
     from tfrec.robots import find_robots
 
-    if namespace is None and recording.robot_topics(""):
+    if namespace is None and recording.robot_topics("").has_data():
         return recording
     robots = [r for r in find_robots(recording, namespace=namespace) if not r.unclaimed]
     if not robots:
