@@ -9,9 +9,12 @@ from tests.conftest import REPO
 PACKAGE = REPO / "tfrec"
 
 
-def test_at_most_16_modules_at_the_top() -> None:
+def test_at_most_18_modules_at_the_top() -> None:
+    """The top holds the base (errors, model, recording, frames, conventions, outputs, the address space), the package
+    face and what sits beside the stages (recorder, info, robots, resample, the pytest plugin pytest11 names):
+    anything else belongs in a stage's folder."""
     modules = sorted(path.name for path in PACKAGE.glob("*.py"))
-    assert len(modules) <= 16, modules
+    assert len(modules) <= 18, modules
 
 
 def test_every_subpackage_has_a_docstring_and_all() -> None:
