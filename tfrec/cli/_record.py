@@ -200,17 +200,18 @@ def _kinds() -> frozenset[str]:
     return frozenset(TrajectoryKind._value2member_map_)
 
 
-def _recipe(ns: argparse.Namespace, robot: Robot, csv: bool, rate: float | None, overrides: dict[str, float],
+def recipe_metadata(ns: argparse.Namespace, robot: Robot, csv: bool, rate: float | None, overrides: dict[str, float],
             frame_prefix: str, start_ns: int) -> dict[str, dict[str, str]]:
-    """The metadata that says how this recording is made (:mod:`tfrec.recorder`)."""
+    """The metadata that says how this recording is made (:mod:`tfrec.recorder`): ``record``'s, and ``serve
+    --traj --record``'s (the same recording)."""
     from tfrec.description import parse_xacro_args
     from tfrec.recorder import RECIPE, Recipe, with_hashes
 
-    description, traj = ns.recipe_paths or (ns.robot, ns.traj)
+    description, traj = getattr(ns, "recipe_paths", None) or (ns.robot, ns.traj)
     recipe = Recipe(description=description, args=parse_xacro_args(ns.xacro_args), traj=traj,
                     duration_s=None if csv else ns.duration, rate_hz=rate, seed=ns.seed, period_s=ns.period,
                     amplitude=ns.amplitude, interp=ns.interp, hard_limits=ns.hard_limits, overrides=overrides,
-                    frame_prefix=frame_prefix, start_time_ns=start_ns, compression=ns.compression,
+                    frame_prefix=frame_prefix, start_time_ns=start_ns, compression=getattr(ns, "compression", None),
                     strict_xacro=ns.strict_xacro, velocity_limits=not ns.ignore_velocity_limits)
     made = with_hashes(recipe, description_path=ns.robot, urdf=robot.urdf, traj_path=ns.traj if csv else None)
     return {RECIPE: made.metadata()}
@@ -267,7 +268,7 @@ def _record_robot(ns: argparse.Namespace, robot: Robot, launch: LaunchRobot | No
     try:
         result = record(robot, trajectory, plan, compression=ns.compression, start_time_ns=start_ns,
                         frame_prefix=frame_prefix, package_paths=ns.package_path, progress=progress,
-                        metadata=_recipe(ns, robot, csv, rate, overrides, frame_prefix, start_ns))
+                        metadata=recipe_metadata(ns, robot, csv, rate, overrides, frame_prefix, start_ns))
     finally:
         progress.close()
     seconds = (result.end_time_ns - result.start_time_ns) / NS_PER_S

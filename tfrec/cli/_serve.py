@@ -7,7 +7,7 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 from tfrec.cli._common import add_robot_arguments, load_robot_and_launch, show, start_time
-from tfrec.cli._record import add_trajectory_arguments, parse_overrides
+from tfrec.cli._record import add_trajectory_arguments, parse_overrides, recipe_metadata
 from tfrec.errors import ReplayError, WriteError
 
 if TYPE_CHECKING:
@@ -127,9 +127,12 @@ def _serve_robot(ns: argparse.Namespace, robot: Robot, plan: RecordingPlan | Non
         with contextlib.ExitStack() as stack:
             rid = None if trajectory is None or ns.loop else recording_id(  # as record names the same recording
                 robot, trajectory, start_time_ns=options.start_time_ns, frame_prefix=frame_prefix)
+            # a whole trajectory served is the recording `tfrec record` makes of it: its recipe too
+            metadata = None if trajectory is None or ns.loop else recipe_metadata(
+                ns, robot, _is_csv(ns.traj), ns.rate, overrides, frame_prefix, options.start_time_ns)
             sinks = [] if plan is None else stack.enter_context(open_sinks(
                 robot, plan, start_time_ns=options.start_time_ns, frame_prefix=frame_prefix,
-                package_paths=ns.package_path, rerun_recording_id=rid))
+                package_paths=ns.package_path, rerun_recording_id=rid, metadata=metadata))
             live = _viewer(ns, robot, frame_prefix, reach_poses(robot, trajectory=trajectory, control=control,
                                                                 frame_prefix=frame_prefix, seed=ns.seed))
             if live is not None:
@@ -143,6 +146,12 @@ def _serve_robot(ns: argparse.Namespace, robot: Robot, plan: RecordingPlan | Non
         server.stop()
     _summary(result, plan)
     return 0
+
+
+def _is_csv(traj: str) -> bool:
+    from tfrec.trajectory.types import TrajectoryKind
+
+    return traj not in TrajectoryKind._value2member_map_
 
 
 def _check_viewer(ns: argparse.Namespace) -> None:
