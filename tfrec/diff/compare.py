@@ -30,6 +30,13 @@ translation ``t`` (m) and ``max(rot_tol, 4·eps32)`` for a rotation (rad), eps32
 recording equals its own ``.rrd``; the report's notes say when and by how much this widened a
 tolerance.
 
+Memory: two paths are read piece by piece (:func:`tfrec.formats.reader.read_pieces`), in memory that does not
+grow with their length: a first walk finds each series' span (count, first and last stamp), the robots and each
+recording's start; a second feeds A's and B's pieces together in time order to one fold per compared series
+(:mod:`tfrec.diff.fold`), which keeps B's samples around A's across piece edges and folds what the report says.
+Recordings given as :class:`Recording` objects, ``whole=True`` (``--plot`` draws every sample) and a series whose
+stamps go back or repeat (the whole series compares them exactly) are read whole: one piece each, the same folds.
+
 Errors: a translation error is the distance between the two translations (m); a rotation error
 is the angle of the relative rotation ``q_a⁻¹ q_b``, ``2·atan2(|v|, |w|)``
 (:func:`tfrec.kinematics.rotations.rotation_error`, rad); a joint error is the absolute difference of the
