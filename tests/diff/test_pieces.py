@@ -16,6 +16,26 @@ from tfrec.model import Robot
 from tfrec.recording import FrameSeries, JointStates, Recording
 
 
+def _small_chunks(monkeypatch: pytest.MonkeyPatch) -> None:
+    """ROS 1 bags written (by rosbags) in chunks of about 2 kB, sqlite3 bags read 5 rows at a time: small pieces."""
+    from rosbags.rosbag1 import Writer
+
+    init = Writer.__init__
+
+    def small(self: Writer, path: Path | str) -> None:
+        init(self, path)
+        self.chunk_threshold = 2000
+
+    monkeypatch.setattr(Writer, "__init__", small)
+    monkeypatch.setattr("tfrec.formats.rosbag2.source.BATCH_MESSAGES", 5)
+
+
+def _pieces_of(path: Path) -> int:
+    from tfrec.formats.reader import read_pieces
+
+    return sum(1 for _ in read_pieces(path))
+
+
 def _changed(rec: Recording) -> Recording:
     """B: one joint fewer in /joint_states, one /tf frame pair fewer, one pair moved by 1 mm for a while."""
     js = rec.joint_states
@@ -35,6 +55,12 @@ def pairs(tmp_path_factory: pytest.TempPathFactory, marm: Robot) -> list[tuple[P
     """(A, B) pairs of every format (MCAP chunks of about 2 kB, so that pieces are small): B at another rate, shorter, starting 7 s later on the clock, with a joint and
     a frame missing and a pair moved; and B the same as A but for its start."""
     folder = tmp_path_factory.mktemp("pieces")
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        _small_chunks(monkeypatch)
+        return _pairs(folder, marm)
+
+
+def _pairs(folder: Path, marm: Robot) -> list[tuple[Path, Path]]:
     a = write_mcap(folder / "a.mcap", marm, marm_trajectory(marm), chunk_samples=5, chunk_bytes=2000)
     slower = write_mcap(folder / "slower.mcap", marm, marm_trajectory(marm, duration_s=1.5, rate_hz=30.0),
                         start_time_ns=DEFAULT_START_TIME_NS + 7 * 10**9, chunk_samples=5, chunk_bytes=2000)
@@ -64,6 +90,8 @@ def test_pieces_give_the_whole_report(pairs: list[tuple[Path, Path]], options: d
         raise AssertionError("a recording read whole")
 
     monkeypatch.setattr("tfrec.formats.reader.PIECE_MESSAGES", 7)
+    _small_chunks(monkeypatch)
+    assert all(_pieces_of(path) > 5 for pair in pairs for path in pair)
     monkeypatch.setattr(sys.modules["tfrec.diff.compare"], "read_recording", refused)
     for (a, b), whole in zip(pairs, wholes):
         pieces = compare(a, b, **options)
@@ -76,6 +104,7 @@ def test_pieces_hold_a_piece_of_each_series(pairs: list[tuple[Path, Path]], monk
     from tfrec.diff.fold import SeriesFold
 
     monkeypatch.setattr("tfrec.formats.reader.PIECE_MESSAGES", 7)
+    _small_chunks(monkeypatch)
     held: list[int] = []
     run = SeriesFold.run
 
@@ -84,9 +113,9 @@ def test_pieces_hold_a_piece_of_each_series(pairs: list[tuple[Path, Path]], monk
         held.append(max(len(self._a_time), len(self._b_time)))
 
     monkeypatch.setattr(SeriesFold, "run", spy)
-    a, b = pairs[1]
-    compare(a, b)
-    assert held and max(held) <= 3 * 7
+    for a, b in pairs:
+        compare(a, b)
+    assert held and max(held) <= 7
 
 
 def test_stamps_that_go_back_read_the_whole_recordings(tmp_path: Path, pairs: list[tuple[Path, Path]],
@@ -98,9 +127,11 @@ def test_stamps_that_go_back_read_the_whole_recordings(tmp_path: Path, pairs: li
     time_ns = series.time_ns.copy()
     time_ns[40] = time_ns[5]  # a stamp from the past, logged in order
     rec.tf[pair] = FrameSeries(time_ns, series.translation, series.rotation)
+    _small_chunks(monkeypatch)
     back = write_rosbag1(rec, tmp_path / "back.bag")
     whole = compare(pairs[0][0], back, whole=True)
     monkeypatch.setattr("tfrec.formats.reader.PIECE_MESSAGES", 7)
+    _small_chunks(monkeypatch)
     module = sys.modules["tfrec.diff.compare"]
     read: list[object] = []
 
@@ -111,3 +142,28 @@ def test_stamps_that_go_back_read_the_whole_recordings(tmp_path: Path, pairs: li
     monkeypatch.setattr(module, "read_recording", reading)
     assert compare(pairs[0][0], back).to_json() == whole.to_json()
     assert read == [pairs[0][0], back]
+
+
+@pytest.mark.parametrize("kind", ["sqlite3", "ros1"])  # (rosbags writes a rosbag2 MCAP in one chunk)
+def test_pieces_of_several_robots_give_the_whole_report(tmp_path: Path, pairs: list[tuple[Path, Path]], kind: str,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two robots in namespaces, B's /robot2 changed (another rate, shorter, a joint and a frame missing), against
+    one robot; ``namespace`` picks one of them."""
+    from tests.bag_builders import Robot as Published
+    from tests.bag_builders import write_bag
+
+    _small_chunks(monkeypatch)
+    same = read_recording(pairs[0][0])
+    changed = _changed(read_recording(pairs[1][1]))
+    suffix = ".bag" if kind == "ros1" else ""
+    a = write_bag(tmp_path / f"a{suffix}", [Published(same, namespace="/robot1"), Published(same, namespace="/robot2")],
+                  kind=kind)
+    b = write_bag(tmp_path / f"b{suffix}", [Published(same, namespace="/robot1"),
+                                            Published(changed, namespace="/robot2")], kind=kind)
+    cases = [(a, b, {}), (b, a, {}), (a, b, {"namespace": "/robot2"}), (pairs[0][0], b, {})]
+    wholes = [compare(x, y, whole=True, **options) for x, y, options in cases]
+    assert not wholes[0].equal and any("robot /robot2" in d.detail for d in wholes[0].differences)
+    monkeypatch.setattr("tfrec.formats.reader.PIECE_MESSAGES", 7)
+    assert _pieces_of(a) > 5 and _pieces_of(b) > 5
+    for (x, y, options), whole in zip(cases, wholes):
+        assert compare(x, y, **options).to_json() == whole.to_json()

@@ -128,6 +128,10 @@ class SeriesFold:
             self.outside += int(np.count_nonzero(time_ns < self.a.first) + np.count_nonzero(time_ns > self.a.last))
         self._b_taken += len(time_ns)
         self._b_time, self._b_values = _appended(self._b_time, self._b_values, time_ns, values)
+        if self.a is not None:  # past A's last stamp B needs one sample, the next after it
+            beyond = int(np.searchsorted(self._b_time, self.a.last, side="right")) + 1
+            if beyond < len(self._b_time):
+                self._b_time, self._b_values = self._b_time[:beyond], self._b_values[:beyond]
 
     def run(self, *, final: bool = False) -> None:
         """Compare the A samples whose B samples around them are known (with ``final``: every one left)."""
