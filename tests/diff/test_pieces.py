@@ -78,7 +78,7 @@ def _pairs(folder: Path, marm: Robot) -> list[tuple[Path, Path]]:
     ]
 
 
-@pytest.mark.parametrize("options", [{}, {"absolute": True}, {"topics": ["/tf"]}, {"pos_tol": 1e-2}])
+@pytest.mark.parametrize("options", [{}, {"absolute": True}, {"topics": ["/tf"]}, {"pos_tol": 1e-2}, {"use_log_time": True}])
 def test_pieces_give_the_whole_report(pairs: list[tuple[Path, Path]], options: dict[str, Any],
                                       monkeypatch: pytest.MonkeyPatch) -> None:
     wholes = [compare(a, b, whole=True, **options) for a, b in pairs]
