@@ -186,6 +186,45 @@ def test_check_finds_what_was_injected(marm_rec: Path, tmp_path: Path) -> None:
     assert speeds and all(row.unit == "rad/s" and row.max_error > 1.0 for row in speeds)
 
 
+@pytest.mark.parametrize("messages", [7, 64])
+def test_check_in_pieces_finds_what_the_whole_recording_has(marm_rec: Path, tmp_path: Path, messages: int,
+                                                            monkeypatch: pytest.MonkeyPatch) -> None:
+    """`check` reads a recording piece by piece (each piece begins with the last positions of the one before): the
+    motion findings are those of the whole recording fed at once — no step across a piece's edge lost or doubled."""
+    from tfrec.fleet import tasks
+
+    from ..recording_helpers import write_rosbag2
+
+    rec = read_recording(marm_rec)
+    js = rec.joint_states
+    assert js is not None
+    positions = js.positions.copy()
+    positions[40:45, js.names.index("joint2")] = 10.0
+    positions[100:, js.names.index("joint3")] += 0.8
+    positions[150, js.names.index("finger_joint2")] += 0.01
+    positions[77, js.names.index("joint1")] = math.nan
+    bad = write_rosbag2(dataclasses.replace(rec, joint_states=JointStates(js.time_ns, js.names, positions)),
+                        tmp_path / "bad", storage="sqlite3")
+
+    def motion(rows):
+        return [(r.frame, r.detail, r.max_error, r.first_exceed_s) for r in rows[1:] if r.check == "motion"]
+
+    whole = motion(check_recording(bad))
+    assert len(whole) >= 4
+    fed: list[int] = []
+    feed = tasks._Stamps.feed_motion
+
+    def counted(self, replay, max_accel):  # type: ignore[no-untyped-def]
+        fed.append(1)
+        return feed(self, replay, max_accel)
+
+    monkeypatch.setattr(tasks._Stamps, "feed_motion", counted)
+    monkeypatch.setattr("tfrec.formats.rosbag2.source.BATCH_MESSAGES", 5)
+    monkeypatch.setattr("tfrec.formats.reader.PIECE_MESSAGES", messages)
+    assert motion(check_recording(bad)) == whole
+    assert len(fed) > 5  # read in pieces indeed
+
+
 def test_check_cli_max_accel_and_one_line_for_a_bad_value(marm_rec: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["check", str(marm_rec), "--jobs", "1", "--max-accel", "0.001"]) == 1
     assert "acceleration" in capsys.readouterr().out
