@@ -81,6 +81,8 @@ clean:
 	rm -rf $(VENV) $(LOWEST) .pytest_cache .hypothesis build dist
 
 # docs/images/*.png from the current code, in a headless Rerun viewer (needs Mesa's Vulkan driver:
-# apt-get install mesa-vulkan-drivers); not part of `make test`
-screenshots: $(VENV)/.installed
+# apt-get install mesa-vulkan-drivers), and live-foxglove.png in Foxglove Studio's web build under headless Chromium
+# (needs node, npm and chromium; skipped, with the reason, without them); not part of `make test`. The test extra
+# brings what the pictures use (foxglove-sdk for `tfrec serve`, gymnasium's MuJoCo humanoid).
+screenshots: $(VENV)/.installed-test
 	$(BIN)/python scripts/screenshots.py

@@ -12,10 +12,15 @@ The viewer renders on the CPU with Mesa's Vulkan driver; without one it panics a
 script checks first and says in one line what to install (Debian/Ubuntu: ``mesa-vulkan-drivers``).
 Not part of the tests (``make screenshots``).
 
+Then ``live-foxglove``: Foxglove Studio's web app (npm's last build, 1.48) showing ``tfrec serve`` in headless Chromium
+(scripts/foxglove_screenshot.py). It needs node, npm and Chromium; without them it is skipped with a one-line
+reason and the other pictures are made all the same.
+
 Usage::
 
     python scripts/screenshots.py                 # every picture, into docs/images/
     python scripts/screenshots.py --only diff-overlay --out /tmp/shots --keep-rrd
+    python scripts/screenshots.py --only live-foxglove
 """
 
 from __future__ import annotations
@@ -46,6 +51,7 @@ from tfrec.trajectory.generators import make_trajectory
 REPO = Path(__file__).resolve().parents[1]
 ROBOTS = REPO / "robots"
 WINDOW = "1200x800"
+FOXGLOVE = "live-foxglove"  # the picture scripts/foxglove_screenshot.py makes
 VULKAN_ICDS = ("/usr/share/vulkan/icd.d/*.json", "/etc/vulkan/icd.d/*.json", "/usr/local/share/vulkan/icd.d/*.json")
 
 
@@ -245,21 +251,21 @@ def _stop(viewer: subprocess.Popen[bytes]) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=REPO / "docs" / "images", help="folder for the PNG files")
-    parser.add_argument("--only", nargs="+", choices=[shot.name for shot in SHOTS], help="just these pictures")
+    parser.add_argument("--only", nargs="+", choices=[shot.name for shot in SHOTS] + [FOXGLOVE],
+                        help="just these pictures")
     parser.add_argument("--keep-rrd", action="store_true", help="keep the recordings beside the PNG files")
     parser.add_argument("--settle-s", type=float, default=7.0,
                         help="seconds to wait before each screenshot, so start-up notifications fade")
     ns = parser.parse_args(argv)
 
-    problem = missing_requirements()
+    shots = [shot for shot in SHOTS if not ns.only or shot.name in ns.only]
+    problem = missing_requirements() if shots else None
     if problem is not None:
         print(f"screenshots: {problem}", file=sys.stderr)
         return 2
     ns.out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
-        for shot in SHOTS:
-            if ns.only and shot.name not in ns.only:
-                continue
+        for shot in shots:
             folder = Path(tmp) / shot.name
             folder.mkdir()
             rrd = shot.make(folder)
@@ -270,6 +276,24 @@ def main(argv: list[str] | None = None) -> int:
             print(png)
             if ns.keep_rrd:
                 shutil.copy(rrd, ns.out / f"{shot.name}.rrd")
+    if not ns.only or FOXGLOVE in ns.only:
+        return _foxglove(ns.out / f"{FOXGLOVE}.png", asked=bool(ns.only))
+    return 0
+
+
+def _foxglove(png: Path, *, asked: bool) -> int:
+    """The optional Foxglove picture (scripts/foxglove_screenshot.py): skipped, with the reason, where node, npm or
+    Chromium is missing — an error only when it was asked for by name."""
+    spec = importlib.util.spec_from_file_location("foxglove_screenshot", Path(__file__).with_name(
+        "foxglove_screenshot.py"))
+    assert spec is not None and spec.loader is not None
+    foxglove = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(foxglove)
+    try:
+        print(foxglove.take(png))
+    except foxglove.Skipped as why:
+        print(f"screenshots: {FOXGLOVE} skipped: {why}", file=sys.stderr)
+        return 2 if asked else 0
     return 0
 
 
