@@ -55,7 +55,7 @@ import json, math, sys
 import rospy
 from sensor_msgs.msg import JointState
 
-joints = json.loads(sys.argv[1])  # [name, lower, upper] of each joint to move
+joints = json.loads(sys.argv[1])  # [name, lower, upper, velocity limit or 0] of each joint to move
 rospy.init_node("sine_joints")
 publisher = rospy.Publisher("/joint_states", JointState, queue_size=100)
 rate = rospy.Rate(50)
@@ -65,9 +65,13 @@ while not rospy.is_shutdown():
     t = (now - start).to_sec()
     message = JointState()
     message.header.stamp = now
-    for k, (name, lower, upper) in enumerate(joints):
+    for k, (name, lower, upper, velocity) in enumerate(joints):
+        amplitude = 0.8 * (upper - lower) / 2
+        period = 1.5 + 0.2 * k  # slower where the joint's velocity limit asks (a controller would)
+        # without a velocity limit, at most 1 rad/s or m/s: steps far below what `check` calls a jump
+        period = max(period, 2 * math.pi * amplitude / (0.9 * (velocity if velocity > 0 else 1.0)))
         message.name.append(name)
-        message.position.append((lower + upper) / 2 + 0.8 * (upper - lower) / 2 * math.sin(2 * math.pi * t / (1.5 + 0.2 * k)))
+        message.position.append((lower + upper) / 2 + amplitude * math.sin(2 * math.pi * t / period))
     publisher.publish(message)
     rate.sleep()
 """
@@ -107,22 +111,25 @@ def urdfs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Path, Rob
     return out
 
 
-def _moving(robot: Robot) -> list[tuple[str, float, float]]:
-    """The joints a joint source publishes: (name, lower, upper), continuous ones over ±π; mimic joints left out."""
+def _moving(robot: Robot) -> list[tuple[str, float, float, float]]:
+    """The joints a joint source publishes: (name, lower, upper, velocity limit or 0), continuous ones over ±π;
+    mimic joints left out. The sine source keeps each joint within its velocity limit, so that `tfrec check`'s
+    motion findings have nothing to say and the test is about TF."""
     out = []
     for joint in robot.actuated_joints:
         if joint.mimic is not None:
             continue
+        velocity = joint.limit.velocity if joint.limit is not None and math.isfinite(joint.limit.velocity) else 0.0
         if joint.type is JointType.CONTINUOUS or joint.limit is None:
-            out.append((joint.name, -math.pi, math.pi))
+            out.append((joint.name, -math.pi, math.pi, velocity))
         else:
-            out.append((joint.name, joint.limit.lower, joint.limit.upper))
+            out.append((joint.name, joint.limit.lower, joint.limit.upper, velocity))
     return out
 
 
 def _zeros(robot: Robot) -> dict[str, float]:
     """joint_state_publisher's `zeros`: each moving joint held at a third of its range (not 0: something to see)."""
-    return {name: lower + (upper - lower) / 3 for name, lower, upper in _moving(robot)}
+    return {name: lower + (upper - lower) / 3 for name, lower, upper, _ in _moving(robot)}
 
 
 def _record_live(ros: Ros, urdf: Path, robot: Robot, source: str, out: Path) -> Path:
