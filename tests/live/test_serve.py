@@ -3,7 +3,9 @@ protocol (tests/live/foxglove_client.py), messages decoded with rosbags, compare
 
 from __future__ import annotations
 
+import contextlib
 import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -300,9 +302,12 @@ def _free_port() -> int:
         return int(sock.getsockname()[1])
 
 
-def _rerun_saving(out: Path) -> Any:
-    """The real ``rerun`` of the pinned rerun-sdk as a headless gRPC server saving what it gets to ``out``."""
+@contextlib.contextmanager
+def _rerun_saving(out: Path) -> Iterator[str]:
+    """The real ``rerun`` of the pinned rerun-sdk as a headless gRPC server saving what it gets to ``out``: its URL;
+    stopped with Ctrl-C (so that it writes ``out``) when the block ends, killed if it does not stop."""
     import shutil
+    import signal
     import socket
     import subprocess
     import sys
@@ -312,31 +317,15 @@ def _rerun_saving(out: Path) -> Any:
     rerun = shutil.which("rerun", path=str(Path(sys.executable).parent)) or "rerun"
     proc = subprocess.Popen([rerun, "--port", str(port), "--save", str(out)], stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
-    for _ in range(200):  # until it listens (a hang guard of its own: at most 200 tries)
-        with socket.socket() as sock:
-            if sock.connect_ex(("127.0.0.1", port)) == 0:
-                return proc, f"rerun+http://127.0.0.1:{port}/proxy"
-        time.sleep(0.1)
-    proc.kill()
-    raise AssertionError("rerun did not listen")
-
-
-def test_connect_streams_the_same_to_a_rerun_viewer(tmp_path: Path) -> None:
-    """--connect: the real `rerun` (headless, saving what it receives) gets the served robot: every sample's joint
-    states and TF equal to tfrec's FK (Rerun keeps float32)."""
-    import signal
-    import subprocess
-    import sys
-
-    from tfrec.replay.load import load_replay
-
-    out = tmp_path / "viewer.rrd"
-    proc, url = _rerun_saving(out)
     try:
-        run = subprocess.run([sys.executable, "-m", "tfrec", "serve", MARM, "--traj", "sine", "--duration", "2",
-                              "--port", "0", "--start-time", str(START_S), "--connect", url],
-                             check=False, capture_output=True, text=True, timeout=120, cwd=REPO)
-        assert run.returncode == 0, run.stderr
+        for _ in range(200):  # until it listens (a hang guard of its own: at most 200 tries)
+            with socket.socket() as sock:
+                if sock.connect_ex(("127.0.0.1", port)) == 0:
+                    break
+            time.sleep(0.1)
+        else:
+            raise AssertionError("rerun did not listen")
+        yield f"rerun+http://127.0.0.1:{port}/proxy"
     finally:
         proc.send_signal(signal.SIGINT)
         try:
@@ -344,6 +333,22 @@ def test_connect_streams_the_same_to_a_rerun_viewer(tmp_path: Path) -> None:
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait(timeout=30)
+
+
+def test_connect_streams_the_same_to_a_rerun_viewer(tmp_path: Path) -> None:
+    """--connect: the real `rerun` (headless, saving what it receives) gets the served robot: every sample's joint
+    states and TF equal to tfrec's FK (Rerun keeps float32)."""
+    import subprocess
+    import sys
+
+    from tfrec.replay.load import load_replay
+
+    out = tmp_path / "viewer.rrd"
+    with _rerun_saving(out) as url:
+        run = subprocess.run([sys.executable, "-m", "tfrec", "serve", MARM, "--traj", "sine", "--duration", "2",
+                              "--port", "0", "--start-time", str(START_S), "--connect", url],
+                             check=False, capture_output=True, text=True, timeout=120, cwd=REPO)
+        assert run.returncode == 0, run.stderr
     robot = load_description(MARM)
     expected = _expected_fk(robot, make_trajectory(robot, "sine", duration_s=2.0, rate_hz=50.0))
     replay = load_replay(out)
@@ -419,7 +424,6 @@ def test_malformed_client_messages_are_ignored_and_serving_goes_on() -> None:
 def test_a_recording_served_with_connect_reaches_the_rerun_viewer_too(tmp_path: Path) -> None:
     """serve FILE --connect: the replay goes to Foxglove's clients and to the real `rerun` (saving what it gets) at
     once; the viewer's recording reads back with the recorded transforms."""
-    import signal
     import subprocess
     import sys
 
@@ -429,18 +433,10 @@ def test_a_recording_served_with_connect_reaches_the_rerun_viewer_too(tmp_path: 
     mcap = tmp_path / "rec.mcap"
     assert cli.main(["record", MARM, "--traj", "sine", "--duration", "2", "-o", str(mcap), "--no-rrd"]) == 0
     out = tmp_path / "viewer.rrd"
-    proc, url = _rerun_saving(out)
-    try:
+    with _rerun_saving(out) as url:
         run = subprocess.run([sys.executable, "-m", "tfrec", "serve", str(mcap), "--rate", "4", "--port", "0",
                               "--connect", url], check=False, capture_output=True, text=True, timeout=120, cwd=REPO)
         assert run.returncode == 0, run.stderr
-    finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(timeout=30)
     got, want = load_replay(out), load_replay(mcap)
     assert set(got.tf) == set(want.tf) and got.tf
     for pair, series in want.tf.items():
