@@ -125,7 +125,6 @@ def parse_overrides(items: Sequence[str]) -> dict[str, float]:
 
 def _cmd_record(ns: argparse.Namespace) -> int:
     from tfrec.recorder import needs_stem, plan_outputs
-    from tfrec.trajectory.types import TrajectoryKind
 
     ns.recipe_paths = None
     if ns.like is not None:
@@ -133,7 +132,7 @@ def _cmd_record(ns: argparse.Namespace) -> int:
     elif ns.robot is None:
         raise TrajectoryError("record: ROBOT (a description or launch file) or `--like REC` is required")
     start_ns = DEFAULT_START_TIME_NS if ns.start_time is None else ns.start_time
-    csv = ns.traj not in TrajectoryKind._value2member_map_
+    csv = is_csv_trajectory(ns.traj)
     if not needs_stem(out=ns.output, rrd=ns.rrd, bag=ns.bag, no_mcap=ns.no_mcap):
         plan_outputs(stem=None, **_outputs(ns, csv))  # named outputs: checked before anything is read
     robot, launch = load_robot_and_launch(ns)
@@ -184,7 +183,7 @@ def _take_recipe(ns: argparse.Namespace) -> None:
     beside = os.path.dirname(os.path.abspath(ns.like))
     ns.robot = resolve_path(recipe.description, beside=beside)
     ns.xacro_args = [f"{name}:={value}" for name, value in recipe.args.items()]
-    csv = recipe.traj not in _kinds()
+    csv = is_csv_trajectory(recipe.traj)
     ns.traj = resolve_path(recipe.traj, beside=beside) if csv else recipe.traj
     ns.duration, ns.rate, ns.seed, ns.period = recipe.duration_s, recipe.rate_hz, recipe.seed, recipe.period_s
     ns.amplitude, ns.interp, ns.hard_limits = recipe.amplitude, recipe.interp, recipe.hard_limits
@@ -194,10 +193,11 @@ def _take_recipe(ns: argparse.Namespace) -> None:
     ns.recipe_paths = (recipe.description, recipe.traj)  # kept as the recipe gives them, not as resolved
 
 
-def _kinds() -> frozenset[str]:
+def is_csv_trajectory(traj: str) -> bool:
+    """Whether ``--traj`` names a CSV file rather than a kind (center, random, sine, sweep)."""
     from tfrec.trajectory.types import TrajectoryKind
 
-    return frozenset(TrajectoryKind._value2member_map_)
+    return traj not in TrajectoryKind._value2member_map_
 
 
 def recipe_metadata(ns: argparse.Namespace, robot: Robot, csv: bool, rate: float | None, overrides: dict[str, float],

@@ -7,7 +7,7 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 from tfrec.cli._common import add_robot_arguments, load_robot_and_launch, show, start_time
-from tfrec.cli._record import add_trajectory_arguments, parse_overrides, recipe_metadata
+from tfrec.cli._record import add_trajectory_arguments, is_csv_trajectory, parse_overrides, recipe_metadata
 from tfrec.errors import ReplayError, WriteError
 
 if TYPE_CHECKING:
@@ -93,7 +93,7 @@ def _plan(ns: argparse.Namespace) -> RecordingPlan | None:
     if ns.record is None:
         return None
     return plan_outputs(stem=None, out=ns.record, no_rrd=ns.no_rrd, force=ns.force,
-                        inputs=[ns.robot, ns.traj if ns.traj and ns.traj.endswith(".csv") else None])
+                        inputs=[ns.robot, ns.traj if ns.traj is not None and is_csv_trajectory(ns.traj) else None])
 
 
 def _serve_robot(ns: argparse.Namespace, robot: Robot, plan: RecordingPlan | None, frame_prefix: str) -> int:
@@ -129,7 +129,7 @@ def _serve_robot(ns: argparse.Namespace, robot: Robot, plan: RecordingPlan | Non
                 robot, trajectory, start_time_ns=options.start_time_ns, frame_prefix=frame_prefix)
             # a whole trajectory served is the recording `tfrec record` makes of it: its recipe too
             metadata = None if trajectory is None or ns.loop else recipe_metadata(
-                ns, robot, _is_csv(ns.traj), ns.rate, overrides, frame_prefix, options.start_time_ns)
+                ns, robot, is_csv_trajectory(ns.traj), ns.rate, overrides, frame_prefix, options.start_time_ns)
             sinks = [] if plan is None else stack.enter_context(open_sinks(
                 robot, plan, start_time_ns=options.start_time_ns, frame_prefix=frame_prefix,
                 package_paths=ns.package_path, rerun_recording_id=rid, metadata=metadata))
@@ -146,12 +146,6 @@ def _serve_robot(ns: argparse.Namespace, robot: Robot, plan: RecordingPlan | Non
         server.stop()
     _summary(result, plan)
     return 0
-
-
-def _is_csv(traj: str) -> bool:
-    from tfrec.trajectory.types import TrajectoryKind
-
-    return traj not in TrajectoryKind._value2member_map_
 
 
 def _check_viewer(ns: argparse.Namespace) -> None:
