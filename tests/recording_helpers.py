@@ -40,10 +40,12 @@ def write_mcap(
     description: str | None = None,
     compression: str = "zstd",
     chunk_samples: int = 4096,
+    chunk_bytes: int | None = None,
 ) -> Path:
     """An MCAP written by tfrec's sink, optionally with transforms changed by ``perturb(time_ns, transforms)``."""
     with open(path, "wb") as stream:
-        sink = McapSink(stream, compression=compression)
+        sink = (McapSink(stream, compression=compression) if chunk_bytes is None
+                else McapSink(stream, compression=compression, chunk_bytes=chunk_bytes))
         sink.begin(robot_description=robot.urdf if description is None else description,
                    static=static_transforms(robot), start_time_ns=start_time_ns)
         for chunk in iter_dynamic_chunks(robot, trajectory, chunk_samples=chunk_samples):

@@ -217,7 +217,8 @@ def _diff(ns: argparse.Namespace, revisions: Any) -> int:
         from tfrec.diff.compare import compare
 
         report: Any = compare(a, b, topics=ns.topics, absolute=ns.absolute, namespace=ns.namespace, remap=ns.remap,
-                              use_log_time=ns.use_log_time, **tolerances)
+                              use_log_time=ns.use_log_time, whole=ns.plot is not None,
+                              **tolerances)
     else:
         _refuse(((ns.topics, "topics"), (ns.absolute or None, "absolute")),
                 f"compares two recordings; {a} or {b} is a robot description")

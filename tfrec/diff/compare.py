@@ -30,6 +30,13 @@ translation ``t`` (m) and ``max(rot_tol, 4·eps32)`` for a rotation (rad), eps32
 recording equals its own ``.rrd``; the report's notes say when and by how much this widened a
 tolerance.
 
+Memory: two paths are read piece by piece (:func:`tfrec.formats.reader.read_pieces`), in memory that does not
+grow with their length: a first walk finds each series' span (count, first and last stamp), the robots and each
+recording's start; a second feeds A's and B's pieces together in time order to one fold per compared series
+(:mod:`tfrec.diff.fold`), which keeps B's samples around A's across piece edges and folds what the report says.
+Recordings given as :class:`Recording` objects, ``whole=True`` (``--plot`` draws every sample) and a series whose
+stamps go back or repeat (the whole series compares them exactly) are read whole: one piece each, the same folds.
+
 Errors: a translation error is the distance between the two translations (m); a rotation error
 is the angle of the relative rotation ``q_a⁻¹ q_b``, ``2·atan2(|v|, |w|)``
 (:func:`tfrec.kinematics.rotations.rotation_error`, rad); a joint error is the absolute difference of the
@@ -41,7 +48,8 @@ from __future__ import annotations
 import math
 import os
 import warnings
-from collections.abc import Collection, Iterable, Mapping
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -60,15 +68,16 @@ from tfrec.conventions import (
     namespace_name,
     split_topic,
 )
+from tfrec.diff.fold import ErrorFold, SeriesFold, SeriesSpan
 from tfrec.diff.precision import FLOAT32_ULPS, float32_tolerance
 from tfrec.diff.report import Difference, DiffReport, Largest, at_time, format_time
 from tfrec.diff.topics import renamed_b_topics, same_type
 from tfrec.errors import DiffError, TfrecWarning
 from tfrec.formats._collect import decodes_type
-from tfrec.formats.reader import read_recording
+from tfrec.formats.reader import read_pieces, read_recording
 from tfrec.kinematics.rotations import rotation_error
 from tfrec.recording import FrameSeries, JointStates, Recording
-from tfrec.resample import Alignment, align, data_start_ns, log_start_ns
+from tfrec.resample import Alignment, data_start_ns, log_start_ns
 from tfrec.robots import RecordedRobot, find_robots, pair_robots
 
 __all__ = [
@@ -86,16 +95,18 @@ __all__ = [
 ]
 
 Array = NDArray[np.float64]
+Pair = tuple[str, str]
 
 
 def _num(x: float) -> str:
     return f"{x:.3g}"
 
 
-def _rate(time_ns: NDArray[np.int64]) -> str:
-    if len(time_ns) < 2 or time_ns[-1] == time_ns[0]:
-        return f"{len(time_ns)} samples"
-    return f"{(len(time_ns) - 1) / ((time_ns[-1] - time_ns[0]) / NS_PER_S):.4g} Hz"
+def _rate(span: SeriesSpan | None) -> str:
+    count = 0 if span is None else span.count
+    if span is None or count < 2 or span.last == span.first:
+        return f"{count} samples"
+    return f"{(count - 1) / ((span.last - span.first) / NS_PER_S):.4g} Hz"
 
 
 class _Comparison:
@@ -117,6 +128,12 @@ class _Comparison:
         self.log_origin_a = 0 if absolute else log_start_ns(a) or 0  # the topic table's log times count from these
         self.log_origin_b = 0 if absolute else log_start_ns(b) or 0
         self.who = ""  # "robot /robot1: " while comparing one robot of several
+        self.spans: dict[SeriesKey, SeriesSpan] = {}  # of the series of A and B, times since each start
+        self.feeds: dict[SeriesKey, list[tuple[SeriesFold, tuple[str, ...]]]] = {}  # → the folds it feeds (joints)
+        self.folds: list[SeriesFold] | None = None
+        self.emitting = False
+        self.cursor = 0
+        self.quiet = False  # whether walking the pieces says again what reading them said
 
     def wants(self, topic: str) -> bool:
         return self.topics is None or topic in self.topics
@@ -134,8 +151,21 @@ class _Comparison:
 
     # -- robots -------------------------------------------------------------------------------
 
-    def robots(self, namespace: str | None) -> None:
-        """Compare the recordings robot by robot (see the module docstring)."""
+    def robots(self, sides: tuple[Iterable[Recording], Iterable[Recording]]) -> None:
+        """Compare the recordings robot by robot (see the module docstring), their time series read from ``sides``
+        (A's pieces, B's): the comparisons are planned (each series' fold made), the pieces fed to the folds, then
+        everything is reported in the order planned."""
+        report = self.report
+        notes, differences, largest = len(report.notes), list(report.differences), dict(report.largest)
+        self.folds = []
+        self._robots()
+        del report.notes[notes:]
+        report.differences[:], report.largest = differences, largest
+        _walk(self, sides)
+        self.emitting = True
+        self._robots()
+
+    def _robots(self) -> None:
         pairs = pair_robots(*self.found_robots())
         several = len(pairs) > 1
         joint_states: set[tuple[str, str]] = set()
@@ -153,7 +183,8 @@ class _Comparison:
             if (ra.joint_states_namespace, rb.joint_states_namespace) not in joint_states:
                 joint_states.add((ra.joint_states_namespace, rb.joint_states_namespace))
                 self.who = f"{ra.joint_states_namespace or '/'}: " if several else ""
-                self.joint_states(ra.joint_states, rb.joint_states)
+                self.joint_states(ra.joint_states, rb.joint_states,
+                                  (ra.joint_states_namespace, rb.joint_states_namespace))
         self.who = ""
 
     # -- the robot description ----------------------------------------------------------------
@@ -236,54 +267,60 @@ class _Comparison:
 
     # -- samples ------------------------------------------------------------------------------
 
-    def coverage(self, kind: str, what: str, ta: NDArray[np.int64], alignment: Alignment) -> None:
-        missing = ~alignment.inside
-        if missing.any():
-            times = ta[missing]
+    def coverage(self, kind: str, what: str, fold: SeriesFold) -> None:
+        if fold.missing:
             self.diff(
                 kind, what,
-                f"{what}: {int(missing.sum())} sample(s) of A from t={format_time(int(times[0]))} "
-                f"to {format_time(int(times[-1]))} s have no data in B",
-                int(times[0]),
+                f"{what}: {fold.missing} sample(s) of A from t={format_time(fold.missing_first)} "
+                f"to {format_time(fold.missing_last)} s have no data in B",
+                fold.missing_first,
             )
-        if alignment.outside:
-            self.diff(kind, what,
-                      f"{what}: {alignment.outside} sample(s) of B lie outside A's time span (no data in A)")
+        if fold.outside:
+            self.diff(kind, what, f"{what}: {fold.outside} sample(s) of B lie outside A's time span (no data in A)")
 
-    def errors(self, kind: str, what: str, quantity: str, unit: str, tol: float | Array, error: Array,
-               times: NDArray[np.int64]) -> None:
-        """Report the largest error and when it first exceeds ``tol`` (one per sample, or for all)."""
-        if len(error) == 0:
+    def errors(self, kind: str, what: str, quantity: str, unit: str, tol: float | None, fold: ErrorFold) -> None:
+        """Report the largest error and when it first exceeds its tolerance (``tol``: the one for all samples, or
+        None for one per sample)."""
+        if fold.count == 0 or fold.worst is None:
             return
-        worst = int(np.argmax(error))
-        value = float(error[worst])
-        self.largest(quantity, value, what, int(times[worst]))
-        over = error > tol
-        if not over.any():
+        value = fold.worst
+        self.largest(quantity, value, what, fold.worst_time)
+        if fold.first_over is None:
             return
-        first = int(np.argmax(over))
+        first_time, first_tol = fold.first_over
         unit = f" {unit}" if unit else ""
         if math.isinf(value):
-            missing = np.isinf(error)
             detail = (
-                f"{what}: {quantity} in one recording only (NaN in the other) in {int(missing.sum())} of "
-                f"{len(error)} samples, first{at_time(int(times[int(np.argmax(missing))]))}"
+                f"{what}: {quantity} in one recording only (NaN in the other) in {fold.missing} of "
+                f"{fold.count} samples, first{at_time(fold.first_missing)}"
             )
-            finite = error[~missing]
-            if finite.size and finite.max() > tol:
-                detail += f"; elsewhere it differs by up to {_num(float(finite.max()))}{unit}"
+            finite = fold.finite_max
+            if finite is not None and (finite > tol if tol is not None else fold.finite_over):
+                detail += f"; elsewhere it differs by up to {_num(finite)}{unit}"
         else:
             detail = (
-                f"{what}: {quantity} differs by up to {_num(value)}{unit}{at_time(int(times[worst]))}; "
-                f"first above {np.broadcast_to(tol, error.shape)[first]:g}{unit}{at_time(int(times[first]))}"
-                f" ({int(over.sum())} of {len(error)} samples)"
+                f"{what}: {quantity} differs by up to {_num(value)}{unit}{at_time(fold.worst_time)}; "
+                f"first above {first_tol:g}{unit}{at_time(first_time)} ({fold.over} of {fold.count} samples)"
             )
-        self.diff(kind, what, detail, int(times[first]), value)
+        self.diff(kind, what, detail, first_time, value)
 
-    def note_interpolation(self, what: str, ta: NDArray[np.int64], tb: NDArray[np.int64]) -> None:
-        self.interpolated.setdefault(f"A {_rate(ta)}, B {_rate(tb)}", []).append(what)
+    def note_interpolation(self, what: str, fold: SeriesFold) -> None:
+        if fold.interpolates:
+            self.interpolated.setdefault(f"A {_rate(fold.a)}, B {_rate(fold.b)}", []).append(what)
 
-    def joint_states(self, ja: JointStates | None, jb: JointStates | None) -> None:
+    def _fold(self, make: Callable[[], SeriesFold]) -> SeriesFold | None:
+        """A series' fold: made while the comparisons are planned, the same one when they are reported."""
+        if self.folds is None:
+            return None
+        if self.emitting:
+            fold = self.folds[self.cursor]
+            self.cursor += 1
+            return fold
+        fold = make()
+        self.folds.append(fold)
+        return fold
+
+    def joint_states(self, ja: JointStates | None, jb: JointStates | None, namespaces: tuple[str, str]) -> None:
         if not self.wants(JOINT_STATES) or ja is None or jb is None:
             return
         column_a = {name: k for k, name in enumerate(ja.names)}  # dicts: 50,000 joints are linear
@@ -294,24 +331,33 @@ class _Comparison:
         for name in jb.names:
             if name not in column_a:
                 self.diff("joint_states", f"joint '{name}'", f"joint '{name}' only in B's /joint_states")
-        common = [name for name in ja.names if name in column_b]
-        ta = ja.time_ns - self.origin(self.a)
-        tb = jb.time_ns - self.origin(self.b)
-        alignment = align(ta, tb)
-        if alignment.interpolates:
-            self.note_interpolation("/joint_states", ta, tb)
-        self.coverage("joint_states", "/joint_states", ta, alignment)
-        if not common or not alignment.inside.any():
+        common = tuple(name for name in ja.names if name in column_b)
+        errors = [ErrorFold() for _ in common]
+
+        def compare(times: NDArray[np.int64], pa: Array, alignment: Alignment, b_values: Array) -> None:
+            if not common:
+                return
+            pb = alignment.linear(b_values)
+            nan_a, nan_b = np.isnan(pa), np.isnan(pb)
+            error = np.where(nan_a & nan_b, 0.0, np.where(nan_a | nan_b, np.inf, np.abs(pa - pb)))
+            for j, fold in enumerate(errors):
+                fold.add(error[:, j], self.joint_tol, times)
+
+        def make() -> SeriesFold:
+            fold = SeriesFold(self.spans.get(("A", JOINT_STATES, namespaces[0], ())),
+                              self.spans.get(("B", JOINT_STATES, namespaces[1], ())), compare)
+            fold.errors = errors
+            self.feeds.setdefault(("A", JOINT_STATES, namespaces[0], ()), []).append((fold, common))
+            self.feeds.setdefault(("B", JOINT_STATES, namespaces[1], ()), []).append((fold, common))
+            return fold
+
+        fold = self._fold(make)
+        if fold is None or not self.emitting:
             return
-        cols_a = [column_a[name] for name in common]
-        cols_b = [column_b[name] for name in common]
-        pa = ja.positions[:, cols_a][alignment.inside]
-        pb = alignment.linear(jb.positions[:, cols_b])
-        nan_a, nan_b = np.isnan(pa), np.isnan(pb)
-        error = np.where(nan_a & nan_b, 0.0, np.where(nan_a | nan_b, np.inf, np.abs(pa - pb)))
-        times = ta[alignment.inside]
-        for j, name in enumerate(common):
-            self.errors("joint_states", f"joint '{name}'", "joint position", "", self.joint_tol, error[:, j], times)
+        self.note_interpolation("/joint_states", fold)
+        self.coverage("joint_states", "/joint_states", fold)
+        for name, error in zip(common, fold.errors):
+            self.errors("joint_states", f"joint '{name}'", "joint position", "", self.joint_tol, error)
 
     def transforms(self, a: RecordedRobot, b: RecordedRobot) -> None:
         want_tf, want_static = self.wants(TF), self.wants(TF_STATIC)
@@ -332,7 +378,7 @@ class _Comparison:
             elif other != where:
                 self.diff("frame", label, f"{label}: on /{where} in A, on /{other} in B")
             elif where == "tf":
-                self.frame_series(label, a.tf[pair], b.tf[pair])
+                self.frame_series(label, pair, (a.tf_namespace, b.tf_namespace))
             else:
                 self.static_pair(label, a.tf_static[pair], b.tf_static[pair])
         for pair, where in pairs_b.items():
@@ -340,23 +386,35 @@ class _Comparison:
                 label = _pair(pair)
                 self.diff("frame", label, f"{label} only in B (/{where})")
 
-    def frame_series(self, label: str, sa: FrameSeries, sb: FrameSeries) -> None:
-        ta = sa.time_ns - self.origin(self.a)
-        tb = sb.time_ns - self.origin(self.b)
-        alignment = align(ta, tb)
-        if alignment.interpolates:
-            self.note_interpolation(f"/tf {label}", ta, tb)
-        self.coverage("tf", label, ta, alignment)
-        if not alignment.inside.any():
+    def frame_series(self, label: str, pair: tuple[str, str], namespaces: tuple[str, str]) -> None:
+        translation, rotation = ErrorFold(), ErrorFold()
+        per_sample = self.float32
+
+        def compare(times: NDArray[np.int64], a_values: Array, alignment: Alignment, b_values: Array) -> None:
+            translation_a, rotation_a = a_values[:, :3], a_values[:, 3:]
+            trans = np.linalg.norm(translation_a - alignment.linear(b_values[:, :3]), axis=1)
+            rot = rotation_error(rotation_a, alignment.rotations(b_values[:, 3:]))
+            pos_tol, rot_tol = self.transform_tolerances(translation_a)
+            translation.add(_nan_is_inf(trans), pos_tol, times)
+            rotation.add(_nan_is_inf(rot), rot_tol, times)
+
+        def make() -> SeriesFold:
+            key_a, key_b = ("A", TF, namespaces[0], pair), ("B", TF, namespaces[1], pair)
+            fold = SeriesFold(self.spans.get(key_a), self.spans.get(key_b), compare)
+            fold.errors = [translation, rotation]
+            self.feeds.setdefault(key_a, []).append((fold, ()))
+            self.feeds.setdefault(key_b, []).append((fold, ()))
+            return fold
+
+        fold = self._fold(make)
+        if fold is None or not self.emitting:
             return
-        times = ta[alignment.inside]
-        translation_a = sa.translation[alignment.inside]
-        rotation_a = sa.rotation[alignment.inside]
-        trans = np.linalg.norm(translation_a - alignment.linear(sb.translation), axis=1)
-        rot = rotation_error(rotation_a, alignment.rotations(sb.rotation))
-        pos_tol, rot_tol = self.transform_tolerances(translation_a)
-        self.errors("tf", label, "translation", "m", pos_tol, _nan_is_inf(trans), times)
-        self.errors("tf", label, "rotation", "rad", rot_tol, _nan_is_inf(rot), times)
+        self.note_interpolation(f"/tf {label}", fold)
+        self.coverage("tf", label, fold)
+        if not fold.inside:
+            return
+        self.errors("tf", label, "translation", "m", None if per_sample else self.pos_tol, fold.errors[0])
+        self.errors("tf", label, "rotation", "rad", None if per_sample else self.rot_tol, fold.errors[1])
 
     def static_pair(self, label: str, va: tuple[Array, Array], vb: tuple[Array, Array]) -> None:
         trans = float(np.linalg.norm(va[0] - vb[0]))
@@ -382,6 +440,136 @@ class _Comparison:
         return pos, rot
 
 
+SeriesKey = tuple[str, str, str, tuple[str, ...]]
+"""(``A`` or ``B``, /joint_states or /tf, namespace, the frame pair of a /tf series or ``()``)."""
+
+
+class _Scan:
+    """What a first walk through a recording's pieces finds of its time series: each one's span (raw stamps), the
+    joint names in order of first appearance, and whether the stamps of some series go back or repeat from one
+    sample to the next (then the series cannot be compared piece by piece exactly: the whole recording is read)."""
+
+    def __init__(self) -> None:
+        self.spans: dict[tuple[str, str, tuple[str, ...]], list[int]] = {}  # → [count, first, last]
+        self.names: dict[str, dict[str, None]] = {}  # namespace → joint names
+        self.unordered = False
+        self.last: Recording | None = None
+
+    def take(self, piece: Recording) -> None:
+        self.last = piece
+        for ns in ["", *piece.namespaces]:
+            topics = piece.robot_topics(ns)
+            js = topics.joint_states
+            if js is not None and len(js):
+                self._span((JOINT_STATES, ns, ()), js.time_ns)
+                self.names.setdefault(ns, {}).update(dict.fromkeys(js.names))
+            for pair, series in topics.tf.items():
+                if len(series):
+                    self._span((TF, ns, pair), series.time_ns)
+
+    def _span(self, key: tuple[str, str, tuple[str, ...]], time_ns: NDArray[np.int64]) -> None:
+        first, last = int(time_ns[0]), int(time_ns[-1])
+        if len(time_ns) > 1 and bool(np.any(np.diff(time_ns) <= 0)):
+            self.unordered = True
+        span = self.spans.get(key)
+        if span is None:
+            self.spans[key] = [len(time_ns), first, last]
+            return
+        if first <= span[2]:
+            self.unordered = True
+        span[0] += len(time_ns)
+        span[2] = last
+
+    def skeleton(self) -> Recording:
+        """The last piece (the latched data, the topic table, the damage) with every series as two samples: its
+        first and last stamp — what finds the robots and the recording's start."""
+        assert self.last is not None
+        rec = replace(self.last, namespaces=dict(self.last.namespaces))
+        tf: dict[str, dict[Pair, FrameSeries]] = {}
+        joint_states: dict[str, JointStates] = {}
+        for (kind, ns, pair), (_, first, last) in self.spans.items():
+            time_ns = np.array([first, last], dtype=np.int64)
+            if kind == TF:
+                tf.setdefault(ns, {})[(pair[0], pair[1])] = FrameSeries(time_ns, np.zeros((2, 3)), np.zeros((2, 4)))
+            else:
+                names = tuple(self.names[ns])
+                joint_states[ns] = JointStates(time_ns, names, np.full((2, len(names)), np.nan), ())
+        for ns in sorted({"", *rec.namespaces, *tf, *joint_states}):
+            if ns:
+                robot = rec.namespaces.get(ns) or RecordedRobot(ns)
+                rec.namespaces[ns] = replace(robot, joint_states=joint_states.get(ns), tf=tf.get(ns, {}))
+            else:
+                rec.joint_states, rec.tf = joint_states.get(""), tf.get("", {})
+        return rec
+
+    @classmethod
+    def of(cls, pieces: Iterable[Recording]) -> _Scan:
+        scan = cls()
+        for piece in pieces:
+            scan.take(piece)
+        return scan
+
+
+def _values(series: FrameSeries | JointStates, common: tuple[str, ...]) -> Array:
+    """A piece's samples as rows: a transform's translation and rotation, or the positions of the joints ``common``
+    (NaN for one the piece lacks)."""
+    if isinstance(series, FrameSeries):
+        return np.hstack([series.translation, series.rotation])
+    column = {name: k for k, name in enumerate(series.names)}
+    if all(name in column for name in common):
+        return series.positions[:, [column[name] for name in common]]
+    out = np.full((len(series), len(common)), np.nan)
+    for j, name in enumerate(common):
+        if name in column:
+            out[:, j] = series.positions[:, column[name]]
+    return out
+
+
+def _feed(cmp: _Comparison, side: str, piece: Recording) -> int | None:
+    """Give one piece of A or B to the folds of its series; its last stamp (time since the start), None without."""
+    origin = cmp.origin_a if side == "A" else cmp.origin_b
+    seen: int | None = None
+    for (who, kind, ns, pair), folds in cmp.feeds.items():
+        if who != side:
+            continue
+        topics = piece.robot_topics(ns)
+        series: FrameSeries | JointStates | None = topics.joint_states if kind == JOINT_STATES else (
+            topics.tf.get((pair[0], pair[1])))
+        if series is None or not len(series):
+            continue
+        time_ns = series.time_ns - origin
+        seen = int(time_ns[-1]) if seen is None else max(seen, int(time_ns[-1]))
+        for fold, common in folds:
+            values = _values(series, common)
+            (fold.take_a if side == "A" else fold.take_b)(time_ns, values)
+    return seen
+
+
+def _walk(cmp: _Comparison, sides: tuple[Iterable[Recording], Iterable[Recording]]) -> None:
+    """Feed A's and B's pieces to the folds together in time order: the next piece is the one of the side whose
+    series are behind (by time since its start), so that each side waits for the other at most about a piece."""
+    walks = [iter(sides[0]), iter(sides[1])]
+    progress: list[int | None] = [None, None]
+    live = [0, 1]
+    folds = cmp.folds or []
+    while live:
+        k = min(live, key=lambda i: (progress[i] is not None, progress[i] or 0, i))
+        with warnings.catch_warnings():
+            if cmp.quiet:  # the first walk gave them
+                warnings.simplefilter("ignore")
+            piece = next(walks[k], None)
+        if piece is None:
+            live.remove(k)
+            continue
+        seen = _feed(cmp, "AB"[k], piece)
+        if seen is not None:
+            progress[k] = seen if progress[k] is None else max(seen, progress[k] or seen)
+        for fold in folds:
+            fold.run()
+    for fold in folds:
+        fold.run(final=True)
+
+
 def _nan_is_inf(error: Array) -> Array:
     return np.where(np.isnan(error), np.inf, error)
 
@@ -396,7 +584,33 @@ def _check_tolerance(name: str, value: float) -> float:
     return float(value)
 
 
-def compare(
+def _pieces(path: str | os.PathLike[str], options: Mapping[str, Any]) -> Iterator[Recording]:
+    for piece, _ in read_pieces(path, **options):
+        yield piece
+
+
+def _read(a: Recording | str | os.PathLike[str], b: Recording | str | os.PathLike[str], options: Mapping[str, Any], *,
+          whole: bool) -> tuple[Recording, Recording, tuple[_Scan, _Scan],
+                                tuple[Iterable[Recording], Iterable[Recording]], bool]:
+    """(A and B as the comparison sees them, what a walk through their series found, their series to walk, whether
+    the walk says again what reading said): whole recordings as one piece each; else (paths) a first walk through
+    their pieces for the spans of their series, and a second for the comparison — unless some series' stamps go
+    back or repeat, which only the whole recording compares exactly."""
+    scanned = not whole and not isinstance(a, Recording) and not isinstance(b, Recording)
+    if scanned:
+        scans = (_Scan.of(_pieces(a, options)), _Scan.of(_pieces(b, options)))  # type: ignore[arg-type]
+        if not (scans[0].unordered or scans[1].unordered):
+            return (scans[0].skeleton(), scans[1].skeleton(), scans,
+                    (_pieces(a, options), _pieces(b, options)), True)  # type: ignore[arg-type]
+    with warnings.catch_warnings():
+        if scanned:  # the first walk gave them
+            warnings.simplefilter("ignore")
+        rec_a = a if isinstance(a, Recording) else read_recording(a, **options)
+        rec_b = b if isinstance(b, Recording) else read_recording(b, **options)
+    return rec_a, rec_b, (_Scan.of([rec_a]), _Scan.of([rec_b])), ([rec_a], [rec_b]), False
+
+
+def compare(  # noqa: PLR0913 - the keyword-only options of tfrec diff of two recordings
     a: Recording | str | os.PathLike[str],
     b: Recording | str | os.PathLike[str],
     *,
@@ -408,6 +622,7 @@ def compare(
     namespace: str | None = None,
     remap: Iterable[str] | Mapping[str, str] | None = None,
     use_log_time: bool = False,
+    whole: bool = False,
 ) -> DiffReport:
     """Compare two recordings by meaning, robot by robot.
 
@@ -423,6 +638,8 @@ def compare(
         namespace: compare only the robots of this namespace (``/robot1``; ``/`` the root's).
         remap: ``FROM:=TO`` topic remapping rules, applied to both recordings as they are read.
         use_log_time: compare the samples at their log times instead of their header stamps.
+        whole: read each recording whole (the report's recordings then hold their series, as
+            :func:`tfrec.plots.plot_diff` needs) instead of piece by piece in bounded memory.
 
     Returns:
         The report; ``report.equal`` is False when anything differs beyond tolerance.
@@ -440,9 +657,8 @@ def compare(
     wanted = None if topics is None else frozenset(topics)
     # the time series are read whatever the topics, for each recording's start (data_start_ns)
     decoded = wanted if wanted is None or absolute else wanted | {JOINT_STATES, TF}
-    options: dict[str, Any] = {"namespace": namespace, "remap": remap, "use_log_time": use_log_time}
-    rec_a = a if isinstance(a, Recording) else read_recording(a, topics=decoded, **options)
-    rec_b = b if isinstance(b, Recording) else read_recording(b, topics=decoded, **options)
+    options: dict[str, Any] = {"topics": decoded, "namespace": namespace, "remap": remap, "use_log_time": use_log_time}
+    rec_a, rec_b, scans, sides, quiet = _read(a, b, options, whole=whole)
     if wanted is not None:
         absent = sorted(topic for topic in wanted if topic not in rec_a.topics and topic not in rec_b.topics)
         if absent:
@@ -458,6 +674,10 @@ def compare(
             report.notes.append(f"damaged file, compared as far as readable: {rec.read_error}")
     ns = None if namespace is None else namespace_name(namespace)
     cmp = _Comparison(rec_a, rec_b, report, wanted, absolute, ns)
+    cmp.quiet = quiet
+    for side, scan, origin in (("A", scans[0], cmp.origin_a), ("B", scans[1], cmp.origin_b)):
+        for (kind, where, pair), (count, first, last) in scan.spans.items():
+            cmp.spans[(side, kind, where, pair)] = SeriesSpan(count, first - origin, last - origin)
     if ns is not None and not any(cmp.found_robots()):
         spaces = sorted(set(rec_a.topic_namespaces()) | set(rec_b.topic_namespaces()))
         raise DiffError(f"{rec_a.path} and {rec_b.path}: no robot in `namespace` {ns or '/'} in either (their "
@@ -465,7 +685,7 @@ def compare(
     if not absolute:
         report.origins = (cmp.origin_a, cmp.origin_b)
     cmp.topic_table()
-    cmp.robots(ns)
+    cmp.robots(sides)
     if cmp.interpolated:
         groups = []
         for rates, whats in cmp.interpolated.items():

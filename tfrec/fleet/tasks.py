@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from tfrec.conventions import CHECK_POS_TOL, CHECK_ROT_TOL, DIFF_JOINT_TOL, DIFF_POS_TOL, DIFF_ROT_TOL
 from tfrec.errors import FleetError, TfrecError, one_line
 from tfrec.fleet.fingerprint import Fingerprint, fingerprint
-from tfrec.fleet.health import DEFAULT_GAP_PERIODS, Finding, series_findings
+from tfrec.fleet.health import DEFAULT_GAP_PERIODS, Finding, StampFold, series_findings
 from tfrec.fleet.row import ERROR, FAIL, PASS, Row
 
 if TYPE_CHECKING:
@@ -205,14 +205,17 @@ class _Unreadable(Exception):
         self.error = error
 
 
-class _Stamps(Mapping[tuple[str, str], NDArray[np.int64]]):
-    """The stamps of the first robot's /joint_states and recorded /tf pairs, piece by piece, kept compressed (the
-    differences between consecutive stamps, zlib): a series is whole again (sorted by stamp, as a reader gives it)
-    only while the health checks look at it."""
+class _Stamps(Mapping[tuple[str, str], StampFold]):
+    """The stamps of the first robot's /joint_states and recorded /tf pairs, piece by piece, folded for the health
+    checks (:class:`tfrec.fleet.health.StampFold`) and kept compressed (the differences between consecutive stamps,
+    zlib): a series is whole again (sorted by stamp, as a reader gives it) only when its fold cannot tell (stamps that
+    go back from one piece to the next, or a clock with more distinct periods than the fold keeps)."""
 
     def __init__(self) -> None:
         self.joint_states: list[tuple[int, bytes]] = []
+        self.joint_fold = StampFold()
         self.tf: dict[tuple[str, str], list[tuple[int, bytes]]] = {}
+        self.tf_folds: dict[tuple[str, str], StampFold] = {}
         self.first_joint_ns: int | None = None
         self.last_joint_ns: int | None = None
         self.joint_count = 0
@@ -250,11 +253,15 @@ class _Stamps(Mapping[tuple[str, str], NDArray[np.int64]]):
             out.sort()  # a stamp that arrived after a later piece's
         return out
 
+    def _folded(self, fold: StampFold, parts: Sequence[tuple[int, bytes]]) -> StampFold:
+        return fold if fold.exact else StampFold.of(self._whole(parts))
+
     def add(self, piece: ReplayPiece) -> None:
         robot = piece.replay.robots[0]
         own = piece.joint_stamps.get(robot.joint_states_namespace)
         if robot.joint_states is not None and own is not None and len(own):
             self.joint_states.append(self._packed(own))
+            self.joint_fold.add(own)
             self.joint_count += len(own)
             first, last = int(own.min()), int(own.max())
             self.first_joint_ns = first if self.first_joint_ns is None else min(first, self.first_joint_ns)
@@ -262,12 +269,13 @@ class _Stamps(Mapping[tuple[str, str], NDArray[np.int64]]):
         for pair, series in robot.tf.items():
             if pair not in robot.derived_dynamic and len(series):
                 self.tf.setdefault(pair, []).append(self._packed(series.time_ns))
+                self.tf_folds.setdefault(pair, StampFold()).add(series.time_ns)
 
-    def joint_stamps(self) -> NDArray[np.int64] | None:
-        return self._whole(self.joint_states) if self.joint_states else None
+    def joint_stamps(self) -> StampFold | None:
+        return self._folded(self.joint_fold, self.joint_states) if self.joint_states else None
 
-    def __getitem__(self, pair: tuple[str, str]) -> NDArray[np.int64]:
-        return self._whole(self.tf[pair])
+    def __getitem__(self, pair: tuple[str, str]) -> StampFold:
+        return self._folded(self.tf_folds[pair], self.tf[pair])
 
     def __iter__(self) -> Iterator[tuple[str, str]]:
         return iter(self.tf)

@@ -1,0 +1,169 @@
+"""``tfrec diff`` of two recordings read piece by piece: the report is the one of the whole recordings."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.recording_helpers import marm_trajectory, write_mcap, write_rosbag1, write_rosbag2
+from tfrec.diff.compare import compare
+from tfrec.formats.mcap.writer import DEFAULT_START_TIME_NS
+from tfrec.formats.reader import read_recording
+from tfrec.model import Robot
+from tfrec.recording import FrameSeries, JointStates, Recording
+
+
+def _small_chunks(monkeypatch: pytest.MonkeyPatch) -> None:
+    """ROS 1 bags written (by rosbags) in chunks of about 2 kB, sqlite3 bags read 5 rows at a time: small pieces."""
+    from rosbags.rosbag1 import Writer
+
+    init = Writer.__init__
+
+    def small(self: Writer, path: Path | str) -> None:
+        init(self, path)
+        self.chunk_threshold = 2000
+
+    monkeypatch.setattr(Writer, "__init__", small)
+    monkeypatch.setattr("tfrec.formats.rosbag2.source.BATCH_MESSAGES", 5)
+
+
+def _pieces_of(path: Path) -> int:
+    from tfrec.formats.reader import read_pieces
+
+    return sum(1 for _ in read_pieces(path))
+
+
+def _changed(rec: Recording) -> Recording:
+    """B: one joint fewer in /joint_states, one /tf frame pair fewer, one pair moved by 1 mm for a while."""
+    js = rec.joint_states
+    assert js is not None and len(js.names) > 2
+    rec.joint_states = JointStates(js.time_ns, js.names[:-1], js.positions[:, :-1].copy(), js.repeated)
+    pairs = list(rec.tf)
+    del rec.tf[pairs[-1]]
+    series = rec.tf[pairs[1]]
+    translation = series.translation.copy()
+    translation[len(translation) // 3: len(translation) // 2, 0] += 1e-3
+    rec.tf[pairs[1]] = FrameSeries(series.time_ns, translation, series.rotation)
+    return rec
+
+
+@pytest.fixture(scope="module")
+def pairs(tmp_path_factory: pytest.TempPathFactory, marm: Robot) -> list[tuple[Path, Path]]:
+    """(A, B) pairs of every format (MCAP chunks of about 2 kB, so that pieces are small): B at another rate, shorter, starting 7 s later on the clock, with a joint and
+    a frame missing and a pair moved; and B the same as A but for its start."""
+    folder = tmp_path_factory.mktemp("pieces")
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        _small_chunks(monkeypatch)
+        return _pairs(folder, marm)
+
+
+def _pairs(folder: Path, marm: Robot) -> list[tuple[Path, Path]]:
+    a = write_mcap(folder / "a.mcap", marm, marm_trajectory(marm), chunk_samples=5, chunk_bytes=2000)
+    slower = write_mcap(folder / "slower.mcap", marm, marm_trajectory(marm, duration_s=1.5, rate_hz=30.0),
+                        start_time_ns=DEFAULT_START_TIME_NS + 7 * 10**9, chunk_samples=5, chunk_bytes=2000)
+    later = write_mcap(folder / "later.mcap", marm, marm_trajectory(marm),
+                       start_time_ns=DEFAULT_START_TIME_NS + 3 * 10**9, chunk_samples=5, chunk_bytes=2000)
+    changed = _changed(read_recording(slower))
+    a_rec = read_recording(a)
+    return [
+        (a, later),
+        (a, slower),
+        (slower, a),
+        (a, write_rosbag1(changed, folder / "changed.bag")),
+        (write_rosbag2(changed, folder / "changed_sqlite"), a),
+        (write_rosbag1(a_rec, folder / "a.bag"), write_rosbag2(changed, folder / "changed_sqlite2")),
+    ]
+
+
+@pytest.mark.parametrize("options", [{}, {"absolute": True}, {"topics": ["/tf"]}, {"pos_tol": 1e-2}, {"use_log_time": True}])
+def test_pieces_give_the_whole_report(pairs: list[tuple[Path, Path]], options: dict[str, Any],
+                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    wholes = [compare(a, b, whole=True, **options) for a, b in pairs]
+    assert any(not report.equal for report in wholes)
+    if not options.get("absolute"):  # with it, B's samples 7 s later meet none of A's
+        assert any("interpolated" in note for report in wholes for note in report.notes)
+
+    def refused(*args: object, **kwargs: object) -> Recording:
+        raise AssertionError("a recording read whole")
+
+    monkeypatch.setattr("tfrec.formats.reader.PIECE_MESSAGES", 7)
+    _small_chunks(monkeypatch)
+    assert all(_pieces_of(path) > 5 for pair in pairs for path in pair)
+    monkeypatch.setattr(sys.modules["tfrec.diff.compare"], "read_recording", refused)
+    for (a, b), whole in zip(pairs, wholes):
+        pieces = compare(a, b, **options)
+        assert pieces.to_json() == whole.to_json(), (a, b)
+        assert pieces.to_text() == whole.to_text()
+
+
+def test_pieces_hold_a_piece_of_each_series(pairs: list[tuple[Path, Path]], monkeypatch: pytest.MonkeyPatch) -> None:
+    """No fold holds more than about a piece of samples of A or B while the pieces are walked."""
+    from tfrec.diff.fold import SeriesFold
+
+    monkeypatch.setattr("tfrec.formats.reader.PIECE_MESSAGES", 7)
+    _small_chunks(monkeypatch)
+    held: list[int] = []
+    run = SeriesFold.run
+
+    def spy(self: SeriesFold, *, final: bool = False) -> None:
+        run(self, final=final)
+        held.append(max(len(self._a_time), len(self._b_time)))
+
+    monkeypatch.setattr(SeriesFold, "run", spy)
+    for a, b in pairs:
+        compare(a, b)
+    assert held and max(held) <= 7
+
+
+def test_stamps_that_go_back_read_the_whole_recordings(tmp_path: Path, pairs: list[tuple[Path, Path]],
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    """A /tf series whose stamps go back is compared as the whole recording compares it."""
+    rec = read_recording(pairs[0][0])
+    pair = next(iter(rec.tf))
+    series = rec.tf[pair]
+    time_ns = series.time_ns.copy()
+    time_ns[40] = time_ns[5]  # a stamp from the past, logged in order
+    rec.tf[pair] = FrameSeries(time_ns, series.translation, series.rotation)
+    _small_chunks(monkeypatch)
+    back = write_rosbag1(rec, tmp_path / "back.bag")
+    whole = compare(pairs[0][0], back, whole=True)
+    monkeypatch.setattr("tfrec.formats.reader.PIECE_MESSAGES", 7)
+    _small_chunks(monkeypatch)
+    module = sys.modules["tfrec.diff.compare"]
+    read: list[object] = []
+
+    def reading(path: object, **options: Any) -> Recording:
+        read.append(path)
+        return read_recording(path, **options)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(module, "read_recording", reading)
+    assert compare(pairs[0][0], back).to_json() == whole.to_json()
+    assert read == [pairs[0][0], back]
+
+
+@pytest.mark.parametrize("kind", ["sqlite3", "ros1"])  # (rosbags writes a rosbag2 MCAP in one chunk)
+def test_pieces_of_several_robots_give_the_whole_report(tmp_path: Path, pairs: list[tuple[Path, Path]], kind: str,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two robots in namespaces, B's /robot2 changed (another rate, shorter, a joint and a frame missing), against
+    one robot; ``namespace`` picks one of them."""
+    from tests.bag_builders import Robot as Published
+    from tests.bag_builders import write_bag
+
+    _small_chunks(monkeypatch)
+    same = read_recording(pairs[0][0])
+    changed = _changed(read_recording(pairs[1][1]))
+    suffix = ".bag" if kind == "ros1" else ""
+    a = write_bag(tmp_path / f"a{suffix}", [Published(same, namespace="/robot1"), Published(same, namespace="/robot2")],
+                  kind=kind)
+    b = write_bag(tmp_path / f"b{suffix}", [Published(same, namespace="/robot1"),
+                                            Published(changed, namespace="/robot2")], kind=kind)
+    cases = [(a, b, {}), (b, a, {}), (a, b, {"namespace": "/robot2"}), (pairs[0][0], b, {})]
+    wholes = [compare(x, y, whole=True, **options) for x, y, options in cases]
+    assert not wholes[0].equal and any("robot /robot2" in d.detail for d in wholes[0].differences)
+    monkeypatch.setattr("tfrec.formats.reader.PIECE_MESSAGES", 7)
+    assert _pieces_of(a) > 5 and _pieces_of(b) > 5
+    for (x, y, options), whole in zip(cases, wholes):
+        assert compare(x, y, **options).to_json() == whole.to_json()
