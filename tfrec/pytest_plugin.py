@@ -217,7 +217,7 @@ class TfrecGolden:
         __tracebackhide__ = True
         from tfrec.diff.compare import compare
 
-        report = compare(golden, fresh, **tolerances)
+        report = compare(golden, fresh, whole=True, **tolerances)  # whole: the error plot draws every sample
         if report.equal:
             return
         artifacts = self._write_artifacts(golden, fresh, report, tolerances, package_paths)

@@ -147,13 +147,16 @@ class _Candidate:
     tf_static: dict[Pair, tuple[Array, Array]] = field(default_factory=dict)
 
 
-def find_robots(rec: Recording, *, namespace: str | None = None) -> list[RecordedRobot]:
+def find_robots(rec: Recording, *, namespace: str | None = None,
+                parsed: dict[str, tuple[Robot | None, str | None]] | None = None) -> list[RecordedRobot]:
     """The robots of a recording (see the module docstring), in namespace order.
 
     Args:
         rec: the recording.
         namespace: only the robots of this namespace (``/robot1``; ``""`` the root's); they
             may still read the root namespace's TF and joint states.
+        parsed: descriptions already parsed (:func:`parse_description`), by text; those parsed here are added
+            (``diff`` parses a description A and B share once).
 
     Returns:
         One entry per robot, and one per shared TF's unclaimed pairs; empty when the recording
@@ -164,9 +167,12 @@ def find_robots(rec: Recording, *, namespace: str | None = None) -> list[Recorde
     has_tf = {ns for ns, t in topics.items() if t.tf or t.tf_static}
     has_js = {ns for ns, t in topics.items() if t.joint_states is not None}
     candidates: list[_Candidate] = []
+    memo = {} if parsed is None else parsed
     for ns in names:
         for text in topics[ns].descriptions:
-            model, problem = parse_description(text, rec.path)
+            if text not in memo:
+                memo[text] = parse_description(text, rec.path)
+            model, problem = memo[text]
             candidates.append(_Candidate(ns, model.name if model else robot_name(text), text, model, problem))
     for candidate in candidates:
         candidate.pool = candidate.namespace if candidate.namespace in has_tf or "" not in has_tf else ""

@@ -167,3 +167,48 @@ def test_pieces_of_several_robots_give_the_whole_report(tmp_path: Path, pairs: l
     assert _pieces_of(a) > 5 and _pieces_of(b) > 5
     for (x, y, options), whole in zip(cases, wholes):
         assert compare(x, y, **options).to_json() == whole.to_json()
+
+
+def test_a_recording_of_one_piece_is_read_once(pairs: list[tuple[Path, Path]], monkeypatch: pytest.MonkeyPatch) -> None:
+    """A short recording (one piece) is read once and compared as it is, beside a long one read piece by piece (its
+    first walk and its second): the report is the whole recordings' and says whether it holds every sample."""
+    from tfrec.formats import reader
+
+    a, slower = pairs[1]
+    whole = compare(a, slower, whole=True)
+    monkeypatch.setattr("tfrec.formats.reader.PIECE_MESSAGES", 100)
+    assert _pieces_of(slower) == 1 < _pieces_of(a)
+    module = sys.modules["tfrec.diff.compare"]
+    walks: list[object] = []
+
+    def counted(path: object, **options: Any) -> Any:
+        walks.append(path)
+        return reader.read_pieces(path, **options)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(module, "read_pieces", counted)
+    for x, y in ((a, slower), (slower, a), (slower, slower)):
+        walks.clear()
+        report = compare(x, y)
+        counted_walks = list(walks)
+        assert report.to_json() == compare(x, y, whole=True).to_json()
+        assert counted_walks.count(slower) == (1 if x != y else 2)  # one piece each side: read once
+        assert counted_walks.count(a) == (3 if a in (x, y) else 0)  # its first piece, its first walk, its second
+        assert report.whole == (a not in (x, y))
+    assert compare(a, slower).to_json() == whole.to_json()
+
+
+def test_a_report_of_pieces_is_not_plotted(pairs: list[tuple[Path, Path]], monkeypatch: pytest.MonkeyPatch) -> None:
+    """The errors of a comparison read piece by piece are not in its report (it holds each series' first and last
+    stamp): plotting it is one error, not a plot of two points; ``whole=True`` plots every sample."""
+    from tfrec.plots import errors_from_diff
+    from tfrec.plots._figure import PlotError
+
+    a, b = pairs[0]
+    monkeypatch.setattr("tfrec.formats.reader.PIECE_MESSAGES", 7)
+    pieces = compare(a, b)
+    assert not pieces.whole
+    with pytest.raises(PlotError, match="piece by piece"):
+        errors_from_diff(pieces)
+    whole = compare(a, b, whole=True)
+    series = errors_from_diff(whole)
+    assert whole.whole and series and max(len(s.t_s) for s in series) == len(next(iter(whole.a.tf.values())))

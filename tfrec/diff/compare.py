@@ -34,8 +34,11 @@ Memory: two paths are read piece by piece (:func:`tfrec.formats.reader.read_piec
 grow with their length: a first walk finds each series' span (count, first and last stamp), the robots and each
 recording's start; a second feeds A's and B's pieces together in time order to one fold per compared series
 (:mod:`tfrec.diff.fold`), which keeps B's samples around A's across piece edges and folds what the report says.
-Recordings given as :class:`Recording` objects, ``whole=True`` (``--plot`` draws every sample) and a series whose
-stamps go back or repeat (the whole series compares them exactly) are read whole: one piece each, the same folds.
+A recording of one piece (up to :data:`~tfrec.formats.reader.PIECE_MESSAGES` /tf and /joint_states messages) is
+read once and kept as it is. Recordings given as :class:`Recording` objects, ``whole=True`` (``--plot`` draws
+every sample) and a series whose stamps go back or repeat (the whole series compares them exactly) are read whole:
+one piece each, the same folds. The report's ``whole`` says whether its recordings hold every sample (what
+:func:`tfrec.plots.errors_from_diff` plots).
 
 Errors: a translation error is the distance between the two translations (m); a rotation error
 is the angle of the relative rotation ``q_a⁻¹ q_b``, ``2·atan2(|v|, |w|)``
@@ -133,7 +136,6 @@ class _Comparison:
         self.folds: list[SeriesFold] | None = None
         self.emitting = False
         self.cursor = 0
-        self.quiet = False  # whether walking the pieces says again what reading them said
 
     def wants(self, topic: str) -> bool:
         return self.topics is None or topic in self.topics
@@ -190,7 +192,7 @@ class _Comparison:
     # -- the robot description ----------------------------------------------------------------
 
     def description(self, da: str | None, db: str | None) -> None:
-        if not self.wants(ROBOT_DESCRIPTION):
+        if not self.wants(ROBOT_DESCRIPTION) or not self.emitting:  # planning the comparisons: nothing to fold
             return
         for rec, own, other in ((self.a, da, db), (self.b, db, da)):
             if own is None and other is not None and rec.format == "rrd":
@@ -215,7 +217,9 @@ class _Comparison:
     def found_robots(self) -> tuple[list[RecordedRobot], list[RecordedRobot]]:
         """The robots of A and B (of ``namespace``), found once."""
         if self._found is None:
-            self._found = (find_robots(self.a, namespace=self.namespace), find_robots(self.b, namespace=self.namespace))
+            parsed: dict[str, Any] = {}  # a description A and B share is parsed once
+            self._found = (find_robots(self.a, namespace=self.namespace, parsed=parsed),
+                           find_robots(self.b, namespace=self.namespace, parsed=parsed))
         return self._found
 
     def b_topic_names(self) -> dict[str, str]:
@@ -394,9 +398,13 @@ class _Comparison:
             translation_a, rotation_a = a_values[:, :3], a_values[:, 3:]
             trans = np.linalg.norm(translation_a - alignment.linear(b_values[:, :3]), axis=1)
             rot = rotation_error(rotation_a, alignment.rotations(b_values[:, 3:]))
-            pos_tol, rot_tol = self.transform_tolerances(translation_a)
-            translation.add(_nan_is_inf(trans), pos_tol, times)
-            rotation.add(_nan_is_inf(rot), rot_tol, times)
+            if per_sample:
+                pos_tol, rot_tol = self.transform_tolerances(translation_a)
+                translation.add(_nan_is_inf(trans), pos_tol, times)
+                rotation.add(_nan_is_inf(rot), rot_tol, times)
+            else:
+                translation.add(_nan_is_inf(trans), self.pos_tol, times)
+                rotation.add(_nan_is_inf(rot), self.rot_tol, times)
 
         def make() -> SeriesFold:
             key_a, key_b = ("A", TF, namespaces[0], pair), ("B", TF, namespaces[1], pair)
@@ -417,6 +425,8 @@ class _Comparison:
         self.errors("tf", label, "rotation", "rad", None if per_sample else self.rot_tol, fold.errors[1])
 
     def static_pair(self, label: str, va: tuple[Array, Array], vb: tuple[Array, Array]) -> None:
+        if not self.emitting:  # planning the comparisons: nothing to fold
+            return
         trans = float(np.linalg.norm(va[0] - vb[0]))
         rot = float(rotation_error(va[1], vb[1]))
         pos_tol, rot_tol = self.transform_tolerances(va[0][np.newaxis])
@@ -525,14 +535,17 @@ def _values(series: FrameSeries | JointStates, common: tuple[str, ...]) -> Array
     return out
 
 
-def _feed(cmp: _Comparison, side: str, piece: Recording) -> int | None:
-    """Give one piece of A or B to the folds of its series; its last stamp (time since the start), None without."""
+def _feed(cmp: _Comparison, side: str, piece: Recording) -> tuple[int | None, list[SeriesFold]]:
+    """Give one piece of A or B to the folds of its series: its last stamp (time since the start; None without) and
+    the folds it fed."""
     origin = cmp.origin_a if side == "A" else cmp.origin_b
     seen: int | None = None
+    fed: list[SeriesFold] = []
+    robots: dict[str, RecordedRobot] = {}
     for (who, kind, ns, pair), folds in cmp.feeds.items():
         if who != side:
             continue
-        topics = piece.robot_topics(ns)
+        topics = robots.get(ns) or robots.setdefault(ns, piece.robot_topics(ns))
         series: FrameSeries | JointStates | None = topics.joint_states if kind == JOINT_STATES else (
             topics.tf.get((pair[0], pair[1])))
         if series is None or not len(series):
@@ -542,31 +555,35 @@ def _feed(cmp: _Comparison, side: str, piece: Recording) -> int | None:
         for fold, common in folds:
             values = _values(series, common)
             (fold.take_a if side == "A" else fold.take_b)(time_ns, values)
-    return seen
+            fed.append(fold)
+    return seen, fed
 
 
 def _walk(cmp: _Comparison, sides: tuple[Iterable[Recording], Iterable[Recording]]) -> None:
     """Feed A's and B's pieces to the folds together in time order: the next piece is the one of the side whose
-    series are behind (by time since its start), so that each side waits for the other at most about a piece."""
+    series are behind (by time since its start), so that each side waits for the other at most about a piece. The
+    folds a piece fed compare what they can once the other side has given a piece too (or has none left)."""
     walks = [iter(sides[0]), iter(sides[1])]
     progress: list[int | None] = [None, None]
     live = [0, 1]
-    folds = cmp.folds or []
+    waiting: dict[int, SeriesFold] = {}  # fed since they last ran
     while live:
         k = min(live, key=lambda i: (progress[i] is not None, progress[i] or 0, i))
         with warnings.catch_warnings():
-            if cmp.quiet:  # the first walk gave them
-                warnings.simplefilter("ignore")
+            warnings.simplefilter("ignore")  # reading the recording gave them (its first walk, or reading it whole)
             piece = next(walks[k], None)
         if piece is None:
             live.remove(k)
             continue
-        seen = _feed(cmp, "AB"[k], piece)
+        seen, fed = _feed(cmp, "AB"[k], piece)
         if seen is not None:
             progress[k] = seen if progress[k] is None else max(seen, progress[k] or seen)
-        for fold in folds:
-            fold.run()
-    for fold in folds:
+        waiting.update((id(fold), fold) for fold in fed)
+        if progress[1 - k] is not None or (1 - k) not in live:
+            for fold in waiting.values():
+                fold.run()
+            waiting.clear()
+    for fold in cmp.folds or []:
         fold.run(final=True)
 
 
@@ -589,25 +606,45 @@ def _pieces(path: str | os.PathLike[str], options: Mapping[str, Any]) -> Iterato
         yield piece
 
 
+def _one_piece(path: str | os.PathLike[str], options: Mapping[str, Any]) -> Recording | None:
+    """The recording at ``path`` when it is one piece (a short one: no first walk, no second read), else None."""
+    pieces = read_pieces(path, **options)
+    try:
+        first, last = next(pieces)
+    finally:
+        pieces.close()
+    return first if last else None
+
+
+Side = tuple[Recording, _Scan, Iterable[Recording]]
+
+
+def _side(path: Recording | str | os.PathLike[str], options: Mapping[str, Any]) -> tuple[Side, bool]:
+    """One recording as the comparison sees it (what a first walk through its series found, its series to walk)
+    and whether it is held whole: a Recording object or a recording of one piece as is, else its pieces."""
+    rec = path if isinstance(path, Recording) else _one_piece(path, options)
+    if rec is not None:
+        return (rec, _Scan.of([rec]), [rec]), True
+    scan = _Scan.of(_pieces(path, options))  # type: ignore[arg-type]
+    return (scan.skeleton(), scan, _pieces(path, options)), False  # type: ignore[arg-type]
+
+
 def _read(a: Recording | str | os.PathLike[str], b: Recording | str | os.PathLike[str], options: Mapping[str, Any], *,
-          whole: bool) -> tuple[Recording, Recording, tuple[_Scan, _Scan],
-                                tuple[Iterable[Recording], Iterable[Recording]], bool]:
-    """(A and B as the comparison sees them, what a walk through their series found, their series to walk, whether
-    the walk says again what reading said): whole recordings as one piece each; else (paths) a first walk through
-    their pieces for the spans of their series, and a second for the comparison — unless some series' stamps go
-    back or repeat, which only the whole recording compares exactly."""
-    scanned = not whole and not isinstance(a, Recording) and not isinstance(b, Recording)
-    if scanned:
-        scans = (_Scan.of(_pieces(a, options)), _Scan.of(_pieces(b, options)))  # type: ignore[arg-type]
-        if not (scans[0].unordered or scans[1].unordered):
-            return (scans[0].skeleton(), scans[1].skeleton(), scans,
-                    (_pieces(a, options), _pieces(b, options)), True)  # type: ignore[arg-type]
+          whole: bool) -> tuple[tuple[Side, Side], bool]:
+    """A and B as the comparison sees them (:func:`_side`), and whether both are held whole: a recording of one
+    piece, or any with ``whole``, is read once as one piece; else (paths) a first walk through its pieces finds the
+    spans of its series, and a second feeds the comparison — unless some series' stamps go back or repeat, which
+    only the whole recording compares exactly."""
+    if not whole:
+        (side_a, whole_a), (side_b, whole_b) = _side(a, options), _side(b, options)
+        if not (side_a[1].unordered or side_b[1].unordered):
+            return (side_a, side_b), whole_a and whole_b
     with warnings.catch_warnings():
-        if scanned:  # the first walk gave them
+        if not whole:  # the first walk gave them
             warnings.simplefilter("ignore")
         rec_a = a if isinstance(a, Recording) else read_recording(a, **options)
         rec_b = b if isinstance(b, Recording) else read_recording(b, **options)
-    return rec_a, rec_b, (_Scan.of([rec_a]), _Scan.of([rec_b])), ([rec_a], [rec_b]), False
+    return ((rec_a, _Scan.of([rec_a]), [rec_a]), (rec_b, _Scan.of([rec_b]), [rec_b])), True
 
 
 def compare(  # noqa: PLR0913 - the keyword-only options of tfrec diff of two recordings
@@ -658,7 +695,8 @@ def compare(  # noqa: PLR0913 - the keyword-only options of tfrec diff of two re
     # the time series are read whatever the topics, for each recording's start (data_start_ns)
     decoded = wanted if wanted is None or absolute else wanted | {JOINT_STATES, TF}
     options: dict[str, Any] = {"topics": decoded, "namespace": namespace, "remap": remap, "use_log_time": use_log_time}
-    rec_a, rec_b, scans, sides, quiet = _read(a, b, options, whole=whole)
+    (side_a, side_b), held_whole = _read(a, b, options, whole=whole)
+    rec_a, rec_b = side_a[0], side_b[0]
     if wanted is not None:
         absent = sorted(topic for topic in wanted if topic not in rec_a.topics and topic not in rec_b.topics)
         if absent:
@@ -667,15 +705,14 @@ def compare(  # noqa: PLR0913 - the keyword-only options of tfrec diff of two re
                 f"(their topics: {', '.join(sorted(set(rec_a.topics) | set(rec_b.topics))) or 'none'})"
             )
     report = DiffReport(rec_a, rec_b, tolerances=tolerances, absolute=absolute,
-                        time_base="log" if "log" in (rec_a.time_base, rec_b.time_base) else "header")
+                        time_base="log" if "log" in (rec_a.time_base, rec_b.time_base) else "header", whole=held_whole)
     for rec in (rec_a, rec_b):
         if rec.read_error is not None:
             warnings.warn(rec.read_error, TfrecWarning, stacklevel=2)
             report.notes.append(f"damaged file, compared as far as readable: {rec.read_error}")
     ns = None if namespace is None else namespace_name(namespace)
     cmp = _Comparison(rec_a, rec_b, report, wanted, absolute, ns)
-    cmp.quiet = quiet
-    for side, scan, origin in (("A", scans[0], cmp.origin_a), ("B", scans[1], cmp.origin_b)):
+    for side, scan, origin in (("A", side_a[1], cmp.origin_a), ("B", side_b[1], cmp.origin_b)):
         for (kind, where, pair), (count, first, last) in scan.spans.items():
             cmp.spans[(side, kind, where, pair)] = SeriesSpan(count, first - origin, last - origin)
     if ns is not None and not any(cmp.found_robots()):
@@ -685,7 +722,7 @@ def compare(  # noqa: PLR0913 - the keyword-only options of tfrec diff of two re
     if not absolute:
         report.origins = (cmp.origin_a, cmp.origin_b)
     cmp.topic_table()
-    cmp.robots(sides)
+    cmp.robots((side_a[2], side_b[2]))
     if cmp.interpolated:
         groups = []
         for rates, whats in cmp.interpolated.items():

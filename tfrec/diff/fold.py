@@ -73,9 +73,13 @@ class ErrorFold:
         if len(error) == 0:
             return
         self.count += len(error)
-        worst = int(np.argmax(error))
-        if _worse(float(error[worst]), self.worst):
-            self.worst, self.worst_time = float(error[worst]), int(times[worst])
+        worst = int(np.argmax(error))  # the first NaN, else the first largest
+        largest = float(error[worst])
+        if _worse(largest, self.worst):
+            self.worst, self.worst_time = largest, int(times[worst])
+        if isinstance(tol, float) and largest <= tol:  # every error finite and within (the common case, at once)
+            self.finite_max = _nan_max(self.finite_max, largest)
+            return
         over = error > tol
         if over.any():
             first = int(np.argmax(over))
@@ -139,28 +143,34 @@ class SeriesFold:
         if not len(t):
             return
         b = self.b
-        if b is None:
-            ready = len(t)
-        else:
-            known = final or self._b_taken >= b.count
-            latest = int(self._b_time[-1]) if len(self._b_time) else None
-            decided = (t < b.first) | (t > b.last) | known
-            if latest is not None:
-                decided |= t < latest
-            ready = len(t) if decided.all() else int(np.argmin(decided))
+        ready = len(t) if b is None or final or self._b_taken >= b.count else self._ready(t, b)
         if ready == 0:
             return
         times, values = t[:ready], self._a_values[:ready]
         self._a_time, self._a_values = t[ready:], self._a_values[ready:]
-        inside = np.zeros(ready, dtype=bool) if b is None else (times >= b.first) & (times <= b.last)
-        self._missed(times[~inside])
-        if inside.any():
-            alignment = align(times[inside], self._b_time)
-            self.interpolates = self.interpolates or alignment.interpolates
-            self.inside += int(inside.sum())
-            self.compare(times[inside], values[inside], alignment, self._b_values)
+        if b is not None and b.first <= times[0] and times[-1] <= b.last:  # all inside B's span
+            self._compare(times, values)
+        else:
+            inside = np.zeros(ready, dtype=bool) if b is None else (times >= b.first) & (times <= b.last)
+            self._missed(times[~inside])
+            if inside.any():
+                self._compare(times[inside], values[inside])
         self._a_done = int(times[-1])
         self._forget()
+
+    def _ready(self, t: NDArray[np.int64], b: SeriesSpan) -> int:
+        """How many of A's samples ``t`` can be compared before more of B is known: those outside B's span, or
+        before B's latest sample."""
+        decided = (t < b.first) | (t > b.last)
+        if len(self._b_time):
+            decided |= t < self._b_time[-1]
+        return len(t) if decided.all() else int(np.argmin(decided))
+
+    def _compare(self, times: NDArray[np.int64], values: Array) -> None:
+        alignment = align(times, self._b_time)
+        self.interpolates = self.interpolates or alignment.interpolates
+        self.inside += len(times)
+        self.compare(times, values, alignment, self._b_values)
 
     def _missed(self, times: NDArray[np.int64]) -> None:
         if not len(times):

@@ -77,6 +77,8 @@ class DiffReport:
             ``absolute``.
         time_base: what the samples' times are: ``header`` stamps, or ``log`` times
             (``use_log_time``). The topic table's spans are always log times.
+        whole: whether ``a`` and ``b`` hold every sample of their series (read whole, or of one piece); a
+            comparison of long recordings read piece by piece holds only their first and last stamps there.
     """
 
     a: Recording
@@ -88,6 +90,7 @@ class DiffReport:
     absolute: bool = False
     origins: tuple[int | None, int | None] = (None, None)
     time_base: str = "header"
+    whole: bool = True
 
     @property
     def equal(self) -> bool:

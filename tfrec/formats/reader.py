@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from collections.abc import Collection, Iterable, Iterator, Mapping
+from collections.abc import Collection, Generator, Iterable, Mapping
 from dataclasses import replace
 
 from tfrec.conventions import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC, robot_topic_kind
@@ -117,7 +117,7 @@ def read_pieces(
     remap: Iterable[str] | Mapping[str, str] | None = None,
     use_log_time: bool = False,
     messages: int | None = None,
-) -> Iterator[tuple[Recording, bool]]:
+) -> Generator[tuple[Recording, bool], None, None]:
     """Read a recording piece by piece, in bounded memory: what :func:`read_recording` gives, its time series cut
     into consecutive pieces of about ``messages`` /joint_states and /tf messages (default :data:`PIECE_MESSAGES`), in
     the order the file holds them (by log time).

@@ -267,7 +267,14 @@ def errors_from_diff(report: DiffReport) -> list[ErrorSeries]:
     """Per-frame errors of B against A for every frame pair both recordings hold, as :func:`tfrec.diff.compare`
     computes them: times since each recording's start (A's stamps; B interpolated at them, linearly for
     translations, by slerp for rotations); a /tf_static pair is one static value.
+
+    Raises:
+        PlotError: a report of recordings compared piece by piece (``report.whole`` False: they do not hold their
+            samples); ``compare(..., whole=True)`` keeps them.
     """
+    if not report.whole:
+        raise PlotError(f"{display_path(report.a.path)} and {display_path(report.b.path)} were compared piece by "
+                        "piece, without their samples: compare them with `whole=True` to plot their errors")
     a, b = report.a, report.b
     origin_a, origin_b = report.origins
     if origin_a is None or origin_b is None:  # absolute: stamps aligned; drawn from A's start
