@@ -214,3 +214,25 @@ def test_an_index_that_stops_describing_a_chunk_midway(tmp_path: Path, marm_rec:
         rec = read_recording(path)
     assert len(warned) == 1 and rec.read_error is None
     _assert_same(rec, marm_rec)
+
+
+def test_a_message_record_without_its_time_in_a_chunk_read_record_by_record(tmp_path: Path,
+                                                                            marm_rec: Recording) -> None:
+    """A message record whose time field is damaged (renamed), in a chunk the index cannot describe then: the
+    chunk's records before it are kept, the rest of it skipped and said (an IndexError traceback before: its
+    connection was taken, not its time)."""
+    store = _typestore(ros1=True)
+    messages = [(topic, msgtype, time_ns, bytes(store.serialize_ros1(msg, msgtype)))
+                for topic, msgtype, time_ns, msg in recording_messages(marm_rec, _Messages(store, ros1=True))]
+    path = _write(tmp_path / "in.bag", messages, chunk_bytes=4096)
+    data = bytearray(path.read_bytes())
+    field = (len(b"time=") + 8).to_bytes(4, "little") + b"time="
+    found = [k + 4 for k in range(len(data)) if data.startswith(field, k)]
+    at = found[len(found) // 2]  # a message record's, in a chunk in the middle
+    data[at : at + 5] = b"tima="
+    path.write_bytes(bytes(data))
+    rec = read_recording(path)
+    assert rec.read_error is not None and "no 8-byte 'time' field" in rec.read_error, rec.read_error
+    assert rec.joint_states is not None and marm_rec.joint_states is not None
+    lost = len(marm_rec.joint_states.time_ns) - len(rec.joint_states.time_ns)
+    assert 0 <= lost < 10 and rec.topics["/tf"].count < marm_rec.topics["/tf"].count

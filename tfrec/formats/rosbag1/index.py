@@ -215,7 +215,7 @@ def _chunk_info(stream: IO[bytes], size: int, connections: dict[int, Connection]
     if chunk_pos >= size:  # (a position past 2**63 is past what seek() takes)
         raise IndexUnusable(f"a chunk info record points past the end of the file (byte {chunk_pos:,})")
     pairs = np.frombuffer(stream.read(data_len), dtype="<u4").reshape(-1, 2)
-    counts = {int(conn): int(count) for conn, count in pairs}
+    counts = dict(zip(pairs[:, 0].tolist(), pairs[:, 1].tolist(), strict=True))
     if len(counts) != uint32_field(fields, "count") or set(counts) - set(connections):
         raise IndexUnusable("a chunk info record names unknown connections")
     return IndexedChunk(chunk_pos, counts)

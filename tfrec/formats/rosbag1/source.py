@@ -452,8 +452,9 @@ class _RecordWalk:
                 fields = header_fields(view[pos + 4 : pos + 4 + header_len])
                 op = fields["op"][0]
                 if op == OP_MESSAGE_DATA:
-                    conns.append(self._conn(fields))
-                    times.append(time_field(fields, "time"))
+                    conn, time_ns = self._conn(fields), time_field(fields, "time")  # both, or neither is taken
+                    conns.append(conn)
+                    times.append(time_ns)
                     starts.append(body)
                     stops.append(body + data_len)
                 elif op == OP_CONNECTION:
