@@ -6,9 +6,10 @@ the (time, offset) of each of its messages. :func:`read_index` checks all of it 
 holds only the connections: :meth:`BagIndex.chunks` then gives the chunks one at a time, in the file's order, each
 with its index data records, read when the walk reaches it (12 bytes a message: reading them whole held 35 MB for
 4 h at 100 Hz). The topic table (counts, first and last times) comes from the index, and :func:`chunk_records`
-decompresses (none, bz2 or lz4) only the chunks that hold a message wanted. Inside a chunk, a connection's messages are found through their
-offsets with numpy (:func:`message_spans`): a connection's message records have the same header but for the time, so
-their times and data are taken for all of them at once (a record that does not fit the pattern is parsed on its own).
+decompresses (none, bz2 or lz4) only the chunks that hold a message wanted. Inside a chunk, a connection's messages
+are found through their offsets with numpy (:func:`message_spans`): a connection's message records have the same
+header but for the time, so their times and data are taken for all of them at once (a record that does not fit the
+pattern is parsed on its own).
 
 An index that is missing (a recorder killed mid-write), damaged, or does not describe its chunks raises
 :class:`IndexUnusable`: the source then walks the bag record by record.
