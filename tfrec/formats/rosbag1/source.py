@@ -4,7 +4,9 @@
 chunk's messages per connection come from it without reading a message, so a chunk that holds no message of a
 connection asked for is counted from its index data records and not read; a chunk that is read (uncompressed, bz2
 or lz4) has its messages found through their offsets with numpy and becomes one
-:class:`~tfrec.formats.ros.connection.MessageBatch` of the connections asked for.
+:class:`~tfrec.formats.ros.connection.MessageBatch` of the connections asked for. The chunks are walked in the
+file's order, each one's index data records read when the walk reaches it: the memory a walk holds does not grow
+with the bag.
 
 A bag whose index is missing (a recorder killed mid-write), damaged, or does not describe its chunks is walked
 record by record instead — from the start, or from the first chunk the index does not describe: connection records
@@ -121,24 +123,37 @@ class Ros1Source(MessageSource):
         for bag_id, connection in index.connections.items():
             self.add_connection(bag_id, connection)
         indexed: dict[int, int] = {}  # messages per connection, as the chunk info records count them
-        for chunk in index.chunks:
-            self.compressions.add(chunk.compression)
-            if self.until_ns is not None and _first_ns(chunk.entries) > self.until_ns:
-                continue  # its index says every message in it is past what is wanted
-            wanted = [bag_id for bag_id in chunk.entries if self.wanted(self.bag_ids[bag_id])]
-            try:
-                batch = self._decode(stream, chunk, wanted) if wanted else None
-            except IndexUnusable as err:  # the chunks from here on, record by record
-                yield from self._record_walk(stream, size, refused=str(err), start=chunk.pos)
-                return
-            self._count(chunk, indexed)
-            if batch is not None:
-                yield batch
+        try:
+            for chunk in index.chunks(stream, size):  # one chunk's index data held at a time
+                batch = self._indexed_chunk(stream, chunk, indexed)
+                if batch is not None:
+                    yield batch
+        except IndexUnusable as err:  # the chunks from here on, record by record
+            yield from self._record_walk(stream, size, refused=str(err), start=err.resume)
+            return
         self.details["compression"] = ", ".join(sorted(self.compressions))
         if index.header_problem:
             warn_reading(f"{self.where}: {index.header_problem}; read through its index, as rosbags reads it")
         if self.check_counts:
             self._check_counts(indexed)
+
+    def _indexed_chunk(self, stream: IO[bytes], chunk: IndexedChunk, indexed: dict[int, int]) -> MessageBatch | None:
+        """A chunk's messages of the connections asked for (None: none), the others counted from its index.
+
+        Raises:
+            IndexUnusable: a chunk that does not decompress, or whose records are not where the index says
+                (``resume``: the chunk's byte).
+        """
+        self.compressions.add(chunk.compression)
+        if self.until_ns is not None and _first_ns(chunk.entries) > self.until_ns:
+            return None  # its index says every message in it is past what is wanted
+        wanted = [bag_id for bag_id in chunk.entries if self.wanted(self.bag_ids[bag_id])]
+        try:
+            batch = self._decode(stream, chunk, wanted) if wanted else None
+        except IndexUnusable as err:
+            raise IndexUnusable(str(err), chunk.pos) from err
+        self._count(chunk, indexed)
+        return batch
 
     def _count(self, chunk: IndexedChunk, indexed: dict[int, int]) -> None:
         """Count a chunk's messages from its index data records (and note its chunk info's counts)."""
@@ -437,8 +452,9 @@ class _RecordWalk:
                 fields = header_fields(view[pos + 4 : pos + 4 + header_len])
                 op = fields["op"][0]
                 if op == OP_MESSAGE_DATA:
-                    conns.append(self._conn(fields))
-                    times.append(time_field(fields, "time"))
+                    conn, time_ns = self._conn(fields), time_field(fields, "time")  # both, or neither is taken
+                    conns.append(conn)
+                    times.append(time_ns)
                     starts.append(body)
                     stops.append(body + data_len)
                 elif op == OP_CONNECTION:
