@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
 import resource
 import subprocess
 import sys
@@ -184,3 +185,26 @@ def test_the_qos_texts_known_without_pyyaml_are_pyyamls() -> None:
 def test_distinct_is_np_unique(values: list[int]) -> None:
     array = np.array(values, dtype=np.int64)
     assert distinct(array) == np.unique(array).tolist()
+
+
+_THREADS = """
+import contextlib, io, os, sys
+from tfrec.cli import main
+with contextlib.redirect_stdout(io.StringIO()):
+    code = main(["info", sys.argv[1]])
+print(code, len(os.listdir("/proc/self/task")), os.environ.get("OPENBLAS_NUM_THREADS"))
+"""
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="counts the process's threads in /proc")
+def test_the_command_line_starts_openblas_with_one_thread(marm_mcap: Path) -> None:
+    """numpy's OpenBLAS starts a thread per core when it loads, which tfrec never uses (no matrix past 4×4): the
+    command line asks for one, unless the user set OPENBLAS_NUM_THREADS."""
+    env = {name: value for name, value in os.environ.items() if name != "OPENBLAS_NUM_THREADS"}
+    done = subprocess.run([sys.executable, "-c", _THREADS, str(marm_mcap)], capture_output=True, text=True,
+                          check=True, env=env, preexec_fn=_cpu_limit)
+    assert done.stdout.split() == ["0", "1", "1"]
+    if (os.cpu_count() or 1) >= 2:
+        done = subprocess.run([sys.executable, "-c", _THREADS, str(marm_mcap)], capture_output=True, text=True,
+                              check=True, env={**env, "OPENBLAS_NUM_THREADS": "2"}, preexec_fn=_cpu_limit)
+        assert done.stdout.split() == ["0", "2", "2"]  # the user's choice: OpenBLAS's second thread runs
