@@ -3,10 +3,14 @@
 Sections (``--only`` picks some), each with its baseline measured in the same run:
 
 - ``info``: ``tfrec info`` in a fresh process (start-up included; fastest of ``--repeat``, wall clock, CPU time and
-  peak RSS of that process) of a tiny MCAP (1 s of ``robots/mbot.xacro``) and of a one-hour sqlite3 bag (720,004
-  messages of ``robots/marm.xacro`` at 100 Hz re-written by rosbags' writer), against ``python -c pass`` and
-  ``python -c "import numpy"``; with ``--baseline-tree DIR`` (an older checkout's ``tfrec/`` package, e.g.
-  ``git archive <commit> tfrec | tar -x -C DIR``) the same commands run on that code too, as ``before``.
+  peak RSS of that process) of 1 s of ``robots/mbot.xacro`` as an MCAP, a ROS 1 bag and a rosbag2 folder (tfrec
+  record's), and of a one-hour sqlite3 bag (720,004 messages of ``robots/marm.xacro`` at 100 Hz re-written by rosbags'
+  writer; ``--no-hour`` leaves it out), against ``python -c pass`` and ``python -c "import numpy"`` (with OpenBLAS's
+  default threads, and one), measured in the same run. Python's bytecode is cached as an installed package has it
+  (under ``--cache``; PYTHONDONTWRITEBYTECODE is lifted), and once more for the tiny MCAP compiled from source at
+  each run. With ``--baseline-tree DIR`` (an older checkout's ``tfrec/`` package, e.g. ``git archive <commit> tfrec
+  | tar -x -C DIR``) the same commands run on that code too, as ``before``. Then the layout checks alone (the first
+  TFMessage, JointState and String of the tiny MCAP), written back by tfrec's encoder against rosbags' (before).
 - ``pacing``: replay's batch windows (``tfrec.replay.pacing.batches``) over the stamps of one hour at 100 Hz of a
   joint-states series and 8 TF series (3.2 M stamps), against the same windows from ``np.unique`` of the stamps
   (the way before). Best of ``--repeat``.
@@ -23,7 +27,7 @@ Sections (``--only`` picks some), each with its baseline measured in the same ru
 
 Run from the repository root:
 
-    .venv/bin/python benchmarks/bench_limits.py [--only info pacing reorder zstd record] [--baseline-tree DIR]
+    .venv/bin/python benchmarks/bench_limits.py [--only info pacing reorder zstd record] [--baseline-tree DIR] [--no-hour]
 """
 
 from __future__ import annotations
@@ -102,30 +106,112 @@ def sqlite3_hour(cache: Path) -> Path:
     return out
 
 
-def bench_info(cache: Path, repeat: int, tree: Path | None) -> None:
+def _tiny(cache: Path) -> dict[str, Path]:
+    """1 s of robots/mbot.xacro (tfrec record) as an MCAP, a ROS 1 bag and a rosbag2 folder (kept in ``cache``)."""
+    out = {"tiny.mcap": cache / "tiny.mcap", "tiny.bag": cache / "tiny.bag", "tiny-bag2/": cache / "tiny-bag2"}
+    for label, path in out.items():
+        if not path.exists():
+            flags = ["--bag", str(path)] if label.endswith("/") else ["-o", str(path)]
+            subprocess.run([sys.executable, "-m", "tfrec", "record", "robots/mbot.xacro", "--traj", "sine", "--duration",
+                            "1", "--no-rrd", *flags], check=True, cwd=REPO, capture_output=True)
+    return out
+
+
+def _bytecode_env(cache: Path, tree: Path | None, *, compiled: bool = True) -> dict[str, str]:
+    """The environment of a measured process: Python's bytecode cached as an installed package has it (kept under
+    ``cache``, so the trees stay clean) — or, with ``compiled`` False, every module compiled from source at each run,
+    as with PYTHONDONTWRITEBYTECODE=1 — running ``tree``'s tfrec (None: this checkout's)."""
+    env = {name: value for name, value in os.environ.items()
+           if name not in ("PYTHONDONTWRITEBYTECODE", "PYTHONPYCACHEPREFIX", "OPENBLAS_NUM_THREADS")}
+    if compiled:
+        env["PYTHONPYCACHEPREFIX"] = os.fspath(cache / "pycache")
+    else:
+        env["PYTHONDONTWRITEBYTECODE"] = "1"
+    if tree is not None:
+        env["PYTHONPATH"] = os.fspath(tree)
+    return env
+
+
+_CHECK_LAYOUTS = """
+import sys, time
+from mcap.reader import make_reader
+from tfrec.formats.ros.decode import JointStateAccumulator, TFAccumulator, message_layout, read_string
+from tfrec.formats.ros.types import deserializer
+import numpy as np
+first = {}
+with open(sys.argv[2], "rb") as stream:
+    for schema, channel, message in make_reader(stream).iter_messages():
+        first.setdefault(schema.name, bytes(message.data))
+start = time.process_time()
+for msgtype, raw in sorted(first.items()):
+    if msgtype.endswith("String"):
+        if sys.argv[1] == "written":
+            text = read_string(raw, ros1=False, deserialize=None)
+        else:
+            text = deserializer(msgtype)(raw).data
+        continue
+    kind = "tf" if msgtype.endswith("TFMessage") else "joint_states"
+    accumulator = (TFAccumulator if kind == "tf" else JointStateAccumulator)(deserializer(msgtype), ros1=False)
+    layout = message_layout(kind, raw, ros1=False)
+    rows = np.frombuffer(raw, dtype=np.uint8).reshape(1, -1)
+    if sys.argv[1] == "written":
+        assert accumulator.written_back(layout, rows)
+    else:
+        assert accumulator._alike(layout, rows, accumulator.deserialize(raw))
+print(time.process_time() - start)
+"""
+"""The layouts of the first TFMessage and JointState of a file, and its first String, checked by writing them back
+(``written``) or with rosbags (``rosbags``, as before: the reading store built and its deserializers generated);
+prints the CPU seconds of the checks alone."""
+
+
+def _layout_checks(cache: Path, tiny: Path, repeat: int) -> None:
+    """The checks alone, in fresh processes: the fast path (written back by tfrec's encoder) against rosbags'."""
+    env = _bytecode_env(cache, None)
+    for way in ("written", "rosbags"):
+        subprocess.run([sys.executable, "-c", _CHECK_LAYOUTS, way, str(tiny)], check=True, cwd=REPO, env=env,
+                       capture_output=True)  # bytecode written
+    seconds = {}
+    for way in ("written", "rosbags"):
+        runs = [float(subprocess.run([sys.executable, "-c", _CHECK_LAYOUTS, way, str(tiny)], check=True, cwd=REPO,
+                                     env=env, capture_output=True, text=True).stdout) for _ in range(repeat)]
+        seconds[way] = min(runs)
+    print(f"  layout checks of tiny.mcap's first TFMessage, JointState and String (fresh process, best of {repeat}): "
+          f"written back {seconds['written'] * 1000:.1f} ms CPU, rosbags {seconds['rosbags'] * 1000:.1f} ms CPU; "
+          f"ratio {seconds['rosbags'] / seconds['written']:.0f}x")
+
+
+def bench_info(cache: Path, repeat: int, tree: Path | None, *, hour: bool = True) -> None:
     python = sys.executable
-    tiny = cache / "tiny.mcap"
-    if not tiny.exists():
-        subprocess.run([python, "-m", "tfrec", "record", "robots/mbot.xacro", "--traj", "sine", "--duration", "1",
-                        "-o", str(tiny), "--no-rrd"], check=True, cwd=REPO, capture_output=True)
-    bag = sqlite3_hour(cache)
-    rows = [("python -c pass", [python, "-c", "pass"], None),
-            ('python -c "import numpy"', [python, "-c", "import numpy"], None)]
-    for label, path in (("tfrec info tiny.mcap", tiny), ("tfrec info hour-sqlite3/", bag)):
+    tiny = _tiny(cache)
+    bare = _bytecode_env(cache, None)
+    rows: list[tuple[str, list[str], dict[str, str]]] = [
+        ("python -c pass", [python, "-c", "pass"], bare),
+        ('python -c "import numpy"', [python, "-c", "import numpy"], bare),
+        ('python -c "import numpy" (OPENBLAS_NUM_THREADS=1)', [python, "-c", "import numpy"],
+         {**bare, "OPENBLAS_NUM_THREADS": "1"})]
+    commands = [(f"tfrec info {label}", path, True) for label, path in tiny.items()]
+    commands.append(("tfrec info tiny.mcap, compiled from source at each run", tiny["tiny.mcap"], False))
+    if hour:
+        commands.append(("tfrec info hour-sqlite3/", sqlite3_hour(cache), True))
+    for label, path, compiled in commands:
         if tree is not None:
-            rows.append((f"{label} (before)", [python, "-m", "tfrec", "info", str(path)], tree_env(tree)))
-        rows.append((label, [python, "-m", "tfrec", "info", str(path)], None))
-    figures = {}
-    for label, argv, env in rows:
-        figures[label] = best_process(argv, repeat, env)
-    bare = figures["python -c pass"]
+            rows.append((f"{label} (before)", [python, "-m", "tfrec", "info", str(path)],
+                         _bytecode_env(cache, tree, compiled=compiled)))
+        rows.append((label, [python, "-m", "tfrec", "info", str(path)], _bytecode_env(cache, None, compiled=compiled)))
+    for _, argv, env in rows:  # the bytecode written, files cached
+        run_process(argv, env=env)
+    figures = {label: best_process(argv, repeat, env) for label, argv, env in rows}
+    base = figures["python -c pass"]
+    print(f"  fresh processes, best of {repeat}; Python's bytecode cached as installed unless said")
     for label, (wall, cpu, rss) in figures.items():
         print(f"  {label}: {wall * 1000:.0f} ms wall, {cpu * 1000:.0f} ms CPU, peak RSS {rss:.0f} MB; "
-              f"{wall / bare[0]:.1f}x python -c pass (wall), {cpu / bare[1]:.1f}x (CPU)")
+              f"{wall / base[0]:.1f}x python -c pass (wall), {cpu / base[1]:.1f}x (CPU)")
     if tree is not None:
-        for label in ("tfrec info tiny.mcap", "tfrec info hour-sqlite3/"):
+        for label, _, _ in commands:
             (wall0, cpu0, rss0), (wall1, cpu1, rss1) = figures[f"{label} (before)"], figures[label]
             print(f"  {label}: now/before {wall1 / wall0:.2f}x wall, {cpu1 / cpu0:.2f}x CPU, {rss1 / rss0:.2f}x RSS")
+    _layout_checks(cache, tiny["tiny.mcap"], repeat)
 
 
 # -- pacing ---------------------------------------------------------------------------------------
@@ -320,6 +406,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeat", type=int, default=5, help="runs of each (the fastest counts)")
     parser.add_argument("--minutes", type=float, default=10.0, help="length of the converted bag (reorder)")
     parser.add_argument("--baseline-tree", type=Path, help="a folder holding an older tfrec/ package (info: before)")
+    parser.add_argument("--no-hour", action="store_true", help="info: leave out the hour-long sqlite3 bag")
     parser.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "tfrec-bench-limits",
                         help="where the recordings made once are kept")
     options = parser.parse_args(argv)
@@ -328,7 +415,7 @@ def main(argv: list[str] | None = None) -> int:
     for name in options.only:
         print(f"{name}:")
         if name == "info":
-            bench_info(options.cache, options.repeat, options.baseline_tree)
+            bench_info(options.cache, options.repeat, options.baseline_tree, hour=not options.no_hour)
         elif name == "pacing":
             bench_pacing(options.repeat)
         elif name == "record":

@@ -192,7 +192,7 @@ def _set_qos(bag: Path, topic: str, qos: dict[str, Any]) -> None:
     """Set a topic's offered QoS in a bag's metadata.yaml, as a user overriding it for playback does."""
     import yaml
 
-    from tfrec.formats.rosbag2.metadata import yaml_dump
+    from tfrec._yaml import yaml_dump
 
     meta = bag / "metadata.yaml"
     document = yaml.safe_load(meta.read_text())

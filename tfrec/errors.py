@@ -13,7 +13,6 @@ category=tfrec.TfrecWarning)``; pytest's ``filterwarnings = ignore::tfrec.Legacy
 
 from __future__ import annotations
 
-import difflib
 import os
 from collections.abc import Iterable
 from pathlib import Path
@@ -132,6 +131,8 @@ def one_line(text: str) -> str:
 
 def suggest(name: str, names: Iterable[str]) -> str:
     """`` (did you mean 'x'?)`` for the closest of names (a typo), or ``""``."""
+    import difflib
+
     close = difflib.get_close_matches(name, sorted(set(names)), n=1)
     return f" (did you mean '{close[0]}'?)" if close else ""
 

@@ -112,10 +112,10 @@ def summarize(path: str | os.PathLike[str], *, namespace: str | None = None,
 
 def _recipe(files: Iterable[Path]) -> dict[str, str] | None:
     """How ``tfrec record`` made the recording: its ``tfrec.recipe`` metadata (:mod:`tfrec.recipe`), or None."""
-    from tfrec.formats.mcap.summary import metadata_records
-
     for file in files:
         if os.fspath(file).endswith(".mcap"):
+            from tfrec.formats.mcap.summary import metadata_records
+
             try:
                 found = metadata_records(file).get("tfrec.recipe")
             except OSError:

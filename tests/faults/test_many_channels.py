@@ -14,7 +14,8 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from tests.faults.guarded import guarded
-from tfrec.formats.rosbag2.metadata import QOS_LATCHED, QOS_VOLATILE, bag_info, bag_metadata_yaml, yaml_dump
+from tfrec._yaml import yaml_dump
+from tfrec.formats.rosbag2.metadata import QOS_LATCHED, QOS_VOLATILE, bag_info, bag_metadata_yaml
 
 CHANNELS = 60_000
 START_NS = 1_700_000_000_000_000_000

@@ -38,9 +38,10 @@ def header(time_ns: int, frame_id: str) -> Any:
     )
 
 
-def reference_joint_state(time_ns: int, names: Sequence[str], position: np.ndarray, velocity: np.ndarray) -> bytes:
+def reference_joint_state(time_ns: int, names: Sequence[str], position: np.ndarray, velocity: np.ndarray,
+                          frame_id: str = "") -> bytes:
     msg = store().types["sensor_msgs/msg/JointState"](
-        header=header(time_ns, ""), name=list(names), position=position, velocity=velocity, effort=np.zeros(0)
+        header=header(time_ns, frame_id), name=list(names), position=position, velocity=velocity, effort=np.zeros(0)
     )
     return bytes(store().serialize_cdr(msg, "sensor_msgs/msg/JointState"))
 
@@ -92,6 +93,16 @@ def test_joint_state_matches_rosbags(names: list[str]) -> None:
     assert rows.shape == (n, JointStateEncoder(names).size)
     for i in range(n):
         assert rows[i].tobytes() == reference_joint_state(time_ns[i], names, positions[i], velocities[i])
+
+
+@pytest.mark.parametrize("frame_id", ["a", "base_link", "wörld"])
+def test_joint_state_with_a_frame_id_matches_rosbags(frame_id: str) -> None:
+    """A frame id (the layout check of tfrec.formats.ros.decode writes a driver's JointState back with its own)."""
+    names = ["a", "bb", "ccc"]
+    values = np.arange(6, dtype=np.float64).reshape(2, 3)
+    rows = JointStateEncoder(names, frame_id=frame_id).encode(stamps(2), values, -values)
+    for i in range(2):
+        assert rows[i].tobytes() == reference_joint_state(stamps(2)[i], names, values[i], -values[i], frame_id)
 
 
 FRAME_LISTS = [

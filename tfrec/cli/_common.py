@@ -112,8 +112,6 @@ class Parser(argparse.ArgumentParser):
     def _habits_first(self) -> None:
         """A ROS tool's option that is no option of the command, answered before argparse reads it as an
         abbreviation of another (``record --all`` is not ``--allow-path``)."""
-        from tfrec.cli._habits import answer_options
-
         commands = next((a.choices for a in self._actions if isinstance(a, argparse._SubParsersAction)), {})
         command = next((token for token in self._argv if not token.startswith("-")), None)
         parser = commands.get(command) if command is not None else None
@@ -121,6 +119,10 @@ class Parser(argparse.ArgumentParser):
             return
         unknown = [token for token in self._argv
                    if token.startswith("-") and token.partition("=")[0] not in parser._option_string_actions]
+        if not unknown:
+            return
+        from tfrec.cli._habits import answer_options
+
         if answer_options(command, unknown, self._argv) is not None:
             self._unrecognized(command, unknown)
 

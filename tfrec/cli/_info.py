@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from typing import Any
 
@@ -48,7 +47,13 @@ def _cmd_info(ns: argparse.Namespace) -> int:
         topics = (TF, TF_STATIC, ROBOT_DESCRIPTION)  # a description's root link is the tree of a robot without TF
         render_graph(recorded_graph(read_recording(ns.file, topics=topics, namespace=ns.namespace,
                                                    remap=ns.remap)), ns.graph, force=ns.force)
-    show(*(json.dumps(summary, indent=2) if ns.json else format_summary(summary).rstrip("\n")).split("\n"))
+    if ns.json:
+        import json
+
+        text = json.dumps(summary, indent=2)
+    else:
+        text = format_summary(summary).rstrip("\n")
+    show(*text.split("\n"))
     if ns.graph is not None:
         show(f"wrote {ns.graph}", file=sys.stderr if ns.json else sys.stdout)
     return 0

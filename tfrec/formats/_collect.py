@@ -29,11 +29,11 @@ from tfrec.conventions import (
     robot_topic_kind,
 )
 from tfrec.errors import ReadError
-from tfrec.formats.ros.connection import Connection, MessageBatch, MessageSource, warn_reading
-from tfrec.formats.ros.decode import JointStateAccumulator, RawMessages, TFAccumulator, transforms_of
+from tfrec.formats.ros.connection import Connection, MessageBatch, MessageSource, distinct, warn_reading
+from tfrec.formats.ros.decode import JointStateAccumulator, RawMessages, TFAccumulator, read_string, read_transforms
 from tfrec.formats.ros.definitions import foreign_layout
 from tfrec.formats.ros.joint_names import repeated_joints
-from tfrec.formats.ros.types import known_ros1_typestore, topic_deserializer
+from tfrec.formats.ros.types import topic_deserializer
 from tfrec.recording import FrameSeries, JointStates, RecordedRobot, Recording, TopicStats, robot_name
 
 __all__ = [
@@ -199,7 +199,6 @@ class Collector:
         self.decoded: dict[str, _Decoded] = {}
         self._arrivals = 0
         self._foreign: set[str] = set()
-        self._store: Any = None
         self.pending = 0  # messages taken since the last piece (:meth:`piece`)
         self._zero_stamps: dict[str, list[int]] = {}  # topic → [stamps that are 0, stamps], over every piece
         self._repeated: dict[str, dict[str, int]] = {}  # topic → joint → messages naming it more than once
@@ -224,12 +223,10 @@ class Collector:
             raise ReadError(f"{self.recording.path}: topic {topic} is encoded as '{connection.encoding}', not "
                             f"{expected}")
         if topic not in self.decoded:
-            if self.ros1 and self._store is None:
-                self._store = known_ros1_typestore()
             found = robot_topic_kind(topic)
             assert found is not None, topic
             deserialize = topic_deserializer(connection.msgtype, where=self.recording.path, topic=topic,
-                                             ros1=self.ros1, store=self._store)
+                                             ros1=self.ros1)
             self.decoded[topic] = _Decoded(found[0], found[1], deserialize, self.ros1)
         return True
 
@@ -275,7 +272,7 @@ class Collector:
     def take(self, batch: MessageBatch, source: MessageSource) -> None:
         """Decode a batch's messages, topic by topic; a topic of which a summary has all it wants is done (the
         source leaves the chunks that hold nothing else unread)."""
-        present = np.unique(batch.conn).tolist()
+        present = distinct(batch.conn)
         by_topic: dict[str, list[int]] = {}
         for conn in present:
             by_topic.setdefault(source.connections[conn].topic, []).append(conn)
@@ -348,9 +345,9 @@ class Collector:
         for topic, decoded in self.decoded.items():
             part = parts.setdefault(decoded.namespace, {})
             if decoded.kind == ROBOT_DESCRIPTION:
-                part["descriptions"] = _descriptions(decoded)
+                part["descriptions"] = _descriptions(decoded, ros1=self.ros1)
             elif decoded.kind == TF_STATIC:
-                part["tf_static"] = _static(decoded)
+                part["tf_static"] = _static(decoded, ros1=self.ros1)
             elif decoded.kind == JOINT_STATES and decoded.accumulator is not None and decoded.accumulator.messages:
                 assert isinstance(decoded.accumulator, JointStateAccumulator)
                 time, names, positions = decoded.accumulator.result()
@@ -405,11 +402,11 @@ class Collector:
                       "meaningless: `use_log_time` replays by log time")
 
 
-def _descriptions(decoded: _Decoded) -> list[str]:
+def _descriptions(decoded: _Decoded, *, ros1: bool) -> list[str]:
     """The last description of each robot name, in order of first appearance (by log time)."""
     by_name: dict[str | None, str] = {}
     for _, _, raw in sorted(decoded.latched, key=lambda item: (item[0], item[1])):
-        text = str(decoded.deserialize(raw).data)
+        text = read_string(raw, ros1=ros1, deserialize=decoded.deserialize)
         name = robot_name(text)
         by_name[name] = text
     return list(by_name.values())
@@ -420,11 +417,11 @@ def _strip(frame: str) -> str:
     return frame.lstrip("/")
 
 
-def _static(decoded: _Decoded) -> dict[Pair, tuple[Array, Array]]:
+def _static(decoded: _Decoded, *, ros1: bool) -> dict[Pair, tuple[Array, Array]]:
     """The last transform of each pair of /tf_static messages, in log-time order."""
     out: dict[Pair, tuple[Array, Array]] = {}
     for _, _, raw in sorted(decoded.latched, key=lambda item: (item[0], item[1])):
-        for (parent, child), _, fields in transforms_of(decoded.deserialize(raw)):
+        for (parent, child), _, fields in read_transforms(raw, ros1=ros1, deserialize=decoded.deserialize):
             out[(_strip(parent), _strip(child))] = (np.array(fields[:3]), np.array(fields[3:]))
     return out
 

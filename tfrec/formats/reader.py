@@ -24,7 +24,6 @@ from dataclasses import replace
 
 from tfrec.conventions import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC, robot_topic_kind
 from tfrec.formats._collect import Collector, ReadOptions
-from tfrec.formats.rrd.reader import read_rrd
 from tfrec.formats.source import RecordingSource, identify_recording, messages_of, recording_format
 from tfrec.recording import Recording
 
@@ -80,6 +79,8 @@ def read_recording(
                              summary=summary)
     source = path if isinstance(path, RecordingSource) else identify_recording(path)
     if source.format == "rrd":
+        from tfrec.formats.rrd.reader import read_rrd
+
         return read_rrd(source.path, options)
     recording = Recording(path=source.where, format=source.format)
     collector = Collector(recording, options, ros1=source.format == "rosbag1")

@@ -23,14 +23,13 @@ from tfrec.errors import ReadError, TfrecWarning, display_path
 from tfrec.formats._collect import ReadOptions
 from tfrec.formats.mcap.records import MCAP_MAGIC
 from tfrec.formats.ros.connection import Extra, MessageSource
-from tfrec.formats.rosbag1.records import ROS1_MAGIC
-from tfrec.formats.rrd.reader import RRD_MAGIC
 
 if TYPE_CHECKING:
     from tfrec.formats.rosbag2.metadata import BagMetadata
 
 # Each format's source (and a rosbag2 folder's metadata.yaml reader, with YAML) is imported when a recording of
-# that format is opened: `tfrec info` of an MCAP file loads no code of the other formats.
+# that format is opened, and its magic when a file's first bytes are not MCAP's: `tfrec info` of an MCAP file loads
+# no code of the other formats.
 
 __all__ = ["RecordingSource", "identify_recording", "listed_extras", "open_messages", "recording_format"]
 
@@ -88,9 +87,16 @@ def recording_format(path: str | os.PathLike[str]) -> str:
             head = stream.read(16)
     except OSError as err:
         raise ReadError(f"{where}: cannot read: {err.strerror or err}") from err
-    for magic, fmt in ((MCAP_MAGIC, "mcap"), (ROS1_MAGIC, "rosbag1"), (RRD_MAGIC, "rrd")):
-        if head.startswith(magic):
-            return fmt
+    if head.startswith(MCAP_MAGIC):
+        return "mcap"
+    from tfrec.formats.rosbag1.records import ROS1_MAGIC
+
+    if head.startswith(ROS1_MAGIC):
+        return "rosbag1"
+    from tfrec.formats.rrd.reader import RRD_MAGIC
+
+    if head.startswith(RRD_MAGIC):
+        return "rrd"
     if head.startswith(b"SQLite format 3\0") and ((file.parent / "metadata.yaml").is_file() or file.suffix == ".db3"):
         return "rosbag2"  # a .db3 on its own: rosbag2's database, read as rosbags and `ros2 bag` read it
     if not head:
@@ -174,9 +180,7 @@ def messages_of(source: RecordingSource, resolve: Callable[[str], str]) -> Itera
 def _rosbag2_messages(source: RecordingSource, resolve: Callable[[str], str]) -> Iterator[MessageSource]:
     """A rosbag2 bag's source: its MCAP or sqlite3 files, decompressed to a temporary folder while read when the bag
     is compressed file by file."""
-    from tfrec.formats.mcap.source import McapSource
     from tfrec.formats.rosbag2.metadata import read_bag_metadata
-    from tfrec.formats.rosbag2.source import Sqlite3Source
     from tfrec.formats.rosbag2.storage import message_decompressor, plain_files
 
     where = source.where
@@ -185,9 +189,15 @@ def _rosbag2_messages(source: RecordingSource, resolve: Callable[[str], str]) ->
         raise ReadError(f"{where}: storage '{meta.storage}' (tfrec reads mcap and sqlite3 bags)")
     decompress = message_decompressor(meta, where)
     with plain_files(meta, where) as files:
-        found: MessageSource = (McapSource(files, where=where, resolve=resolve, decompress=decompress, fmt="rosbag2")
-                                if meta.storage == "mcap" else
-                                Sqlite3Source(files, where=where, resolve=resolve, decompress=decompress))
+        found: MessageSource
+        if meta.storage == "mcap":
+            from tfrec.formats.mcap.source import McapSource
+
+            found = McapSource(files, where=where, resolve=resolve, decompress=decompress, fmt="rosbag2")
+        else:
+            from tfrec.formats.rosbag2.source import Sqlite3Source
+
+            found = Sqlite3Source(files, where=where, resolve=resolve, decompress=decompress)
         if meta.topic_counts is not None:
             expected: dict[str, int] = {}
             for topic, count in meta.topic_counts.items():

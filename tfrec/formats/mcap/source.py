@@ -74,6 +74,7 @@ from tfrec.formats.ros.connection import (
     MessageSource,
     ReadStopped,
     count_differences,
+    distinct,
     full_type,
     raw_messages,
     warn_reading,
@@ -529,7 +530,7 @@ class _FileWalk:
     def _take(self, found: _Found, buffer: NDArray[np.uint8]) -> MessageBatch | None:
         """Count the messages found, and give those of the connections asked for as a batch."""
         ids, log_time = found[0], found[1]
-        present = np.unique(ids).tolist()
+        present = distinct(ids)
         if len(present) == 1:
             self.channels[present[0]].add_span(len(ids), int(log_time.min()), int(log_time.max()))
         else:

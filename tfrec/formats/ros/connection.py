@@ -35,6 +35,7 @@ __all__ = [
     "ReadStopped",
     "Wanted",
     "count_differences",
+    "distinct",
     "full_type",
     "raw_messages",
     "warn_reading",
@@ -149,6 +150,14 @@ def full_type(name: str) -> str:
     ``pkg/srv/Type_Event`` and ``""`` stay."""
     parts = name.split("/")
     return f"{parts[0]}/msg/{parts[1]}" if len(parts) == 2 and all(parts) else name
+
+
+def distinct(values: NDArray[np.integer]) -> list[int]:
+    """The distinct values of an integer array (a batch's connection ids), in ascending order: what
+    ``np.unique(values).tolist()`` gives, without the ``numpy.ma`` that ``np.unique`` loads (numpy 2.3 and later:
+    ~7 ms, a twentieth of ``tfrec info`` of a small file)."""
+    ordered = np.sort(values)
+    return ordered[np.flatnonzero(np.r_[True, ordered[1:] != ordered[:-1]])].tolist() if len(ordered) else []
 
 
 def raw_messages(datas: list[bytes]) -> RawMessages:

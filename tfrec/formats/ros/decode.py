@@ -8,6 +8,13 @@ length whose other bytes all equal the template is then decoded as one (N, size)
 one numpy slice per field. Any other message (different names, a different layout) goes
 through a per-message deserializer supplied by the caller (rosbags'), so nothing is lost.
 
+A layout is taken when it reads its message as rosbags does. That is proven without rosbags when tfrec's encoder
+(:mod:`tfrec.formats.ros.encode`, whose bytes are rosbags' serialization: tests/formats/test_cdr.py) writes what
+the layout read back to the message's own bytes — so ``tfrec info`` of tfrec's recordings loads no rosbags type
+store —; a message the encoder does not write (efforts, transforms of several stamps in one message) is compared
+with rosbags' deserialization instead. :func:`read_string` and :func:`read_transforms` read single messages
+(descriptions, /tf_static) the same way.
+
 Pure numpy, with the CDR rules of :mod:`tfrec.formats.ros.encode`: the readers supply the bytes and the fallback
 deserializer.
 """
@@ -21,7 +28,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.formats.ros.encode import CDR_HEADER, align, ns_from_stamps
+from tfrec.errors import WriteError
+from tfrec.formats.ros.encode import (
+    CDR_HEADER,
+    JointStateEncoder,
+    TFMessageEncoder,
+    align,
+    encode_string,
+    ns_from_stamps,
+)
 from tfrec.formats.ros.joint_names import first_positions
 
 __all__ = [
@@ -31,6 +46,8 @@ __all__ = [
     "TFAccumulator",
     "match_layout",
     "message_layout",
+    "read_string",
+    "read_transforms",
     "stamp_ns",
     "transforms_of",
 ]
@@ -49,6 +66,7 @@ class MessageLayout:
         stamps: offset of each header stamp (sec, then nanosec, 4 bytes each).
         floats: offset of each block of float64 values (7 per transform; J positions).
         names: frame pairs (parent, child) of a TFMessage, or joint names of a JointState.
+        frame_id: a JointState's ``header.frame_id`` (``""`` for a TFMessage).
         ros1: ROS 1 serialization (unsigned seconds) rather than CDR (signed).
         template: the message the layout was learnt from.
         values: the byte ranges [start, stop) that carry values, in message order: each header
@@ -64,6 +82,7 @@ class MessageLayout:
     ros1: bool
     template: NDArray[np.uint8]
     values: tuple[tuple[int, int], ...] = ()
+    frame_id: str = ""
 
 
 class _Walker:
@@ -123,7 +142,7 @@ class _Walker:
         self.values.append((start, self.pos))
         return start
 
-    def layout(self, stamps: list[int], floats: list[int], names: list[Any]) -> MessageLayout:
+    def layout(self, stamps: list[int], floats: list[int], names: list[Any], frame_id: str = "") -> MessageLayout:
         fixed: list[tuple[int, int]] = []
         cursor = 0
         for start, stop in self.variable:
@@ -133,7 +152,7 @@ class _Walker:
         if cursor < len(self.data):
             fixed.append((cursor, len(self.data)))
         return MessageLayout(len(self.data), tuple(fixed), tuple(stamps), tuple(floats), tuple(names), self.ros1,
-                             np.frombuffer(self.data, dtype=np.uint8), tuple(self.values))
+                             np.frombuffer(self.data, dtype=np.uint8), tuple(self.values), frame_id)
 
 
 def message_layout(kind: str, data: bytes | memoryview, *, ros1: bool) -> MessageLayout:
@@ -146,6 +165,7 @@ def message_layout(kind: str, data: bytes | memoryview, *, ros1: bool) -> Messag
     stamps: list[int] = []
     floats: list[int] = []
     names: list[Any] = []
+    frame_id = ""
     if kind == "tf":
         for _ in range(walker.uint32()):
             stamp, parent = walker.header()
@@ -154,7 +174,8 @@ def message_layout(kind: str, data: bytes | memoryview, *, ros1: bool) -> Messag
             names.append((parent, child))
             floats.append(walker.float64s(7))
     elif kind == "joint_states":
-        stamps.append(walker.header()[0])
+        stamp, frame_id = walker.header()
+        stamps.append(stamp)
         names.extend(walker.string() for _ in range(walker.uint32()))
         for _ in range(3):  # position, velocity, effort
             count = walker.uint32()
@@ -165,7 +186,42 @@ def message_layout(kind: str, data: bytes | memoryview, *, ros1: bool) -> Messag
         raise ValueError(f"unknown message kind {kind!r}")
     if len(walker.data) - walker.pos >= 4:  # CDR may pad to 4 bytes; more is not this message
         raise ValueError("trailing bytes")
-    return walker.layout(stamps, floats, names)
+    return walker.layout(stamps, floats, names, frame_id)
+
+
+def _written_back(encoded: bytes, data: bytes, *, ros1: bool) -> bool:
+    """Whether ``data`` is the message ``encoded`` as rosbags reads it: the same bytes (CDR may end with up to 3
+    bytes of padding, which rosbags' deserializer leaves; ROS 1 ends where the message ends)."""
+    extra = len(data) - len(encoded)
+    return 0 <= extra <= (0 if ros1 else 3) and data[: len(encoded)] == encoded
+
+
+def read_string(data: bytes | memoryview, *, ros1: bool, deserialize: Deserialize) -> str:
+    """The text of one ``std_msgs/String`` message: read directly when tfrec's encoder writes that text back to the
+    message's bytes, else with ``deserialize`` (rosbags', which raises on bytes that are no such message)."""
+    raw = bytes(data)
+    try:
+        text = _Walker(raw, ros1=ros1).string()
+    except (ValueError, UnicodeDecodeError):
+        text = None
+    if text is not None and _written_back(encode_string(text, ros1=ros1), raw, ros1=ros1):
+        return text
+    return str(deserialize(raw).data)
+
+
+def read_transforms(data: bytes | memoryview, *, ros1: bool,
+                    deserialize: Deserialize) -> list[tuple[tuple[str, str], int, tuple[float, ...]]]:
+    """What :func:`transforms_of` gives of one ``tf2_msgs/TFMessage``: read with its layout when tfrec's encoder
+    writes what it read back to the message's bytes, else with ``deserialize`` (rosbags')."""
+    raw = bytes(data)
+    try:
+        layout: MessageLayout | None = message_layout("tf", raw, ros1=ros1)
+    except (ValueError, UnicodeDecodeError):
+        layout = None
+    rows = np.frombuffer(raw, dtype=np.uint8).reshape(1, -1)
+    if layout is not None and TFAccumulator.written_back(layout, rows):
+        return [(pair, int(time[0]), tuple(values[0].tolist())) for pair, time, values in TFAccumulator.decode(layout, rows)]
+    return transforms_of(deserialize(raw))
 
 
 def stamp_ns(stamp: Any) -> int:
@@ -290,6 +346,19 @@ class _Accumulator:
             self.layout = layout
 
     def _check(self, layout: MessageLayout, data: bytes | memoryview) -> bool:
+        """Whether ``layout`` reads ``data`` as rosbags does: proven when the encoder writes what it read back to
+        the same bytes; else compared with rosbags' deserialization of it."""
+        rows = np.frombuffer(bytes(data), dtype=np.uint8).reshape(1, -1)
+        return self.written_back(layout, rows) or self._alike(layout, rows, self.deserialize(bytes(data)))
+
+    @staticmethod
+    def written_back(layout: MessageLayout, rows: NDArray[np.uint8]) -> bool:
+        """Whether tfrec's encoder writes the message read with ``layout`` from ``rows`` (one row) back to its
+        bytes."""
+        raise NotImplementedError
+
+    def _alike(self, layout: MessageLayout, rows: NDArray[np.uint8], msg: Any) -> bool:
+        """Whether ``layout`` reads ``rows`` (one row) as rosbags read it (``msg``)."""
         raise NotImplementedError
 
     def add(self, datas: Sequence[bytes | memoryview], log_times: NDArray[np.int64] | None = None) -> None:
@@ -352,9 +421,22 @@ class JointStateAccumulator(_Accumulator):
             self.repeated[name] = self.repeated.get(name, 0) + messages
         return unique, positions[:, keep]
 
-    def _check(self, layout: MessageLayout, data: bytes | memoryview) -> bool:
-        msg = self.deserialize(bytes(data))
-        rows = np.frombuffer(bytes(data), dtype=np.uint8).reshape(1, -1)
+    @staticmethod
+    def written_back(layout: MessageLayout, rows: NDArray[np.uint8]) -> bool:
+        if layout.floats[0] < 0 or layout.floats[1] < 0:  # position or velocity not one per joint
+            return False
+        time, names, positions = JointStateAccumulator._decode(layout, rows)
+        velocities = _float_block(rows, layout.floats[1], len(names))
+        stamp = layout.stamps[0]
+        seq = int.from_bytes(rows[0, stamp - 4 : stamp].tobytes(), "little") if layout.ros1 else 0
+        try:
+            encoded = JointStateEncoder(names, frame_id=layout.frame_id, ros1=layout.ros1).encode(
+                time, positions, velocities, first_seq=seq)
+        except WriteError:  # a ROS 1 stamp whose nanoseconds carry it past ROS 1's last time
+            return False
+        return _written_back(encoded.tobytes(), rows.tobytes(), ros1=layout.ros1)
+
+    def _alike(self, layout: MessageLayout, rows: NDArray[np.uint8], msg: Any) -> bool:
         time, names, positions = self._decode(layout, rows)
         return (
             tuple(msg.name) == names
@@ -435,10 +517,23 @@ class TFAccumulator(_Accumulator):
         self._blocks: dict[tuple[str, str], list[tuple[NDArray[np.int64], Array]]] = {}
         self._singles: dict[tuple[str, str], list[tuple[int, tuple[float, ...]]]] = {}
 
-    def _check(self, layout: MessageLayout, data: bytes | memoryview) -> bool:
-        msg = self.deserialize(bytes(data))
-        rows = np.frombuffer(bytes(data), dtype=np.uint8).reshape(1, -1)
-        decoded = list(self._decode(layout, rows))
+    @staticmethod
+    def written_back(layout: MessageLayout, rows: NDArray[np.uint8]) -> bool:
+        decoded = list(TFAccumulator.decode(layout, rows))
+        stamps = {int(time[0]) for _, time, _ in decoded}
+        if len(stamps) > 1:  # the encoder writes one stamp per message, as robot_state_publisher does
+            return False
+        values = np.stack([block[0] for _, _, block in decoded]) if decoded else np.zeros((0, 7))
+        try:
+            encoded = TFMessageEncoder([parent for (parent, _), _, _ in decoded], [child for (_, child), _, _ in decoded],
+                                       ros1=layout.ros1).encode(np.array([next(iter(stamps), 0)], dtype=np.int64),
+                                                                values[np.newaxis, :, :3], values[np.newaxis, :, 3:])
+        except WriteError:  # a ROS 1 stamp whose nanoseconds carry it past ROS 1's last time
+            return False
+        return _written_back(encoded.tobytes(), rows.tobytes(), ros1=layout.ros1)
+
+    def _alike(self, layout: MessageLayout, rows: NDArray[np.uint8], msg: Any) -> bool:
+        decoded = list(self.decode(layout, rows))
         expected = transforms_of(msg)
         if len(decoded) != len(expected):
             return False
@@ -448,15 +543,16 @@ class TFAccumulator(_Accumulator):
         return True
 
     @staticmethod
-    def _decode(
+    def decode(
         layout: MessageLayout, rows: NDArray[np.uint8]
     ) -> Iterator[tuple[tuple[str, str], NDArray[np.int64], Array]]:
+        """Each transform of the messages ``rows`` of ``layout``, in message order: (pair, stamps (N,), values (N, 7))."""
         for pair, stamp, floats in zip(layout.names, layout.stamps, layout.floats):
             yield pair, _stamps(rows, stamp, layout.ros1), _float_block(rows, floats, 7)
 
     def _add_rows(self, rows: NDArray[np.uint8], times: NDArray[np.int64] | None) -> None:
         assert self.layout is not None
-        for pair, time, values in self._decode(self.layout, rows):
+        for pair, time, values in self.decode(self.layout, rows):
             self._blocks.setdefault(pair, []).append((time if times is None else times, values))
 
     def _add_message(self, msg: Any, time_ns: int | None) -> None:

@@ -20,7 +20,6 @@ import re
 import struct
 from collections.abc import Callable
 from functools import cache
-from importlib import resources
 from typing import Any
 
 from tfrec.errors import ReadError, RecordingError
@@ -149,7 +148,8 @@ def deserializer(msgtype: str, *, ros1: bool = False, store: Any = None) -> Dese
     Args:
         msgtype: ``tf2_msgs/msg/TFMessage`` or ``tf2_msgs/TFMessage``.
         ros1: ROS 1 serialization rather than CDR.
-        store: the type store; None for the distro's (:func:`typestore`).
+        store: the type store; None for the distro's: :func:`reading_typestore` for the ROS 2 types tfrec reads,
+            else :func:`typestore`, and for ROS 1 :func:`known_ros1_typestore` (Noetic's, with the TF types).
 
     Returns:
         A function of the serialized message that returns rosbags' message object and raises
@@ -162,8 +162,8 @@ def deserializer(msgtype: str, *, ros1: bool = False, store: Any = None) -> Dese
         if not loaded:
             from rosbags.serde import SerdeError
 
-            chosen = store if store is not None else (
-                reading_typestore() if not ros1 and full in ROS2_DEFINITIONS else typestore(ros1=ros1))
+            chosen = store if store is not None else known_ros1_typestore() if ros1 else (
+                reading_typestore() if full in ROS2_DEFINITIONS else typestore())
             loaded.extend((chosen.deserialize_ros1 if ros1 else chosen.deserialize_cdr,
                            (SerdeError, struct.error, IndexError, KeyError, ValueError, UnicodeDecodeError)))
         decode, errors = loaded
@@ -204,6 +204,8 @@ _FIELD_TYPE = re.compile(r"\s*([A-Za-z][\w/]*)")
 def _noetic_texts() -> dict[str, str]:
     """``pkg/Type`` → the type's own .msg text, from ``noetic.msg`` (genmsg's form: each type after a
     line of 80 ``=`` and ``MSG: pkg/Type``, its text, a newline)."""
+    from importlib import resources
+
     data = resources.files(__package__).joinpath("noetic.msg").read_text(encoding="utf-8")
     texts = {}
     for part in data.split(_SEPARATOR)[1:]:

@@ -39,6 +39,7 @@ from tfrec.formats.ros.connection import (
     MessageSource,
     ReadStopped,
     count_differences,
+    distinct,
     warn_reading,
     with_article,
 )
@@ -475,7 +476,7 @@ class _RecordWalk:
         if not len(conns):
             return None
         source = self.source
-        for conn in np.unique(conns).tolist():
+        for conn in distinct(conns):
             chosen = times[conns == conn]
             stats = source.stats[conn]
             stats.count += len(chosen)

@@ -22,7 +22,6 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from tfrec._yaml import load_yaml, yaml_dump
 from tfrec.errors import ReadError, TfrecWarning
 
 __all__ = [
@@ -41,7 +40,6 @@ __all__ = [
     "qos_yaml",
     "read_bag_metadata",
     "write_bag_metadata",
-    "yaml_dump",
 ]
 
 METADATA_MAX_BYTES = 16 << 20
@@ -81,19 +79,36 @@ QOS_VOLATILE = _offered_qos("volatile")
 """The QoS joint_state_publisher and robot_state_publisher offer on /joint_states and /tf. Read only."""
 
 
+def _offered_qos_text(durability: str) -> str:
+    """:func:`qos_yaml` of ``[_offered_qos(durability)]``, written out (tests compare with PyYAML's): the QoS of
+    tfrec's own recordings is known without loading PyYAML, which took longer to import than ``tfrec info`` of a
+    small MCAP spends reading it."""
+    infinite = "".join(f"\n    {key}: {value}" for key, value in _INFINITE.items())
+    return (f"- history: unknown\n  depth: 0\n  reliability: reliable\n  durability: {durability}\n"
+            f"  deadline:{infinite}\n  lifespan:{infinite}\n  liveliness: automatic\n"
+            f"  liveliness_lease_duration:{infinite}\n  avoid_ros_namespace_conventions: false")
+
+
+_KNOWN_QOS = {_offered_qos_text(durability): [profile]
+              for durability, profile in (("transient_local", QOS_LATCHED), ("volatile", QOS_VOLATILE))}
+"""The ``offered_qos_profiles`` texts tfrec writes → their profile lists (read only)."""
+
+
 def qos_yaml(profiles: Sequence[Mapping[str, Any]]) -> str:
     """Offered QoS profiles as the ``offered_qos_profiles`` text of MCAP channel metadata: a YAML
     list, no trailing newline (yaml-cpp's ``Dump``)."""
     key = repr(profiles)
     text = _QOS_TEXTS.get(key)
     if text is None:  # a few distinct lists make up the QoS of thousands of channels: each dumped once
+        from tfrec._yaml import yaml_dump
+
         text = yaml_dump(list(profiles)).rstrip("\n")
         if len(_QOS_TEXTS) < 256:
             _QOS_TEXTS[key] = text
     return text
 
 
-_QOS_TEXTS: dict[str, str] = {}
+_QOS_TEXTS: dict[str, str] = {repr(profiles): text for text, profiles in _KNOWN_QOS.items()}
 
 
 def bag_storage_name(folder_name: str) -> str:
@@ -190,6 +205,8 @@ def bag_metadata_yaml(info: Mapping[str, Any]) -> str:
     """:func:`yaml_dump` of a :func:`bag_info` mapping, linear in its topics: each topic entry of plain names
     (``/topic``, ``pkg/msg/Type``, ``RIHS01_…``) is written from a template made once per QoS profile list,
     the others by PyYAML (the same text; PyYAML's pure-Python emitter took 38 s for 60,000 topics)."""
+    from tfrec._yaml import yaml_dump
+
     topics = info.get("topics_with_message_count")
     if not isinstance(topics, list) or len(topics) < 2:
         return yaml_dump(info)
@@ -258,6 +275,8 @@ def read_bag_metadata(folder: Path) -> BagMetadata:
         text = data.decode("utf-8")
     except UnicodeDecodeError as err:
         raise ReadError(f"{meta}: not UTF-8 text (byte {err.start:,})") from err
+    from tfrec._yaml import load_yaml
+
     # bounded: an alias bomb or 20,000-deep nesting is refused at once (tfrec._yaml)
     document = load_yaml(text, where=str(meta), error=ReadError)
     info = document.get("rosbag2_bagfile_information") if isinstance(document, dict) else None
@@ -395,6 +414,11 @@ def offered_qos_profiles(text: str, *, latched: bool) -> list[dict[str, Any]]:
 def _parsed_qos(text: str) -> Any:
     """``offered_qos_profiles`` text parsed (None: empty or not YAML), once per text: thousands of channels
     share a few. Callers copy what they keep (the result is shared)."""
+    known = _KNOWN_QOS.get(text)
+    if known is not None:
+        return copy.deepcopy(known)
+    from tfrec._yaml import load_yaml
+
     try:
         return copy.deepcopy(load_yaml(text, where="offered_qos_profiles")) if text else None
     except ValueError:

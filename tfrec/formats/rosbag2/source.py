@@ -38,6 +38,7 @@ from tfrec.formats.ros.connection import (
     Connection,
     MessageBatch,
     MessageSource,
+    distinct,
     full_type,
     raw_messages,
 )
@@ -318,7 +319,7 @@ class Sqlite3Source(MessageSource):
     def _batch(self, columns: _Columns, lut: dict[int, int], *, count: bool) -> MessageBatch | None:
         """Rows (topic ids, timestamps, data or None) counted (``count``), and those with data as a batch."""
         topics, stamps, datas = columns
-        present = np.unique(topics).tolist()
+        present = distinct(topics)
         conns = np.empty(len(topics), dtype=np.int64)
         for topic_id in present:
             chosen = topics == topic_id

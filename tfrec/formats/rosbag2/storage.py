@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -41,6 +40,8 @@ def plain_files(meta: BagMetadata, where: str) -> Iterator[list[Path]]:
         return
     if meta.compression != "zstd":
         raise ReadError(f"{where}: files compressed with '{meta.compression}' (tfrec reads zstd)")
+    import tempfile
+
     import zstandard
 
     with tempfile.TemporaryDirectory(prefix="tfrec-") as scratch:
