@@ -97,7 +97,7 @@ def test_a_bug_is_the_files_error_row_and_the_run_goes_on() -> None:
 
 
 def _workers() -> set[int]:
-    """This process's live children, the pool's forkserver left out."""
+    """This process's live children, the pool's forkserver and resource tracker left out."""
     out = set()
     for name in os.listdir("/proc"):
         if not name.isdigit():
@@ -108,7 +108,8 @@ def _workers() -> set[int]:
         except OSError:
             continue
         state, parent = stat[stat.rindex(")") + 2 :].split()[:2]
-        if int(parent) == os.getpid() and state != "Z" and b"forkserver" not in cmdline:
+        if (int(parent) == os.getpid() and state != "Z" and b"forkserver" not in cmdline
+                and b"resource_tracker" not in cmdline):  # the pool's helpers, started once per process
             out.add(int(name))
     return out
 
@@ -122,9 +123,15 @@ def test_ctrl_c_stops_the_workers_and_the_report_keeps_what_finished(tmp_path: P
         writer.write(row.to_dict() for row in rows)
         threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT)).start()  # Ctrl-C while slow tasks run
 
+    # Python's own Ctrl-C handler, whatever this process was started with (a shell's background job ignores SIGINT,
+    # and Python then leaves it ignored: the signal would never reach the driver)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     started = time.monotonic()
-    with pytest.raises(KeyboardInterrupt), ReportWriter(report) as writer:
-        run(tasks, jobs=2, on_result=on_result)
+    try:
+        with pytest.raises(KeyboardInterrupt), ReportWriter(report) as writer:
+            run(tasks, jobs=2, on_result=on_result)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     assert time.monotonic() - started < 300  # a hang guard: waiting for the slow tasks would take 600 s
     assert [row["file"] for row in read_report(report)] == ["fast"]
     assert _workers() <= before  # the workers are gone
