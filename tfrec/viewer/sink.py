@@ -47,7 +47,15 @@ from tfrec.model import JointType, Link, Mesh, Robot
 from tfrec.recording import Transforms
 from tfrec.viewer._flush import disconnect, flush
 from tfrec.viewer.blueprint import Reach, blueprint_of, joint_colour, joint_units, robot_layout, tf_tree_columns
-from tfrec.viewer.columns import check_stamps, elapsed_column, no_joint_columns, repeated_strings, time_column
+from tfrec.viewer.columns import (
+    ArrowTimeColumn,
+    check_stamps,
+    elapsed_column,
+    no_joint_columns,
+    scalar_column,
+    time_column,
+    transform_columns,
+)
 from tfrec.viewer.geometry import (
     MeshAsset,
     MeshLoader,
@@ -480,7 +488,7 @@ class RerunSink:
 
     # -- helpers ---------------------------------------------------------------------------
 
-    def _send(self, entity: str, index: list[rr.TimeColumn], columns: Any, *, nbytes: int = 0) -> None:
+    def _send(self, entity: str, index: list[ArrowTimeColumn], columns: Any, *, nbytes: int = 0) -> None:
         rr.send_columns(self._root + entity, indexes=index, columns=columns, recording=self._rec, strict=True)
         self._unflushed_bytes += nbytes
         if self._unflushed_bytes >= _FLUSH_BYTES:
@@ -503,23 +511,23 @@ class RerunSink:
         if velocity:
             self._send_static(velocity_entity(name), style)
 
-    def _index(self, stamps: NDArray[np.int64]) -> list[rr.TimeColumn]:
+    def _index(self, stamps: NDArray[np.int64]) -> list[ArrowTimeColumn]:
         """The index columns of ``stamps``: ROS time, and the time since the start given to :meth:`begin`."""
         if self._origin_ns is None:
             return [time_column(stamps)]
         return [time_column(stamps), elapsed_column(stamps, self._origin_ns)]
 
-    def _write_scalars(self, entity: str, index: list[rr.TimeColumn], stamps: NDArray[np.int64],
+    def _write_scalars(self, entity: str, index: list[ArrowTimeColumn], stamps: NDArray[np.int64],
                        values: Array) -> None:
         """One column of joint values at ``index`` (the ``stamps``); values that are NaN are left out."""
         given = np.isfinite(values)
         if given.all():
-            self._send(entity, index, rr.Scalars.columns(scalars=values), nbytes=stamps.nbytes + values.nbytes)
+            self._send(entity, index, [scalar_column(values)], nbytes=stamps.nbytes + values.nbytes)
         elif given.any():
             kept = stamps[given]
-            self._send(entity, self._index(kept), rr.Scalars.columns(scalars=values[given]), nbytes=2 * kept.nbytes)
+            self._send(entity, self._index(kept), [scalar_column(values[given])], nbytes=2 * kept.nbytes)
 
-    def _write_pair(self, parent: str, child: str, index: list[rr.TimeColumn], stamps: NDArray[np.int64],
+    def _write_pair(self, parent: str, child: str, index: list[ArrowTimeColumn], stamps: NDArray[np.int64],
                     translation: Array, rotation: Array) -> None:
         last = self._last_pair_ns.get((parent, child))
         if np.any(np.diff(stamps) < 0) or (last is not None and stamps[0] < last):
@@ -527,8 +535,7 @@ class RerunSink:
         self._last_pair_ns[(parent, child)] = int(stamps[-1])
         joint = self._joint_of_pair.get((parent, child))
         n = len(stamps)
-        columns = rr.Transform3D.columns(translation=translation, quaternion=rotation,
-                                         parent_frame=repeated_strings(parent, n), child_frame=repeated_strings(child, n))
+        columns = transform_columns(translation, rotation, parent, child)
         self._send(tf_entity(joint) if joint is not None else pair_entity(parent, child), index, columns,
                    nbytes=stamps.nbytes + translation.nbytes + rotation.nbytes + n * (len(parent) + len(child)))
 
