@@ -103,6 +103,33 @@ def test_a_recording_equals_one_sent_through_rerun_converters(tmp_path: Path, mo
                           timeout=120).returncode != 0  # the comparison sees a difference where there is one
 
 
+def test_arrays_reused_after_a_call_do_not_change_what_was_logged(tmp_path: Path) -> None:
+    """Rerun keeps the Arrow arrays it is handed and writes them later: a caller (a replay's batches) that reuses
+    its arrays once a call returns must not change the file. Contiguous arrays, which need no conversion."""
+    from tfrec.recording import Transforms
+
+    writer = sink.RerunSink(tmp_path / "reused.rrd", robot=None, recording_id="reused")
+    writer.begin(static=Transforms((), (), np.zeros((1, 0, 3)), np.zeros((1, 0, 4))), start_time_ns=START_NS)
+    stamps = START_NS + np.arange(500, dtype=np.int64) * 10**7
+    positions = np.linspace(0.0, 1.0, 500).reshape(500, 1)  # one joint: its column is the array itself
+    translation = np.ascontiguousarray(np.linspace(0.0, 1.0, 1500, dtype=np.float32).reshape(500, 3))
+    rotation = np.tile(np.array([0.0, 0.0, 0.0, 1.0], np.float32), (500, 1))
+    expected = (stamps.copy(), positions[:, 0].copy(), translation.astype(np.float64))
+    writer.write_joint_positions(stamps, ["j"], positions)
+    writer.write_transforms("a", "b", stamps, translation, rotation)
+    stamps[:] = START_NS
+    positions[:] = -1.0
+    translation[:] = -1.0
+    writer.finish()
+    rrd = Rrd(tmp_path / "reused.rrd")
+    times, values = rrd.series(joint_entity("j"), "Scalars:scalars")
+    np.testing.assert_array_equal(times, expected[0])
+    np.testing.assert_array_equal([v[0] for v in values], expected[1])
+    times, vectors = rrd.series("/tf/a/b", "Transform3D:translation")
+    np.testing.assert_array_equal(times, expected[0])
+    np.testing.assert_array_equal(np.array([np.asarray(v, dtype=np.float64).reshape(3) for v in vectors]), expected[2])
+
+
 _NO_PANDAS = """
 import sys
 import numpy as np

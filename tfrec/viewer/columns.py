@@ -3,7 +3,9 @@
 The columns of the samples (index, scalars, transforms) are built here straight from numpy buffers as the Arrow
 arrays Rerun's own converters make (the same types, so the same file): those converters check and copy every
 column in Python, and ``pyarrow.array`` of a numpy array imports pandas whenever it is installed; together they
-cost more CPU than Rerun's writer spends on the same rows."""
+cost more CPU than Rerun's writer spends on the same rows. Each column is a copy of its own: Rerun keeps the
+Arrow arrays (no copy) and its writer reads them after ``send_columns`` returns, when a caller may have
+reused its arrays."""
 
 from __future__ import annotations
 
@@ -62,7 +64,8 @@ class ArrowColumn(rr.ComponentColumn):
 
 
 def _buffer_array(kind: pa.DataType, values: NDArray[Any]) -> pa.Array:
-    """``values`` (C-contiguous, of ``kind``'s dtype) as an Arrow array of ``kind`` sharing their memory."""
+    """``values`` (C-contiguous, of ``kind``'s dtype, no one else's) as an Arrow array of ``kind`` sharing their
+    memory."""
     return pa.Array.from_buffers(kind, values.size, [None, pa.py_buffer(values)])
 
 
@@ -73,7 +76,7 @@ def _one_per_row(values: pa.Array, n: int) -> pa.ListArray:
 
 def scalar_column(values: NDArray[np.float64]) -> ArrowColumn:
     """``rr.Scalars.columns(scalars=values)``'s column, one float64 per row."""
-    column = np.ascontiguousarray(values, dtype=np.float64)
+    column = np.array(values, dtype=np.float64, order="C")  # a copy
     return ArrowColumn(rr.Scalars.descriptor_scalars(), _one_per_row(_buffer_array(pa.float64(), column), len(column)))
 
 
@@ -81,8 +84,8 @@ def transform_columns(translation: NDArray[Any], quaternion: NDArray[Any], paren
     """``rr.Transform3D.columns`` of (n, 3) translations and (n, 4) quaternions (x, y, z, w), stored as float32,
     from ``parent`` to ``child`` in every row."""
     n = len(translation)
-    vectors = np.ascontiguousarray(translation, dtype=np.float32)
-    rotations = np.ascontiguousarray(quaternion, dtype=np.float32)
+    vectors = np.array(translation, dtype=np.float32, order="C")  # copies
+    rotations = np.array(quaternion, dtype=np.float32, order="C")
     t3 = rr.Transform3D
     return [
         ArrowColumn(t3.descriptor_translation(), _one_per_row(pa.FixedSizeListArray.from_arrays(
@@ -109,7 +112,7 @@ def check_stamps(time_ns: NDArray[np.int64]) -> NDArray[np.int64]:
 def time_column(stamps: NDArray[np.int64]) -> ArrowTimeColumn:
     """The index column of :data:`~tfrec.formats.rrd.paths.TIMELINE` for ``send_columns``: integer
     nanoseconds as timestamps (float seconds would be truncated by Rerun)."""
-    return ArrowTimeColumn(TIMELINE, _buffer_array(pa.timestamp("ns"), np.ascontiguousarray(stamps, dtype=np.int64)))
+    return ArrowTimeColumn(TIMELINE, _buffer_array(pa.timestamp("ns"), np.array(stamps, dtype=np.int64, order="C")))
 
 
 def elapsed_column(stamps: NDArray[np.int64], origin_ns: int) -> ArrowTimeColumn:

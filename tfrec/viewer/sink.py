@@ -364,18 +364,16 @@ class RerunSink:
         index = self._index(stamps)
         if not joint_names:  # empty joint states: their stamps alone
             self._send(NO_JOINTS_ENTITY, index, no_joint_columns(n), nbytes=2 * stamps.nbytes)
-        # each logged column made contiguous in one pass, transforms as the float32 Rerun stores them: Rerun's own
-        # conversion of every strided float64 column, one at a time, cost more than all tfrec's logging
-        by_joint = np.ascontiguousarray(np.stack([positions, velocities]).transpose(2, 0, 1))  # (J, 2, n)
+        # each column is copied once, into the contiguous array (float32 for the transforms, what Rerun stores) Rerun
+        # is handed (tfrec.viewer.columns): Rerun's own conversion of every strided float64 column cost more than all
+        # tfrec's logging
         for j, name in enumerate(joint_names):
             self._style_joint(name, velocity=True)
-            self._write_scalars(joint_entity(name), index, stamps, by_joint[j, 0])
-            self._write_scalars(velocity_entity(name), index, stamps, by_joint[j, 1])
+            self._write_scalars(joint_entity(name), index, stamps, positions[:, j])
+            self._write_scalars(velocity_entity(name), index, stamps, velocities[:, j])
             self._has_velocities = True
-        translation = np.ascontiguousarray(np.asarray(transforms.translation).transpose(1, 0, 2), dtype=np.float32)
-        rotation = np.ascontiguousarray(np.asarray(transforms.rotation).transpose(1, 0, 2), dtype=np.float32)
         for k, (parent, child) in enumerate(zip(transforms.parents, transforms.children)):
-            self._write_pair(parent, child, index, stamps, translation[k], rotation[k])
+            self._write_pair(parent, child, index, stamps, transforms.translation[:, k], transforms.rotation[:, k])
         self.fit_camera(transforms)
 
     def write_transforms(
@@ -537,6 +535,6 @@ class RerunSink:
         n = len(stamps)
         columns = transform_columns(translation, rotation, parent, child)
         self._send(tf_entity(joint) if joint is not None else pair_entity(parent, child), index, columns,
-                   nbytes=stamps.nbytes + translation.nbytes + rotation.nbytes + n * (len(parent) + len(child)))
+                   nbytes=stamps.nbytes + n * (28 + len(parent) + len(child)))  # float32 x 7
 
 
