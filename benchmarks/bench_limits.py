@@ -23,7 +23,8 @@ Sections (``--only`` picks some), each with its baseline measured in the same ru
   every 512 compressed bytes). Baseline: level 3, 16 KiB blocks (before).
 - ``record``: ``tfrec record robots/marm.xacro`` for ``--hours`` in fresh processes, with and without the .rrd,
   against ``record --no-rrd`` (and ``import rerun`` alone), also without pandas importable (a tfrec installed
-  without its test extra).
+  without its test extra); with ``--baseline-tree DIR`` the two records with a ``.rrd`` also on that code, as
+  ``before``.
 
 Run from the repository root:
 
@@ -55,7 +56,7 @@ def run_process(argv: Sequence[str], *, env: dict[str, str] | None = None) -> tu
     """(wall seconds, CPU seconds, peak RSS in MB) of one process, from its own rusage (os.wait4). With a
     ``PYTHONPATH`` in ``env`` (an older tree) it runs there: ``python -m`` puts its working folder first."""
     start = time.perf_counter()
-    cwd = env["PYTHONPATH"] if env is not None and "PYTHONPATH" in env else REPO
+    cwd = env["PYTHONPATH"].split(os.pathsep)[0] if env is not None and "PYTHONPATH" in env else REPO
     child = subprocess.Popen(list(argv), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, cwd=cwd, env=env)
     _, status, usage = os.wait4(child.pid, 0)
     wall = time.perf_counter() - start
@@ -368,16 +369,18 @@ def bench_zstd(minutes: float, repeat: int) -> None:
 # -- record ---------------------------------------------------------------------------------------
 
 
-def without_pandas(cache: Path) -> dict[str, str]:
+def without_pandas(cache: Path, tree: Path | None = None) -> dict[str, str]:
     """The environment of a tfrec installed without its test extra: pandas not importable (pyarrow, asked by Rerun
-    to convert a numpy array, imports pandas whenever it is installed: +40 MB and ~0.4 s)."""
+    to convert a numpy array, imports pandas whenever it is installed: +40 MB and ~0.4 s); with ``tree``, running
+    the older ``tfrec/`` there."""
     stub = cache / "no-pandas" / "pandas"
     stub.mkdir(parents=True, exist_ok=True)
     (stub / "__init__.py").write_text('raise ImportError("pandas is not installed")\n')
-    return {**os.environ, "PYTHONPATH": os.fspath(stub.parent)}
+    path = os.fspath(stub.parent) if tree is None else os.pathsep.join([os.fspath(tree), os.fspath(stub.parent)])
+    return {**os.environ, "PYTHONPATH": path}
 
 
-def bench_record(cache: Path, hours: float, repeat: int) -> None:
+def bench_record(cache: Path, hours: float, repeat: int, baseline_tree: Path | None = None) -> None:
     python = sys.executable
     out = cache / "record.mcap"
     record = [python, "-m", "tfrec", "record", str(REPO / "robots" / "marm.xacro"), "--traj", "random", "--duration",
@@ -390,6 +393,9 @@ def bench_record(cache: Path, hours: float, repeat: int) -> None:
             ("record (MCAP + .rrd)", record, None),
             ("record (MCAP + .rrd, no pandas)", record, plain),
             ("record --no-mcap (.rrd only)", [*record, "--no-mcap"], None)]
+    if baseline_tree is not None:
+        rows += [("record (MCAP + .rrd), before", record, tree_env(baseline_tree)),
+                 ("record (MCAP + .rrd, no pandas), before", record, without_pandas(cache, baseline_tree))]
     figures = {label: best_process(argv, repeat, env) for label, argv, env in rows}
     base = figures["record --no-rrd"]
     print(f"  robots/marm.xacro, random, {hours:g} h at 100 Hz (best of {repeat}):")
@@ -405,7 +411,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--hours", type=float, default=1.0, help="length of the recording (record)")
     parser.add_argument("--repeat", type=int, default=5, help="runs of each (the fastest counts)")
     parser.add_argument("--minutes", type=float, default=10.0, help="length of the converted bag (reorder)")
-    parser.add_argument("--baseline-tree", type=Path, help="a folder holding an older tfrec/ package (info: before)")
+    parser.add_argument("--baseline-tree", type=Path,
+                        help="a folder holding an older tfrec/ package (info, record: before)")
     parser.add_argument("--no-hour", action="store_true", help="info: leave out the hour-long sqlite3 bag")
     parser.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "tfrec-bench-limits",
                         help="where the recordings made once are kept")
@@ -419,7 +426,7 @@ def main(argv: list[str] | None = None) -> int:
         elif name == "pacing":
             bench_pacing(options.repeat)
         elif name == "record":
-            bench_record(options.cache, options.hours, min(options.repeat, 2))
+            bench_record(options.cache, options.hours, min(options.repeat, 2), options.baseline_tree)
         elif name == "zstd":
             bench_zstd(options.minutes, min(options.repeat, 3))
         else:

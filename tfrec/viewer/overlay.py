@@ -40,7 +40,7 @@ from tfrec.formats.rrd.paths import TIMELINE, visual_entity
 from tfrec.model import Robot
 from tfrec.recording import Transforms
 from tfrec.viewer.blueprint import Reach, stable_ids
-from tfrec.viewer.columns import time_column
+from tfrec.viewer.columns import ArrowTimeColumn, time_column
 from tfrec.viewer.geometry import colour_archetype
 from tfrec.viewer.sink import RerunSink
 
@@ -256,7 +256,7 @@ def _merged(reaches: list[Reach]) -> Reach | None:
     return out
 
 
-def _send(stream: rr.RecordingStream, entity: str, columns: Any, index: list[rr.TimeColumn] | None = None) -> None:
+def _send(stream: rr.RecordingStream, entity: str, columns: Any, index: list[ArrowTimeColumn] | None = None) -> None:
     rr.send_columns(entity, indexes=index or [], columns=columns, recording=stream, strict=True)
 
 

@@ -47,7 +47,15 @@ from tfrec.model import JointType, Link, Mesh, Robot
 from tfrec.recording import Transforms
 from tfrec.viewer._flush import disconnect, flush
 from tfrec.viewer.blueprint import Reach, blueprint_of, joint_colour, joint_units, robot_layout, tf_tree_columns
-from tfrec.viewer.columns import check_stamps, elapsed_column, no_joint_columns, repeated_strings, time_column
+from tfrec.viewer.columns import (
+    ArrowTimeColumn,
+    check_stamps,
+    elapsed_column,
+    no_joint_columns,
+    scalar_column,
+    time_column,
+    transform_columns,
+)
 from tfrec.viewer.geometry import (
     MeshAsset,
     MeshLoader,
@@ -356,18 +364,16 @@ class RerunSink:
         index = self._index(stamps)
         if not joint_names:  # empty joint states: their stamps alone
             self._send(NO_JOINTS_ENTITY, index, no_joint_columns(n), nbytes=2 * stamps.nbytes)
-        # each logged column made contiguous in one pass, transforms as the float32 Rerun stores them: Rerun's own
-        # conversion of every strided float64 column, one at a time, cost more than all tfrec's logging
-        by_joint = np.ascontiguousarray(np.stack([positions, velocities]).transpose(2, 0, 1))  # (J, 2, n)
+        # each column is copied once, into the contiguous array (float32 for the transforms, what Rerun stores) Rerun
+        # is handed (tfrec.viewer.columns): Rerun's own conversion of every strided float64 column cost more than all
+        # tfrec's logging
         for j, name in enumerate(joint_names):
             self._style_joint(name, velocity=True)
-            self._write_scalars(joint_entity(name), index, stamps, by_joint[j, 0])
-            self._write_scalars(velocity_entity(name), index, stamps, by_joint[j, 1])
+            self._write_scalars(joint_entity(name), index, stamps, positions[:, j])
+            self._write_scalars(velocity_entity(name), index, stamps, velocities[:, j])
             self._has_velocities = True
-        translation = np.ascontiguousarray(np.asarray(transforms.translation).transpose(1, 0, 2), dtype=np.float32)
-        rotation = np.ascontiguousarray(np.asarray(transforms.rotation).transpose(1, 0, 2), dtype=np.float32)
         for k, (parent, child) in enumerate(zip(transforms.parents, transforms.children)):
-            self._write_pair(parent, child, index, stamps, translation[k], rotation[k])
+            self._write_pair(parent, child, index, stamps, transforms.translation[:, k], transforms.rotation[:, k])
         self.fit_camera(transforms)
 
     def write_transforms(
@@ -480,7 +486,7 @@ class RerunSink:
 
     # -- helpers ---------------------------------------------------------------------------
 
-    def _send(self, entity: str, index: list[rr.TimeColumn], columns: Any, *, nbytes: int = 0) -> None:
+    def _send(self, entity: str, index: list[ArrowTimeColumn], columns: Any, *, nbytes: int = 0) -> None:
         rr.send_columns(self._root + entity, indexes=index, columns=columns, recording=self._rec, strict=True)
         self._unflushed_bytes += nbytes
         if self._unflushed_bytes >= _FLUSH_BYTES:
@@ -503,23 +509,23 @@ class RerunSink:
         if velocity:
             self._send_static(velocity_entity(name), style)
 
-    def _index(self, stamps: NDArray[np.int64]) -> list[rr.TimeColumn]:
+    def _index(self, stamps: NDArray[np.int64]) -> list[ArrowTimeColumn]:
         """The index columns of ``stamps``: ROS time, and the time since the start given to :meth:`begin`."""
         if self._origin_ns is None:
             return [time_column(stamps)]
         return [time_column(stamps), elapsed_column(stamps, self._origin_ns)]
 
-    def _write_scalars(self, entity: str, index: list[rr.TimeColumn], stamps: NDArray[np.int64],
+    def _write_scalars(self, entity: str, index: list[ArrowTimeColumn], stamps: NDArray[np.int64],
                        values: Array) -> None:
         """One column of joint values at ``index`` (the ``stamps``); values that are NaN are left out."""
         given = np.isfinite(values)
         if given.all():
-            self._send(entity, index, rr.Scalars.columns(scalars=values), nbytes=stamps.nbytes + values.nbytes)
+            self._send(entity, index, [scalar_column(values)], nbytes=stamps.nbytes + values.nbytes)
         elif given.any():
             kept = stamps[given]
-            self._send(entity, self._index(kept), rr.Scalars.columns(scalars=values[given]), nbytes=2 * kept.nbytes)
+            self._send(entity, self._index(kept), [scalar_column(values[given])], nbytes=2 * kept.nbytes)
 
-    def _write_pair(self, parent: str, child: str, index: list[rr.TimeColumn], stamps: NDArray[np.int64],
+    def _write_pair(self, parent: str, child: str, index: list[ArrowTimeColumn], stamps: NDArray[np.int64],
                     translation: Array, rotation: Array) -> None:
         last = self._last_pair_ns.get((parent, child))
         if np.any(np.diff(stamps) < 0) or (last is not None and stamps[0] < last):
@@ -527,9 +533,8 @@ class RerunSink:
         self._last_pair_ns[(parent, child)] = int(stamps[-1])
         joint = self._joint_of_pair.get((parent, child))
         n = len(stamps)
-        columns = rr.Transform3D.columns(translation=translation, quaternion=rotation,
-                                         parent_frame=repeated_strings(parent, n), child_frame=repeated_strings(child, n))
+        columns = transform_columns(translation, rotation, parent, child)
         self._send(tf_entity(joint) if joint is not None else pair_entity(parent, child), index, columns,
-                   nbytes=stamps.nbytes + translation.nbytes + rotation.nbytes + n * (len(parent) + len(child)))
+                   nbytes=stamps.nbytes + n * (28 + len(parent) + len(child)))  # float32 x 7
 
 
