@@ -22,8 +22,10 @@ into its robots, one :class:`~tfrec.recording.RecordedRobot` each (the one type 
 from __future__ import annotations
 
 import re
+import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -34,6 +36,7 @@ from tfrec.recording import FrameSeries, RecordedRobot, Recording, robot_name
 
 __all__ = [
     "OTHER_FRAMES",
+    "ParsedDescriptions",
     "RecordedRobot",
     "detect_frame_prefix",
     "find_robots",
@@ -68,6 +71,28 @@ def parse_description(text: str, where: str) -> tuple[Robot | None, str | None]:
         return parse_urdf(text, source=None, user_lines=False), None
     except DescriptionError as err:
         return None, str(err)
+
+
+class ParsedDescriptions:
+    """Recorded descriptions parsed once (:func:`parse_description`), by text, for several :func:`find_robots` calls
+    on recordings that share them (the pieces of one recording, A and B of a ``diff``): each call gives the
+    warnings parsing gave, as parsing it again would."""
+
+    def __init__(self) -> None:
+        self._parsed: dict[str, tuple[tuple[Robot | None, str | None], list[warnings.WarningMessage]]] = {}
+        self._registry: dict[Any, Any] = {}  # what the "default" action has shown already, as a module's registry
+
+    def parse(self, text: str, where: str) -> tuple[Robot | None, str | None]:
+        found = self._parsed.get(text)
+        if found is None:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                result = parse_description(text, where)
+            found = self._parsed[text] = (result, list(caught))
+        for warning in found[1]:
+            warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno,
+                                   registry=self._registry)
+        return found[0]
 
 
 def _prefix_counts(robot: Robot, frames: Iterable[str]) -> dict[str, int]:
@@ -148,15 +173,15 @@ class _Candidate:
 
 
 def find_robots(rec: Recording, *, namespace: str | None = None,
-                parsed: dict[str, tuple[Robot | None, str | None]] | None = None) -> list[RecordedRobot]:
+                parsed: ParsedDescriptions | None = None) -> list[RecordedRobot]:
     """The robots of a recording (see the module docstring), in namespace order.
 
     Args:
         rec: the recording.
         namespace: only the robots of this namespace (``/robot1``; ``""`` the root's); they
             may still read the root namespace's TF and joint states.
-        parsed: descriptions already parsed (:func:`parse_description`), by text; those parsed here are added
-            (``diff`` parses a description A and B share once).
+        parsed: where descriptions parsed before are kept, and those parsed here go (:class:`ParsedDescriptions`:
+            ``diff`` parses a description A and B share once, replay the one every piece of a recording has).
 
     Returns:
         One entry per robot, and one per shared TF's unclaimed pairs; empty when the recording
@@ -167,12 +192,9 @@ def find_robots(rec: Recording, *, namespace: str | None = None,
     has_tf = {ns for ns, t in topics.items() if t.tf or t.tf_static}
     has_js = {ns for ns, t in topics.items() if t.joint_states is not None}
     candidates: list[_Candidate] = []
-    memo = {} if parsed is None else parsed
     for ns in names:
         for text in topics[ns].descriptions:
-            if text not in memo:
-                memo[text] = parse_description(text, rec.path)
-            model, problem = memo[text]
+            model, problem = parse_description(text, rec.path) if parsed is None else parsed.parse(text, rec.path)
             candidates.append(_Candidate(ns, model.name if model else robot_name(text), text, model, problem))
     for candidate in candidates:
         candidate.pool = candidate.namespace if candidate.namespace in has_tf or "" not in has_tf else ""

@@ -81,7 +81,7 @@ from tfrec.formats.reader import read_pieces, read_recording
 from tfrec.kinematics.rotations import rotation_error
 from tfrec.recording import FrameSeries, JointStates, Recording
 from tfrec.resample import Alignment, data_start_ns, log_start_ns
-from tfrec.robots import RecordedRobot, find_robots, pair_robots
+from tfrec.robots import ParsedDescriptions, RecordedRobot, find_robots, pair_robots
 
 __all__ = [
     "DEFAULT_JOINT_TOL",
@@ -217,7 +217,7 @@ class _Comparison:
     def found_robots(self) -> tuple[list[RecordedRobot], list[RecordedRobot]]:
         """The robots of A and B (of ``namespace``), found once."""
         if self._found is None:
-            parsed: dict[str, Any] = {}  # a description A and B share is parsed once
+            parsed = ParsedDescriptions()  # a description A and B share is parsed once
             self._found = (find_robots(self.a, namespace=self.namespace, parsed=parsed),
                            find_robots(self.b, namespace=self.namespace, parsed=parsed))
         return self._found

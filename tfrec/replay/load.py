@@ -57,7 +57,7 @@ from tfrec.model import Robot
 from tfrec.recording import FrameSeries, JointStates, RecordedRobot, Recording
 from tfrec.replay.prepared import Replay
 from tfrec.resample import data_end_ns, data_start_ns
-from tfrec.robots import detect_frame_prefix, find_robots
+from tfrec.robots import ParsedDescriptions, detect_frame_prefix, find_robots
 
 __all__ = [
     "REPLAYED_TOPICS",
@@ -327,8 +327,10 @@ def _read_topics(selected: Collection[str], robot: Robot | None) -> set[str]:
 
 
 def _prepare_recording(rec: Recording, where: str, selected: list[str], *, robot: Robot | None, given: bool,
-                       window: tuple[float | None, float | None], need_robot: bool, namespace: str | None) -> Replay:
-    """:func:`load_replay` of a recording read (or of a piece of one, :func:`replay_pieces`)."""
+                       window: tuple[float | None, float | None], need_robot: bool, namespace: str | None,
+                       parsed: ParsedDescriptions | None = None) -> Replay:
+    """:func:`load_replay` of a recording read (or of a piece of one, :func:`replay_pieces`, whose descriptions are
+    parsed once: ``parsed``)."""
     start_s, end_s = window
     absent = [topic for topic in selected if not _has(rec, topic)]
     if len(absent) == len(selected):
@@ -337,7 +339,7 @@ def _prepare_recording(rec: Recording, where: str, selected: list[str], *, robot
     if given and absent:
         warnings.warn(f"{where}: no {', '.join(absent)} in the recording", TfrecWarning, stacklevel=3)
     ns = None if namespace is None else namespace_name(namespace)
-    found = find_robots(rec, namespace=ns)
+    found = find_robots(rec, namespace=ns, parsed=parsed)
     if not found:
         names = ", ".join(name or "/" for name in rec.topic_namespaces()) or "none"
         raise ReplayError(f"{where}: no robot in `namespace` {ns or '/'} (the recording's namespaces: {names})")

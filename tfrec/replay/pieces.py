@@ -32,6 +32,7 @@ from tfrec.recording import FrameSeries, JointStates, Recording
 from tfrec.replay.load import _check_topics, _prepare_recording, _read_topics
 from tfrec.replay.prepared import Replay
 from tfrec.resample import start_of
+from tfrec.robots import ParsedDescriptions
 
 __all__ = ["ReplayPiece", "replay_pieces"]
 
@@ -194,6 +195,7 @@ def replay_pieces(
     selected = _check_topics(topics)
     where = os.fspath(path)
     joiner = _Joiner()
+    parsed = ParsedDescriptions()  # every piece has the recording's descriptions
     said: dict[tuple[type[Warning], str], tuple[warnings.WarningMessage, int]] = {}  # → (first, how many pieces)
     pieces = read_pieces(path, topics=_read_topics(selected, robot), namespace=namespace, remap=remap,
                          use_log_time=use_log_time, messages=messages)
@@ -204,7 +206,8 @@ def replay_pieces(
             failed: TfrecError | None = None
             try:
                 replay = _prepare_recording(joined, where, selected, robot=robot, given=topics is not None,
-                                            window=(None, None), need_robot=need_robot, namespace=namespace)
+                                            window=(None, None), need_robot=need_robot, namespace=namespace,
+                                            parsed=parsed)
             except TfrecError as err:
                 failed = err
         firsts: dict[tuple[type[Warning], str], warnings.WarningMessage] = {}
