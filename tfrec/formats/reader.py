@@ -25,7 +25,7 @@ from dataclasses import replace
 from tfrec.conventions import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC, robot_topic_kind
 from tfrec.formats._collect import Collector, ReadOptions
 from tfrec.formats.source import RecordingSource, identify_recording, messages_of, recording_format
-from tfrec.recording import Recording
+from tfrec.recording import Recording, TopicInfo
 
 PIECE_MESSAGES = 10_000
 """/joint_states and /tf messages of a piece of a recording read piece by piece (:func:`read_pieces`), about."""
@@ -154,10 +154,31 @@ def read_pieces(
             collector.take(batch, found)
             if collector.pending >= (PIECE_MESSAGES if messages is None else messages):
                 yield _with_latched(collector.piece(), latched), False
+    collector.count(found)
     last = _with_latched(collector.piece(), latched)
     last.read_error = found.read_error or latched.read_error
+    _walked_counts(last, {topic: stats.info() for topic, stats in collector.topics.items()}, found.true_start_ns)
     collector.warn_stamps()
     yield last, True
+
+
+def _walked_counts(last: Recording, walked: dict[str, TopicInfo], true_start: int | None) -> None:
+    """The last piece's topic table and span as reading the whole recording gives them: the counts of the time
+    series from their own walk (a damaged file loses what that walk could not read; the latched data's walk read
+    only the chunks holding latched data, and took the rest from the index)."""
+    topics = dict(last.topics)
+    for topic, info in walked.items():
+        kind = robot_topic_kind(topic)
+        if kind is not None and kind[1] in (JOINT_STATES, TF):
+            topics[topic] = info
+    last.topics = topics
+    firsts = [info.first_ns for info in topics.values() if info.first_ns is not None]
+    lasts = [info.last_ns for info in topics.values() if info.last_ns is not None]
+    last.start_ns, last.end_ns = (min(firsts) if firsts else None), (max(lasts) if lasts else None)
+    if true_start is not None and (last.start_ns is None or true_start < last.start_ns):
+        last.start_ns = true_start
+        if last.end_ns is None:
+            last.end_ns = true_start
 
 
 def _said(read_error: str | None) -> str:
