@@ -22,6 +22,7 @@ into its robots, one :class:`~tfrec.recording.RecordedRobot` each (the one type 
 from __future__ import annotations
 
 import re
+import sys
 import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
@@ -91,7 +92,7 @@ class ParsedDescriptions:
             found = self._parsed[text] = (result, list(caught))
         for warning in found[1]:
             warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno,
-                                   registry=self._registry)
+                                   module=_module_of(warning.filename), registry=self._registry)
         return found[0]
 
 
@@ -170,6 +171,14 @@ class _Candidate:
     instance: str = ""  # one of several robots of one description (its frame prefix, ``left``)
     tf: dict[Pair, FrameSeries] = field(default_factory=dict)
     tf_static: dict[Pair, tuple[Array, Array]] = field(default_factory=dict)
+
+
+def _module_of(filename: str) -> str | None:
+    """The name of the loaded module of this file (what a filter on the module of a warning matches), if any."""
+    for name, module in list(sys.modules.items()):
+        if getattr(module, "__file__", None) == filename:
+            return name
+    return None
 
 
 def find_robots(rec: Recording, *, namespace: str | None = None,

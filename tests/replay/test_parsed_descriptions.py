@@ -54,3 +54,16 @@ def test_default_warnings_are_shown_once() -> None:
         memo.parse(URDF, "a.mcap")
         memo.parse(URDF, "b.mcap")
     assert len(caught) == len(_said(lambda: parse_description(URDF, "a.mcap"))[1]) > 0
+
+
+def test_a_filter_on_the_warning_module_still_matches() -> None:
+    """A filter on the module a warning names (``-W ignore::TfrecWarning:tfrec.robots``: where parsing a recorded
+    description warns from) silences the warnings given again as it silences parsing's own."""
+    memo = ParsedDescriptions()
+    _said(lambda: memo.parse(URDF, "a.mcap"))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warnings.filterwarnings("ignore", module=r"tfrec\.robots$")
+        memo.parse(URDF, "a.mcap")
+        parse_description(URDF, "a.mcap")
+    assert caught == []

@@ -53,6 +53,7 @@ import os
 import warnings
 from collections.abc import Callable, Collection, Iterable, Iterator, Mapping
 from dataclasses import replace
+from itertools import chain
 from typing import Any
 
 import numpy as np
@@ -606,27 +607,23 @@ def _pieces(path: str | os.PathLike[str], options: Mapping[str, Any]) -> Iterato
         yield piece
 
 
-def _one_piece(path: str | os.PathLike[str], options: Mapping[str, Any]) -> Recording | None:
-    """The recording at ``path`` when it is one piece (a short one: no first walk, no second read), else None."""
-    pieces = read_pieces(path, **options)
-    try:
-        first, last = next(pieces)
-    finally:
-        pieces.close()
-    return first if last else None
-
-
 Side = tuple[Recording, _Scan, Iterable[Recording]]
 
 
 def _side(path: Recording | str | os.PathLike[str], options: Mapping[str, Any]) -> tuple[Side, bool]:
     """One recording as the comparison sees it (what a first walk through its series found, its series to walk)
     and whether it is held whole: a Recording object or a recording of one piece as is, else its pieces."""
-    rec = path if isinstance(path, Recording) else _one_piece(path, options)
-    if rec is not None:
-        return (rec, _Scan.of([rec]), [rec]), True
-    scan = _Scan.of(_pieces(path, options))  # type: ignore[arg-type]
-    return (scan.skeleton(), scan, _pieces(path, options)), False  # type: ignore[arg-type]
+    if isinstance(path, Recording):
+        return (path, _Scan.of([path]), [path]), True
+    pieces = read_pieces(path, **options)
+    try:
+        first, last = next(pieces)
+        if last:  # a short recording: no first walk, no second read
+            return (first, _Scan.of([first]), [first]), True
+        scan = _Scan.of(chain([first], (piece for piece, _ in pieces)))  # the first walk goes on from its first piece
+    finally:
+        pieces.close()
+    return (scan.skeleton(), scan, _pieces(path, options)), False
 
 
 def _read(a: Recording | str | os.PathLike[str], b: Recording | str | os.PathLike[str], options: Mapping[str, Any], *,

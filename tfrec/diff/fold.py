@@ -140,11 +140,10 @@ class SeriesFold:
     def run(self, *, final: bool = False) -> None:
         """Compare the A samples whose B samples around them are known (with ``final``: every one left)."""
         t = self._a_time
-        if not len(t):
-            return
         b = self.b
-        ready = len(t) if b is None or final or self._b_taken >= b.count else self._ready(t, b)
+        ready = 0 if not len(t) else len(t) if b is None or final or self._b_taken >= b.count else self._ready(t, b)
         if ready == 0:
+            self._forget()  # B's samples before A's first (or next) stamp are not needed, whether A has come or not
             return
         times, values = t[:ready], self._a_values[:ready]
         self._a_time, self._a_values = t[ready:], self._a_values[ready:]
