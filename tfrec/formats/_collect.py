@@ -319,10 +319,7 @@ class Collector:
         """The recording: the topic table (after :meth:`count`), latched data and every series taken."""
         rec = self.recording
         rec.topics = {topic: stats.info() for topic, stats in self.topics.items()}  # in the file's order
-        firsts = [info.first_ns for info in rec.topics.values() if info.first_ns is not None]
-        lasts = [info.last_ns for info in rec.topics.values() if info.last_ns is not None]
-        rec.start_ns = min(firsts) if firsts else None
-        rec.end_ns = max(lasts) if lasts else None
+        set_span(rec)
         self._fill(rec)
         self.warn_stamps()
         return rec
@@ -439,3 +436,16 @@ def _frames(accumulator: TFAccumulator) -> dict[Pair, FrameSeries]:
             time, values = time[order], values[order]
         out[pair] = FrameSeries(time, np.ascontiguousarray(values[:, :3]), np.ascontiguousarray(values[:, 3:]))
     return out
+
+
+def set_span(rec: Recording, true_start: int | None = None) -> None:
+    """A recording's start and end from its topic table (first and last log times of any topic); a ``true_start``
+    before them (the file's own start: messages before the first one read were lost) starts it."""
+    firsts = [info.first_ns for info in rec.topics.values() if info.first_ns is not None]
+    lasts = [info.last_ns for info in rec.topics.values() if info.last_ns is not None]
+    rec.start_ns = min(firsts) if firsts else None
+    rec.end_ns = max(lasts) if lasts else None
+    if true_start is not None and (rec.start_ns is None or true_start < rec.start_ns):
+        rec.start_ns = true_start
+        if rec.end_ns is None:
+            rec.end_ns = true_start

@@ -23,7 +23,7 @@ from collections.abc import Collection, Generator, Iterable, Mapping
 from dataclasses import replace
 
 from tfrec.conventions import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC, robot_topic_kind
-from tfrec.formats._collect import Collector, ReadOptions
+from tfrec.formats._collect import Collector, ReadOptions, set_span
 from tfrec.formats.source import RecordingSource, identify_recording, messages_of, recording_format
 from tfrec.recording import Recording, TopicInfo
 
@@ -95,11 +95,7 @@ def read_recording(
         if source.bag.compression:
             recording.details["bag_compression"] = f"{source.bag.compression} {source.bag.compression_mode or 'file'}"
     collector.finish()
-    true_start = messages.true_start_ns
-    if true_start is not None and (recording.start_ns is None or true_start < recording.start_ns):
-        recording.start_ns = true_start  # messages before the first one read were lost
-        if recording.end_ns is None:
-            recording.end_ns = true_start
+    set_span(recording, messages.true_start_ns)
     return recording
 
 
@@ -172,13 +168,7 @@ def _walked_counts(last: Recording, walked: dict[str, TopicInfo], true_start: in
         if kind is not None and kind[1] in (JOINT_STATES, TF):
             topics[topic] = info
     last.topics = topics
-    firsts = [info.first_ns for info in topics.values() if info.first_ns is not None]
-    lasts = [info.last_ns for info in topics.values() if info.last_ns is not None]
-    last.start_ns, last.end_ns = (min(firsts) if firsts else None), (max(lasts) if lasts else None)
-    if true_start is not None and (last.start_ns is None or true_start < last.start_ns):
-        last.start_ns = true_start
-        if last.end_ns is None:
-            last.end_ns = true_start
+    set_span(last, true_start)
 
 
 def _said(read_error: str | None) -> str:
