@@ -144,9 +144,6 @@ class _Comparison:
     def diff(self, kind: str, what: str, detail: str, time_ns: int | None = None, value: float | None = None) -> None:
         self.report.differences.append(Difference(kind, self.who + what, self.who + detail, time_ns, value))
 
-    def origin(self, rec: Recording) -> int:
-        return self.origin_a if rec is self.a else self.origin_b
-
     def largest(self, quantity: str, value: float, what: str, time_ns: int | None) -> None:
         current = self.report.largest.get(quantity)
         if current is None or value > current.value:
