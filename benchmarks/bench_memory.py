@@ -10,7 +10,9 @@ runs it (:func:`tfrec.fleet.tasks.check_recording` in a child process): the pool
 its forkserver, whose peak memory the command's own process does not see. ``check`` throughput on MCAP is the file's messages over
 that time, beside rosbags' ``AnyReader`` deserializing every message of the same file in the same run.
 ``--baseline DIR`` runs the same commands a second time with the ``tfrec`` package found in DIR (a copy of
-the code before a change: ``git archive <commit> tfrec | tar -x -C DIR``).
+the code before a change: ``git archive <commit> tfrec | tar -x -C DIR``). Both trees' bytecode is compiled
+first, as installing a package does: a run with ``PYTHONDONTWRITEBYTECODE`` set would otherwise compile
+every module it imports, each time.
 
     python benchmarks/bench_memory.py --durations 60 3600 14400
 """
@@ -18,6 +20,7 @@ the code before a change: ``git archive <commit> tfrec | tar -x -C DIR``).
 from __future__ import annotations
 
 import argparse
+import compileall
 import os
 import shutil
 import subprocess
@@ -142,6 +145,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     print(machine("mcap", "rosbags"))
     trees = [("this", None)] + ([("baseline", args.baseline)] if args.baseline else [])
+    for _, folder in trees:  # as an installed package has them (pip compiles them): not the work of every run
+        compileall.compile_dir(Path(folder or ROOT) / "tfrec", quiet=1)
     print("tree      duration  format   command          peak RSS (MB)  wall (s)  CPU (s)  exit")
     for duration_s in args.durations:
         made = recordings(args.cache, duration_s)

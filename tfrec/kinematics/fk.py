@@ -37,6 +37,7 @@ __all__ = [
     "DEFAULT_CHUNK_SAMPLES",
     "DynamicChunk",
     "Transforms",
+    "dynamic_components",
     "dynamic_transforms",
     "iter_dynamic_chunks",
     "link_poses",
@@ -116,6 +117,17 @@ def dynamic_transforms(
         translation[block] = components[:, :3].transpose(2, 0, 1)
         rotation[block] = components[:, 3:].transpose(2, 0, 1)
     return _transforms(joints, frame_prefix, translation, rotation)
+
+
+def dynamic_components(robot: Robot, names: Sequence[str], positions: ArrayLike) -> Array:
+    """The transforms of :func:`dynamic_transforms`, laid out (K, 7, N): per joint, translation x, y, z and
+    quaternion x, y, z, w, each a contiguous row over the N samples — the layout for comparing one joint's
+    transforms with a series of them (the values are :func:`dynamic_transforms`' own)."""
+    joints, q = _moving_joints(robot, names, positions)
+    out = np.empty((len(joints), 7, q.shape[0]))
+    for block in _blocks(q.shape[0]):
+        _dynamic_components(joints, q[block], out[:, :, block])
+    return out
 
 
 def iter_dynamic_chunks(
@@ -263,17 +275,17 @@ def _static_components(joints: Sequence[Joint]) -> Array:
     return out
 
 
-def _dynamic_components(joints: Sequence[Joint], q: Array) -> Array:
-    """(K, 7, N): origin · motion(q) for moving joints, with w >= 0."""
+def _dynamic_components(joints: Sequence[Joint], q: Array, out: Array | None = None) -> Array:
+    """(K, 7, N): origin · motion(q) for moving joints, with w >= 0 (written into ``out`` when given)."""
     xyz, rotation = _origins(joints)
     axis = np.array([joint.axis for joint in joints], dtype=np.float64).reshape(-1, 3)
     axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-    prismatic = np.array([joint.type is JointType.PRISMATIC for joint in joints], dtype=bool)
-    revolute = np.flatnonzero(~prismatic)
-    prismatic = np.flatnonzero(prismatic)
+    slides = np.array([joint.type is JointType.PRISMATIC for joint in joints], dtype=bool)
+    revolute, prismatic = _selection(np.flatnonzero(~slides)), _selection(np.flatnonzero(slides))
     by_joint = np.ascontiguousarray(q.T)  # (K, N)
-    out = np.empty((len(joints), 7, q.shape[0]))
-    if revolute.size:
+    if out is None:
+        out = np.empty((len(joints), 7, q.shape[0]))
+    if revolute is not None:
         # origin ⊗ (sin(q/2)·axis, cos(q/2)) = cos(q/2)·origin + sin(q/2)·(origin ⊗ (axis, 0))
         spin = quaternion_multiply(rotation[revolute], np.pad(axis[revolute], ((0, 0), (0, 1))))
         half = by_joint[revolute] * 0.5
@@ -281,7 +293,7 @@ def _dynamic_components(joints: Sequence[Joint], q: Array) -> Array:
         for c in range(4):
             out[revolute, 3 + c] = cos * rotation[revolute, c, np.newaxis] + sin * spin[:, c, np.newaxis]
         out[revolute, :3] = xyz[revolute, :, np.newaxis]
-    if prismatic.size:
+    if prismatic is not None:
         # origin translation + q · (axis in the parent frame)
         direction = quaternion_rotate(rotation[prismatic], axis[prismatic])
         for c in range(3):
@@ -289,6 +301,16 @@ def _dynamic_components(joints: Sequence[Joint], q: Array) -> Array:
         out[prismatic, 3:] = rotation[prismatic, :, np.newaxis]
     _canonicalize(out.transpose(1, 0, 2))
     return out
+
+
+def _selection(index: NDArray[np.intp]) -> slice | NDArray[np.intp] | None:
+    """Joints picked by ``index`` as a slice when they are consecutive (numpy then works on views, not
+    copies), the index otherwise, None when there are none."""
+    if not index.size:
+        return None
+    if index[-1] - index[0] == index.size - 1:
+        return slice(int(index[0]), int(index[-1]) + 1)
+    return index
 
 
 def _canonicalize(components: Array) -> None:

@@ -11,6 +11,8 @@ its precision for tiny angles where ``2·acos(|q_a·q_b|)`` rounds to 0.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -20,6 +22,7 @@ __all__ = [
     "quaternion_from_rpy",
     "quaternion_multiply",
     "quaternion_rotate",
+    "relative_angle",
     "rotation_error",
     "slerp",
 ]
@@ -114,8 +117,14 @@ def rotation_error(qa: Array, qb: Array) -> Array:
     ``2·atan2(|v|, |w|)`` of the relative rotation: in [0, π], the same for q and -q, and
     accurate for tiny angles (unlike ``acos``). The quaternions need not be normalized.
     """
-    ax, ay, az, aw = (qa[..., i] for i in range(4))
-    bx, by, bz, bw = (qb[..., i] for i in range(4))
+    return relative_angle([qa[..., i] for i in range(4)], [qb[..., i] for i in range(4)])
+
+
+def relative_angle(qa: Sequence[Array], qb: Sequence[Array]) -> Array:
+    """:func:`rotation_error` of quaternions given by their components (x, y, z, w), each an array: the same
+    values, for quaternions held one component per row (no strided reads of an (n, 4) array)."""
+    ax, ay, az, aw = qa
+    bx, by, bz, bw = qb
     # v = wa·vb − wb·va − va × vb, by components (np.cross costs ~30 µs a call on small arrays)
     vx = aw * bx - bw * ax - (ay * bz - az * by)
     vy = aw * by - bw * ay - (az * bx - ax * bz)

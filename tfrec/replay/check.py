@@ -26,8 +26,8 @@ from numpy.typing import NDArray
 
 from tfrec.conventions import CHECK_POS_TOL, CHECK_ROT_TOL, NS_PER_S
 from tfrec.errors import ReplayError, printable
-from tfrec.kinematics.fk import dynamic_transforms, static_transforms
-from tfrec.kinematics.rotations import rotation_error
+from tfrec.kinematics.fk import dynamic_components, static_transforms
+from tfrec.kinematics.rotations import relative_angle
 from tfrec.model import Joint, JointType, Robot
 from tfrec.recording import FrameSeries, RecordedRobot
 from tfrec.replay.load import joint_positions
@@ -163,6 +163,14 @@ def _largest(errors: Array, times: NDArray[np.int64] | None, replay: Replay) -> 
     return value, None if times is None else replay.seconds(int(times[k]))
 
 
+def _errors(translation: Array, rotation: Array, want_t: Array, want_q: Array) -> tuple[Array, Array]:
+    """Distances (m) and angles (rad) between recorded transforms ((n, 3), (n, 4)) and expected ones given a
+    component per row ((3, n), (4, n)): the values of ``np.linalg.norm`` and ``rotation_error``."""
+    dx, dy, dz = (translation[:, c] - want_t[c] for c in range(3))
+    distance: Array = np.sqrt(dx * dx + dy * dy + dz * dz)
+    return distance, relative_angle([rotation[:, c] for c in range(4)], list(want_q))
+
+
 class _Checker:
     def __init__(self, part: RecordedRobot, replay: Replay) -> None:
         assert part.model is not None
@@ -196,31 +204,32 @@ class _Checker:
         for times, joints in groups.values():
             alignment = align(times, self.joint_states.time_ns)
             q = alignment.linear(self.positions[:, [self.column[joint.name] for joint in joints]])
-            tfs = dynamic_transforms(self.robot, [joint.name for joint in joints], q, frame_prefix=self.prefix)
+            components = dynamic_components(self.robot, [joint.name for joint in joints], q)
             for k, joint in enumerate(joints):
-                self._prefetched[(joint.name, times.tobytes())] = (tfs.translation[:, k], tfs.rotation[:, k],
+                self._prefetched[(joint.name, times.tobytes())] = (components[k, :3], components[k, 3:],
                                                                    alignment.inside)
 
     def expected(self, joint: Joint, times: NDArray[np.int64]) -> tuple[Array, Array, NDArray[np.bool_]]:
-        """The description's transforms at ``times``: (translations, rotations, which times have one)."""
+        """The description's transforms at ``times``: (translations (3, m), rotations (4, m) — a component per
+        row —, which of the times have one (m of them))."""
         found = self._prefetched.pop((joint.name, times.tobytes()), None)
         if found is not None:
             return found
         child = self.prefix + joint.child
         if not joint.type.moves:
             translation, rotation = self.fixed[child]
-            return (np.broadcast_to(translation, (len(times), 3)), np.broadcast_to(rotation, (len(times), 4)),
-                    np.ones(len(times), dtype=bool))
+            return (np.broadcast_to(translation[:, np.newaxis], (3, len(times))),
+                    np.broadcast_to(rotation[:, np.newaxis], (4, len(times))), np.ones(len(times), dtype=bool))
         if self.joint_states is None or joint.name not in self.column:
-            return np.zeros((0, 3)), np.zeros((0, 4)), np.zeros(len(times), dtype=bool)
+            return np.zeros((3, 0)), np.zeros((4, 0)), np.zeros(len(times), dtype=bool)
         column = self.positions[:, self.column[joint.name]]
         known = np.isfinite(column)
         if not known.any():
-            return np.zeros((0, 3)), np.zeros((0, 4)), np.zeros(len(times), dtype=bool)
+            return np.zeros((3, 0)), np.zeros((4, 0)), np.zeros(len(times), dtype=bool)
         alignment = align(times, self.joint_states.time_ns[known])
         q = alignment.linear(column[known])
-        tfs = dynamic_transforms(self.robot, [joint.name], q[:, np.newaxis], frame_prefix=self.prefix)
-        return tfs.translation[:, 0], tfs.rotation[:, 0], alignment.inside
+        components = dynamic_components(self.robot, [joint.name], q[:, np.newaxis])
+        return components[0, :3], components[0, 3:], alignment.inside
 
     def frame(self, joint: Joint, parent: str, child: str, topic: str, series: FrameSeries | None,
               static: tuple[Array, Array] | None) -> FrameCheck:
@@ -241,12 +250,13 @@ class _Checker:
         want_t, want_q, inside = self.expected(joint, times)
         if not inside.any():
             return replace(check, problem=f"no {self.joint_topic} position for joint '{joint.name}' at its stamps")
-        translation_err = np.linalg.norm(translation[inside] - want_t, axis=1)
-        rotation_err = rotation_error(rotation[inside], want_q)
-        stamps = times[inside] if series is not None else None
+        if not inside.all():
+            times, translation, rotation = times[inside], translation[inside], rotation[inside]
+        translation_err, rotation_err = _errors(translation, rotation, want_t, want_q)
+        stamps = times if series is not None else None
         t_max, t_at = _largest(translation_err, stamps, self.replay)
         r_max, r_at = _largest(rotation_err, stamps, self.replay)
-        errors = FrameErrors(times[inside], translation_err, rotation_err)
+        errors = FrameErrors(times, translation_err, rotation_err)
         return replace(check, samples=int(inside.sum()), translation_m=t_max, translation_time_s=t_at,
                         rotation_rad=r_max, rotation_time_s=r_at, errors=errors)
 

@@ -85,7 +85,9 @@ class ChunkMessages:
 
 def _gather(buffer: NDArray[np.uint8], offsets: NDArray[np.int64], width: int, dtype: str) -> NDArray[np.generic]:
     """The little-endian value of ``width`` bytes at each offset."""
-    return np.ascontiguousarray(buffer[offsets[:, np.newaxis] + np.arange(width)]).view(dtype).ravel()
+    windows = np.lib.stride_tricks.as_strided(buffer, shape=(len(buffer) - width + 1, width), strides=(1, 1),
+                                              writeable=False)
+    return windows[offsets].view(dtype).ravel()  # a row per offset: no index per byte
 
 
 def index_chunk(records: bytes | memoryview, indexes: dict[int, NDArray[np.uint64]]) -> ChunkMessages | None:

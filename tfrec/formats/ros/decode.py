@@ -278,6 +278,74 @@ def _rows(datas: Sequence[bytes | memoryview], index: NDArray[np.intp], size: in
     return np.frombuffer(b"".join(chosen), dtype=np.uint8).reshape(len(chosen), size)
 
 
+TILED_BYTES = 8 << 20
+"""Largest run of rows whose fixed bytes are compared in one pass (the template repeated along it is cached)."""
+
+
+def _fixed_bytes_match(layout: MessageLayout, rows: NDArray[np.uint8]) -> NDArray[np.bool_]:
+    """Which rows repeat the layout's fixed bytes exactly.
+
+    Rows lying evenly spaced in one buffer (a chunk's records, or a gathered copy) are compared in one pass
+    over the bytes they span against the template repeated at their spacing, the variable bytes masked out;
+    only when something differs are the rows that differ found. A comparison and a row reduction per fixed
+    range cost 5× as much on a TFMessage of 8 transforms: numpy reduces short rows slowly.
+    """
+    ok = np.ones(len(rows), dtype=bool)
+    if not layout.fixed or not len(rows):
+        return ok
+    step = rows.strides[0] if len(rows) > 1 else layout.size
+    span = (len(rows) - 1) * step + layout.size
+    if rows.strides[1] != 1 or step < layout.size or span > TILED_BYTES:
+        return _fixed_rows_match(layout, rows)
+    fixed_bytes = b"".join(layout.template[start:stop].tobytes() for start, stop in layout.fixed)
+    template, fixed = _tiled(layout.size, layout.fixed, fixed_bytes, step, span)
+    flat = np.lib.stride_tricks.as_strided(rows, shape=(span,), strides=(1,), writeable=False)
+    differs = flat != template[:span]
+    differs &= fixed[:span]
+    if differs.any():
+        ok[np.flatnonzero(differs) // step] = False
+    return ok
+
+
+_TILED: dict[tuple[int, tuple[tuple[int, int], ...], bytes, int], tuple[NDArray[np.uint8], NDArray[np.bool_]]] = {}
+
+
+def _tiled(size: int, fixed: tuple[tuple[int, int], ...], fixed_bytes: bytes, step: int,
+           span: int) -> tuple[NDArray[np.uint8], NDArray[np.bool_]]:
+    """A message's fixed bytes (``fixed_bytes``, those of the ranges ``fixed`` one after the other; zeros
+    elsewhere) and their mask, repeated ``step`` bytes apart over at least ``span`` bytes: kept per layout and
+    spacing (a layout learnt again from another message has other variable bytes, the same fixed ones), made
+    again (for a multiple of 256 rows) only when a longer run of rows comes."""
+    key = (size, fixed, fixed_bytes, step)
+    found = _TILED.get(key)
+    if found is not None and len(found[0]) >= span:
+        return found
+    if len(_TILED) >= 16:
+        _TILED.clear()
+    count = (span // step // 256 + 1) * 256
+    row = np.zeros(step, dtype=np.uint8)
+    mask = np.zeros(step, dtype=bool)
+    taken = 0
+    for start, stop in fixed:
+        row[start:stop] = np.frombuffer(fixed_bytes, dtype=np.uint8, count=stop - start, offset=taken)
+        mask[start:stop] = True
+        taken += stop - start
+    _TILED[key] = found = (np.tile(row, count), np.tile(mask, count))
+    return found
+
+
+def _fixed_rows_match(layout: MessageLayout, rows: NDArray[np.uint8]) -> NDArray[np.bool_]:
+    """:func:`_fixed_bytes_match` of rows anywhere: each row's span from its first fixed byte to its last."""
+    lo, hi = layout.fixed[0][0], layout.fixed[-1][1]
+    fixed = np.zeros(hi - lo, dtype=bool)
+    for start, stop in layout.fixed:
+        fixed[start - lo : stop - lo] = True
+    differs = rows[:, lo:hi] != layout.template[lo:hi]
+    differs &= fixed
+    ok: NDArray[np.bool_] = ~differs.any(axis=1)
+    return ok
+
+
 def _split(
     layout: MessageLayout | None, datas: Sequence[bytes | memoryview]
 ) -> tuple[NDArray[np.uint8] | None, NDArray[np.intp], list[int]]:
@@ -290,9 +358,7 @@ def _split(
         lengths = np.fromiter(map(len, datas), dtype=np.int64, count=len(datas))
     same = np.flatnonzero(lengths == layout.size)
     rows = _rows(datas, same, layout.size)
-    ok = np.ones(len(rows), dtype=bool)
-    for start, stop in layout.fixed:
-        ok &= (rows[:, start:stop] == layout.template[start:stop]).all(axis=1)
+    ok = _fixed_bytes_match(layout, rows)
     good = same[ok]
     if len(good) == len(datas):
         return rows, good, []
