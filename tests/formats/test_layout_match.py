@@ -91,13 +91,18 @@ def test_the_one_pass_match_is_the_per_message_match(kind: str, ros1: bool, spac
         _check(layout, messages, RawMessages(buffer, starts, stops))
 
 
-def test_rows_past_the_one_pass_size_are_matched_one_by_one(monkeypatch: pytest.MonkeyPatch) -> None:
+@pytest.mark.parametrize("rows_per_pass", [4, 0.5], ids=["blocks", "one-by-one"])
+def test_rows_past_the_one_pass_size(monkeypatch: pytest.MonkeyPatch, rows_per_pass: float) -> None:
+    """More rows than one pass takes are compared a block at a time; rows further apart than it takes (other
+    messages between them), one by one."""
     clean = _messages("tf", 200, ros1=False)
     layout = message_layout("tf", clean[0].tobytes(), ros1=False)
     messages = _damaged(clean, layout, 7)
     buffer, starts, stops = _chunk(messages, [31] * len(messages))
-    monkeypatch.setattr(decode, "TILED_BYTES", 4 * layout.size)
+    monkeypatch.setattr(decode, "TILED_BYTES", int(rows_per_pass * (layout.size + 31)))
+    decode._TILED.clear()
     _check(layout, messages, RawMessages(buffer, starts, stops))
+    assert all(len(template) <= 2 * decode.TILED_BYTES + layout.size for template, _ in decode._TILED.values())
 
 
 def test_a_layout_learnt_again_reuses_the_repeated_template() -> None:

@@ -278,8 +278,9 @@ def _rows(datas: Sequence[bytes | memoryview], index: NDArray[np.intp], size: in
     return np.frombuffer(b"".join(chosen), dtype=np.uint8).reshape(len(chosen), size)
 
 
-TILED_BYTES = 8 << 20
-"""Largest run of rows whose fixed bytes are compared in one pass (the template repeated along it is cached)."""
+TILED_BYTES = 1 << 20
+"""Bytes of rows whose fixed bytes are compared in one pass (the template repeated along them is kept): more
+rows are compared a block of them at a time."""
 
 
 def _fixed_bytes_match(layout: MessageLayout, rows: NDArray[np.uint8]) -> NDArray[np.bool_]:
@@ -293,10 +294,15 @@ def _fixed_bytes_match(layout: MessageLayout, rows: NDArray[np.uint8]) -> NDArra
     ok = np.ones(len(rows), dtype=bool)
     if not layout.fixed or not len(rows):
         return ok
-    step = rows.strides[0] if len(rows) > 1 else layout.size
-    span = (len(rows) - 1) * step + layout.size
-    if rows.strides[1] != 1 or step < layout.size or span > TILED_BYTES:
+    step = rows.strides[0]
+    if len(rows) == 1 or rows.strides[1] != 1 or not layout.size <= step <= TILED_BYTES:
         return _fixed_rows_match(layout, rows)
+    block = TILED_BYTES // step + 1
+    if len(rows) > block:
+        for start in range(0, len(rows), block):
+            ok[start : start + block] = _fixed_bytes_match(layout, rows[start : start + block])
+        return ok
+    span = (len(rows) - 1) * step + layout.size
     fixed_bytes = b"".join(layout.template[start:stop].tobytes() for start, stop in layout.fixed)
     template, fixed = _tiled(layout.size, layout.fixed, fixed_bytes, step, span)
     flat = np.lib.stride_tricks.as_strided(rows, shape=(span,), strides=(1,), writeable=False)
@@ -322,7 +328,7 @@ def _tiled(size: int, fixed: tuple[tuple[int, int], ...], fixed_bytes: bytes, st
         return found
     if len(_TILED) >= 16:
         _TILED.clear()
-    count = (span // step // 256 + 1) * 256
+    count = min((span // step // 256 + 1) * 256, TILED_BYTES // step + 1)  # at most a block: ≤ 2 × TILED_BYTES
     row = np.zeros(step, dtype=np.uint8)
     mask = np.zeros(step, dtype=bool)
     taken = 0
