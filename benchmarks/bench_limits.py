@@ -24,7 +24,8 @@ Sections (``--only`` picks some), each with its baseline measured in the same ru
 - ``record``: ``tfrec record robots/marm.xacro`` for ``--hours`` in fresh processes, with and without the .rrd,
   against ``record --no-rrd`` (and ``import rerun`` alone), also without pandas importable (a tfrec installed
   without its test extra); with ``--baseline-tree DIR`` the two records with a ``.rrd`` also on that code, as
-  ``before``.
+  ``before``. Then the floor: what Rerun's own API costs for the least of the same hour (benchmarks/rrd_floor.py:
+  Rerun's import and the 8 transforms, then with the joints too), added to ``record --no-rrd``.
 
 Run from the repository root:
 
@@ -402,6 +403,18 @@ def bench_record(cache: Path, hours: float, repeat: int, baseline_tree: Path | N
     for label, (wall, cpu, rss) in figures.items():
         print(f"  {label}: {wall:.2f} s wall, {cpu:.2f} s CPU, peak RSS {rss:.0f} MB; {cpu / base[1]:.2f}x the CPU "
               f"and {rss / base[2]:.2f}x the memory of record --no-rrd")
+    for what, flags in (("8 transforms", []), ("8 transforms, 8 positions, 8 velocities", ["--joints"])):
+        floor = min(_rrd_floor(hours, flags) for _ in range(repeat))
+        print(f"  the least a .rrd costs through Rerun's own API (benchmarks/rrd_floor.py: import Rerun, then {what} "
+              f"a sample, one timeline, no names): {floor:.2f} s CPU; record --no-rrd plus it: "
+              f"{(base[1] + floor) / base[1]:.2f}x the CPU of record --no-rrd")
+
+
+def _rrd_floor(hours: float, flags: list[str]) -> float:
+    """CPU seconds benchmarks/rrd_floor.py reports (from Rerun's import to the file's end)."""
+    done = subprocess.run([sys.executable, str(Path(__file__).with_name("rrd_floor.py")), f"{hours:g}", *flags],
+                          check=True, capture_output=True, text=True)
+    return float(done.stdout.split()[0])
 
 
 def main(argv: list[str] | None = None) -> int:
