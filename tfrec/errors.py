@@ -14,9 +14,11 @@ category=tfrec.TfrecWarning)``; pytest's ``filterwarnings = ignore::tfrec.Legacy
 from __future__ import annotations
 
 import os
+import sys
+import warnings
 from collections.abc import Iterable
 from pathlib import Path
-from typing import ClassVar
+from typing import Any, ClassVar
 
 __all__ = [
     "ConvertError",
@@ -37,6 +39,7 @@ __all__ = [
     "display_path",
     "one_line",
     "printable",
+    "warn_again",
 ]
 
 
@@ -151,3 +154,12 @@ def printable(text: str, *, keep: str = "") -> str:
     if text.isprintable():
         return text
     return "".join(c if c.isprintable() or c in keep else c.encode("unicode_escape").decode("ascii") for c in text)
+
+
+def warn_again(warning: warnings.WarningMessage, registry: dict[Any, Any] | None = None) -> None:
+    """Give a warning caught (``warnings.catch_warnings(record=True)``) again, as it was given: its category, place
+    and module — so that filters on the module (``-W ignore::...:tfrec.formats``) still match it."""
+    module = next((name for name, loaded in list(sys.modules.items())
+                   if getattr(loaded, "__file__", None) == warning.filename), None)
+    warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno,
+                           module=module, registry=registry, source=warning.source)

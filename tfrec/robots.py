@@ -22,7 +22,6 @@ into its robots, one :class:`~tfrec.recording.RecordedRobot` each (the one type 
 from __future__ import annotations
 
 import re
-import sys
 import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
@@ -31,7 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.errors import DescriptionError
+from tfrec.errors import DescriptionError, warn_again
 from tfrec.model import Robot
 from tfrec.recording import FrameSeries, RecordedRobot, Recording, robot_name
 
@@ -91,8 +90,7 @@ class ParsedDescriptions:
                 result = parse_description(text, where)
             found = self._parsed[text] = (result, list(caught))
         for warning in found[1]:
-            warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno,
-                                   module=_module_of(warning.filename), registry=self._registry)
+            warn_again(warning, self._registry)
         return found[0]
 
 
@@ -171,14 +169,6 @@ class _Candidate:
     instance: str = ""  # one of several robots of one description (its frame prefix, ``left``)
     tf: dict[Pair, FrameSeries] = field(default_factory=dict)
     tf_static: dict[Pair, tuple[Array, Array]] = field(default_factory=dict)
-
-
-def _module_of(filename: str) -> str | None:
-    """The name of the loaded module of this file (what a filter on the module of a warning matches), if any."""
-    for name, module in list(sys.modules.items()):
-        if getattr(module, "__file__", None) == filename:
-            return name
-    return None
 
 
 def find_robots(rec: Recording, *, namespace: str | None = None,

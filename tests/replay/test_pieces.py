@@ -82,8 +82,9 @@ def _written(rec: Recording, path: Path, kind: str) -> Path:
 @pytest.mark.parametrize("kind", ["mcap", "sqlite3", "rosbag1"])
 @pytest.mark.parametrize("missing", [False, True])
 def test_pieces_split_between_joint_states_give_the_whole_recordings_numbers(marm: Robot, tmp_path: Path, kind: str,
-                                                                            missing: bool) -> None:
-    path = _written(_between(marm, missing=missing), tmp_path, kind)
+                                                                            missing: bool,
+                                                                            monkeypatch: pytest.MonkeyPatch) -> None:
+    path = _chunked(_between(marm, missing=missing), tmp_path, kind, monkeypatch)  # chunks of a few messages
     whole, said = _whole(path)
     compared = [f for f in whole.frames if f.topic == "/tf"]
     assert compared and all(f.samples > 0 and f.problem is None for f in compared)
@@ -174,3 +175,177 @@ def test_check_memory_does_not_grow_with_the_recordings_length(tmp_path: Path) -
                        stdout=subprocess.DEVNULL)
     one, ten = _check_rss_kib(paths[1]), _check_rss_kib(paths[10])
     assert ten < one * 1.25, (one, ten)
+
+
+def _chunked(rec: Recording, folder: Path, kind: str, monkeypatch: pytest.MonkeyPatch,
+             order: Any = None) -> Path:
+    """The recording written by rosbags in chunks (batches) of a few messages each, so that pieces of a few
+    messages cut it everywhere: MCAP re-chunked by the mcap library (``order``: a function that reorders the
+    messages of the file), a ROS 1 bag with a tiny chunk threshold, sqlite3 read a few rows at a time."""
+    if kind == "sqlite3":
+        from tfrec.formats.rosbag2 import source
+
+        monkeypatch.setattr(source, "BATCH_MESSAGES", 3)
+        return write_rosbag2(rec, folder / "bag", storage="sqlite3")
+    if kind == "rosbag1":
+        from rosbags.rosbag1 import Writer as Ros1Writer
+
+        from ..recording_helpers import _Messages, _typestore, recording_messages
+
+        store = _typestore(ros1=True)
+        path = folder / "rec.bag"
+        with Ros1Writer(path) as bag:
+            bag.chunk_threshold = 300
+            connections: dict[str, Any] = {}
+            for topic, msgtype, time_ns, msg in recording_messages(rec, _Messages(store, ros1=True)):
+                if topic not in connections:
+                    connections[topic] = bag.add_connection(topic, msgtype, typestore=store)
+                bag.write(connections[topic], time_ns, bytes(store.serialize_ros1(msg, msgtype)))
+        return path
+    from mcap.reader import make_reader
+    from mcap.writer import Writer as McapWriter
+
+    bag = write_rosbag2(rec, folder / "bag", storage="mcap")
+    path = folder / "rec.mcap"
+    with open(next(bag.glob("*.mcap")), "rb") as stream, open(path, "wb") as out:
+        reader = make_reader(stream)
+        header, summary = reader.get_header(), reader.get_summary()
+        assert summary is not None
+        writer = McapWriter(out, chunk_size=600)
+        writer.start(profile=header.profile, library="tests")
+        schemas = {k: writer.register_schema(s.name, s.encoding, s.data) for k, s in summary.schemas.items()}
+        channels = {k: writer.register_channel(c.topic, c.message_encoding, schemas.get(c.schema_id, 0), c.metadata)
+                    for k, c in summary.channels.items()}
+        messages = [(m.channel_id, m.log_time, m.publish_time, m.data)
+                    for _, _, m in reader.iter_messages(log_time_order=False)]
+        topics = {k: c.topic for k, c in summary.channels.items()}
+        for channel, log_time, publish_time, data in (order(messages, topics) if order else messages):
+            writer.add_message(channels[channel], log_time, data, publish_time)
+        writer.finish()
+    return path
+
+
+def _paused(rec: Recording, rows: slice) -> Recording:
+    """The recording without the joint states of ``rows`` (its /tf goes on through the pause)."""
+    js = rec.joint_states
+    assert js is not None
+    keep = np.ones(len(js), dtype=bool)
+    keep[rows] = False
+    return dataclasses.replace(rec, joint_states=JointStates(js.time_ns[keep], js.names, js.positions[keep]))
+
+
+@pytest.mark.parametrize("kind", ["mcap", "sqlite3", "rosbag1"])
+@pytest.mark.parametrize("rows", [slice(30, 55), slice(60, None)], ids=["pause", "stop"])
+def test_transforms_through_a_pause_in_the_joint_states_are_compared_as_in_the_whole_recording(
+        marm: Robot, tmp_path: Path, kind: str, rows: slice, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Pieces without joint states (a publisher that paused): their transforms wait for the joint state after the
+    pause, as the whole recording interpolates them; joint states that stop for good hold nothing back."""
+    path = _chunked(_paused(_between(marm, samples=80), rows), tmp_path, kind, monkeypatch)
+    whole, said = _whole(path)
+    compared = [f for f in whole.frames if f.topic == "/tf"]
+    assert compared and all(f.samples == (79 if rows.stop else 59) for f in compared)
+    for messages in (2, 5, 16, 1000):
+        pieces, piece_said = _pieces(path, messages)
+        assert pieces.to_dict() == whole.to_dict(), messages
+        assert piece_said == said
+
+
+def test_a_pause_longer_than_the_hold_compares_with_the_joint_states_before_it(
+        marm: Robot, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Past HOLD_SAMPLES waiting transforms, a pause's transforms are compared with what came before (none:
+    outside the joint states, not compared) rather than held: memory stays bounded."""
+    from tfrec.replay import pieces as replay_pieces
+
+    path = _chunked(_paused(_between(marm, samples=80), slice(20, 70)), tmp_path, "mcap", monkeypatch)
+    whole, _ = _whole(path)
+    assert _pieces(path, 5)[0].to_dict() == whole.to_dict()
+    monkeypatch.setattr(replay_pieces, "HOLD_SAMPLES", 10)
+    short, said = _pieces(path, 5)
+    expected = ("/joint_states pauses for longer than a check read piece by piece holds transforms (10): those after "
+                "its last message before the pause are not compared (`replay --check --start 0` reads the recording "
+                "whole)")
+    assert [s for s in said if "pauses for longer" in s] == [expected]
+    whole_tf = [f for f in whole.frames if f.topic == "/tf"]
+    short_tf = [f for f in short.frames if f.topic == "/tf"]
+    assert short_tf and all(0 < f.samples < w.samples for f, w in zip(short_tf, whole_tf))
+
+
+def _tf_after_the_rest(messages: list[Any], topics: dict[int, str]) -> list[Any]:
+    """In each run of 24 messages, the /tf ones after the others (as a writer that puts each topic's messages of a
+    stretch one after the other: `tfrec convert` did)."""
+    out = []
+    for start in range(0, len(messages), 24):
+        run = messages[start : start + 24]
+        out += [m for m in run if topics[m[0]] != "/tf"] + [m for m in run if topics[m[0]] == "/tf"]
+    return out
+
+
+def test_transforms_the_file_holds_after_later_joint_states_are_compared_as_in_the_whole_recording(
+        marm: Robot, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A file not in log-time order: a piece's transforms may be stamped before the joint states the piece before
+    ended with."""
+    path = _chunked(_between(marm, samples=120), tmp_path, "mcap", monkeypatch, order=_tf_after_the_rest)
+    whole, said = _whole(path)
+    assert all(f.samples == 119 for f in whole.frames if f.topic == "/tf")
+    for pieces in (30, 53, 1000):  # a piece holds more than a run: transforms are at most a piece late
+        found, piece_said = _pieces(path, pieces)
+        assert found.to_dict() == whole.to_dict(), pieces
+        assert piece_said == said
+
+
+def _ros1_records(data: bytes) -> list[tuple[int, int, int]]:
+    """(offset, end, op) of each record of a ROS 1 bag."""
+    out, at = [], 13  # after "#ROSBAG V2.0\n"
+    while at + 4 <= len(data):
+        header_len = int.from_bytes(data[at : at + 4], "little")
+        header, fields, op = data[at + 4 : at + 4 + header_len], 0, -1
+        while fields < len(header):
+            size = int.from_bytes(header[fields : fields + 4], "little")
+            name, _, value = header[fields + 4 : fields + 4 + size].partition(b"=")
+            if name == b"op":
+                op = value[0]
+            fields += 4 + size
+        data_at = at + 4 + header_len
+        end = data_at + 4 + int.from_bytes(data[data_at : data_at + 4], "little")
+        out.append((at, end, op))
+        at = end
+    return out
+
+
+@pytest.mark.parametrize("damage", ["cut", "twice"])
+def test_a_damaged_ros1_bag_says_what_reading_it_whole_says_once(marm: Robot, tmp_path: Path, damage: str) -> None:
+    """What reading the latched data said of the file (a chunk given twice, the bag cut) is not said again by the
+    walk through the pieces."""
+    rec = _between(marm, samples=400)
+    bag = tmp_path / "rec.bag"
+    from rosbags.rosbag1 import Writer as Ros1Writer
+
+    from ..recording_helpers import _Messages, _typestore, recording_messages
+
+    store = _typestore(ros1=True)
+    with Ros1Writer(bag) as writer:
+        writer.chunk_threshold = 4000
+        connections: dict[str, Any] = {}
+        for topic, msgtype, time_ns, msg in recording_messages(rec, _Messages(store, ros1=True)):
+            if topic not in connections:
+                connections[topic] = writer.add_connection(topic, msgtype, typestore=store)
+            writer.write(connections[topic], time_ns, bytes(store.serialize_ros1(msg, msgtype)))
+    data = bag.read_bytes()
+    records = _ros1_records(data)
+    chunks = [k for k, (_, _, op) in enumerate(records) if op == 5]
+    assert len(chunks) > 4
+    middle = chunks[len(chunks) // 2]
+    if damage == "cut":
+        damaged = data[: (records[middle][0] + records[middle][1]) // 2]
+    else:  # the chunk and its index data records given twice
+        end = next(k for k in range(middle + 1, len(records)) if records[k][2] != 4)
+        span = data[records[middle][0] : records[end][0]]
+        damaged = data[: records[end][0]] + span + data[records[end][0] :]
+    path = tmp_path / "damaged.bag"
+    path.write_bytes(damaged)
+    whole, said = _whole(path)
+    assert said and len(said) == len(set(said)), said
+    for messages in (40, 1000):
+        pieces, piece_said = _pieces(path, messages)
+        assert pieces.to_dict() == whole.to_dict(), messages
+        assert piece_said == said, messages

@@ -23,6 +23,7 @@ from collections.abc import Collection, Generator, Iterable, Mapping
 from dataclasses import replace
 
 from tfrec.conventions import JOINT_STATES, ROBOT_DESCRIPTION, TF, TF_STATIC, robot_topic_kind
+from tfrec.errors import warn_again
 from tfrec.formats._collect import Collector, ReadOptions, set_span
 from tfrec.formats.source import RecordingSource, identify_recording, messages_of, recording_format
 from tfrec.recording import Recording, TopicInfo
@@ -131,8 +132,12 @@ def read_pieces(
     if source.format == "rrd":
         yield read_recording(source, topics=topics, namespace=namespace, remap=remap, use_log_time=use_log_time), True
         return
-    latched = read_recording(source, topics=_kinds(topics, (ROBOT_DESCRIPTION, TF_STATIC)), namespace=namespace,
-                             remap=remap, use_log_time=use_log_time)
+    with warnings.catch_warnings(record=True) as latched_said:
+        warnings.simplefilter("always")
+        latched = read_recording(source, topics=_kinds(topics, (ROBOT_DESCRIPTION, TF_STATIC)), namespace=namespace,
+                                 remap=remap, use_log_time=use_log_time)
+    for said in latched_said:  # given again, once: the walk below may say the same of the file (not again)
+        warn_again(said)
     options = ReadOptions.of(topics=_kinds(topics, (JOINT_STATES, TF)), namespace=namespace, remap=remap,
                              use_log_time=use_log_time)
     collector = Collector(Recording(path=source.where, format=source.format), options,
@@ -144,6 +149,8 @@ def read_pieces(
         while True:
             with warnings.catch_warnings():  # what reading the latched data said is not said again
                 warnings.filterwarnings("ignore", message=_said(latched.read_error))
+                for said in latched_said:
+                    warnings.filterwarnings("ignore", message=_said(str(said.message)) + "$", category=said.category)
                 batch = next(walk, None)
             if batch is None:
                 break

@@ -439,14 +439,17 @@ class _Fold:
             ranked = np.where(np.isnan(values), np.inf, values)
             k = int(np.argmax(ranked))
             best = self.witnesses.get(what)
-            if best is None or ranked[k] > best[0]:
-                self.witnesses[what] = (float(ranked[k]), int(errors.time_ns[k]), float(errors.translation_m[k]),
+            stamp = int(errors.time_ns[k])
+            if best is None or ranked[k] > best[0] or (ranked[k] == best[0] and stamp < best[1]):
+                self.witnesses[what] = (float(ranked[k]), stamp, float(errors.translation_m[k]),
                                         float(errors.rotation_rad[k]))
             over = ~(values <= tol)
-            if over.any() and what + ">" not in self.witnesses:
+            first = self.witnesses.get(what + ">")
+            if over.any():  # the earliest stamp: a piece may bring transforms stamped before an earlier piece's
                 k = int(np.argmax(over))
-                self.witnesses[what + ">"] = (0.0, int(errors.time_ns[k]), float(errors.translation_m[k]),
-                                              float(errors.rotation_rad[k]))
+                if first is None or int(errors.time_ns[k]) < first[1]:
+                    self.witnesses[what + ">"] = (0.0, int(errors.time_ns[k]), float(errors.translation_m[k]),
+                                                  float(errors.rotation_rad[k]))
 
     def result(self, origin_ns: int) -> FrameCheck:
         seen = sorted({(stamp, t, r) for _, stamp, t, r in self.witnesses.values()})

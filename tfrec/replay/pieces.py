@@ -5,14 +5,17 @@
 has the latched data and the topic table) and prepares each as :func:`tfrec.replay.load_replay` prepares a whole
 recording. So that every recorded transform meets the joint states around it, as in the whole recording:
 
-- each piece starts with the last joint state of the pieces before that gives each joint a position (the sample
-  before its first transforms);
+- each piece starts with the joint states of the piece before, and before them the last joint state that gives
+  each joint a position (the sample before its first transforms, also for transforms that the file holds up to a
+  piece later than the joint states around them);
 - transforms stamped after the last position of a joint in their piece wait for the next piece (the sample after
-  them); the last piece takes what is left.
+  them); while a robot's joint states pause (a piece without any, more of them in the topic table), its
+  transforms after their last one wait for them to come again, up to :data:`HOLD_SAMPLES`; the last piece takes
+  what is left.
 
 Each transform is thus in one piece, and interpolated between the same two joint states as in the whole recording
-(when the joint states arrive in stamp order, as a recorder writes them; one that arrives behind a later piece's
-is used from that piece on).
+(when the joint states arrive in stamp order, as a recorder writes them — one that arrives behind a later piece's
+is used from that piece on —, transforms are at most a piece late, and a pause is shorter than the hold).
 """
 
 from __future__ import annotations
@@ -25,7 +28,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from tfrec.errors import LackingWarning, TfrecError
+from tfrec.conventions import JOINT_STATES, robot_topic_kind
+from tfrec.errors import LackingWarning, TfrecError, TfrecWarning
 from tfrec.formats.reader import read_pieces
 from tfrec.model import Robot
 from tfrec.recording import FrameSeries, JointStates, Recording
@@ -69,22 +73,35 @@ def _joined(first: JointStates, then: JointStates) -> JointStates:
     return JointStates(time[order], names, positions[order], repeated)
 
 
-def _last_known(joint_states: JointStates, fresh: JointStates | None) -> tuple[JointStates | None, int | None]:
-    """(the rows holding each joint's last position, the earliest stamp among those of the joints that ``fresh``,
-    the piece's own joint states, gives a position): what the next piece needs of them, and how far they
-    interpolate (a joint the piece does not move, no longer published, holds nothing back)."""
+def _last_known(joint_states: JointStates, fresh: JointStates | None,
+                since: int | None = None) -> tuple[JointStates | None, int | None]:
+    """(what the next piece needs of the joint states so far, the earliest stamp among the last ones of the joints
+    given a position from ``since`` on — ``fresh``, the piece's own joint states, and the piece's before —: how
+    far they interpolate; a joint no longer published holds nothing back, one that a message of a subset left out
+    does).
+
+    The next piece needs the piece's own joint states — its transforms may be stamped among them, in a file not in
+    time order (a writer that puts each topic's messages of a stretch one after the other) — and before them each
+    joint's last position; a piece without joint states of its own passes on what it was given."""
     known = np.isfinite(joint_states.positions)
     has = np.asarray(known.any(axis=0), dtype=bool)
     if not has.any():
         return None, None
-    last = len(known) - 1 - np.argmax(known[::-1], axis=0)
-    rows = np.unique(last[has])
+    if fresh is None:
+        return joint_states, None
+    recent = int(np.searchsorted(joint_states.time_ns, fresh.time_ns[0], side="left"))
+    rows = np.arange(recent, len(known))
+    if recent:
+        earlier = known[:recent]
+        before = np.asarray(earlier.any(axis=0), dtype=bool)
+        rows = np.union1d((recent - 1 - np.argmax(earlier[::-1], axis=0))[before], rows)
     carried = JointStates(joint_states.time_ns[rows], joint_states.names, joint_states.positions[rows],
                           joint_states.repeated)
-    given = np.zeros(0, dtype=bool) if fresh is None else np.asarray(np.isfinite(fresh.positions).any(axis=0), dtype=bool)
-    moved = set() if fresh is None else {name for name, has_one in zip(fresh.names, given.tolist()) if has_one}
-    stamps = [int(joint_states.time_ns[last[k]]) for k, name in enumerate(joint_states.names) if has[k] and name in moved]
-    return carried, min(stamps) if stamps else None
+    last = len(known) - 1 - np.argmax(known[::-1], axis=0)
+    start = int(np.searchsorted(joint_states.time_ns, fresh.time_ns[0] if since is None else since, side="left"))
+    moved = np.asarray(known[start:].any(axis=0), dtype=bool)
+    stamps = joint_states.time_ns[last[has & moved]]
+    return carried, int(stamps.min()) if len(stamps) else None
 
 
 def _cut(series: FrameSeries, frontier: int | None) -> tuple[FrameSeries, FrameSeries | None]:
@@ -107,12 +124,23 @@ def _merged(first: FrameSeries | None, then: FrameSeries | None) -> FrameSeries 
                        np.concatenate([first.rotation, then.rotation])[order])
 
 
+HOLD_SAMPLES = 600_000
+"""Transform samples held back, at most, while a robot's joint states pause (~40 MB): the pause's transforms wait
+for the joint state after it, as the whole recording interpolates them; past this many (a pause of ~12 minutes of
+8 frames at 100 Hz) they are compared with the joint states before the pause alone (those after its last one:
+not compared, as the recording's end), with a warning."""
+
+
 class _Joiner:
-    """What passes from one piece to the next: each namespace's last joint positions, and transforms that wait."""
+    """What passes from one piece to the next: each namespace's recent joint states, and transforms that wait."""
 
     def __init__(self) -> None:
         self.carried: dict[str, JointStates] = {}
         self.waiting: dict[str, dict[Pair, FrameSeries]] = {}
+        self.frontier: dict[str, int] = {}  # namespace → how far its joint states interpolated, when last given
+        self.seen: dict[str, int] = {}  # namespace → its joint states' messages so far
+        self.recent: dict[str, int] = {}  # namespace → the first stamp of the last piece that had joint states
+        self.overheld: set[str] = set()  # namespaces whose pause was longer than the hold (said once)
         self.firsts: list[int] = []  # the first stamp of any series: the recording's start
         self.lasts: list[int] = []
 
@@ -129,16 +157,25 @@ class _Joiner:
             found = piece.robot_topics(ns).joint_states
             if found is not None and len(found):
                 own[ns] = found.time_ns
+                self.seen[ns] = self.seen.get(ns, 0) + len(found)
                 self.saw(int(found.time_ns[0]), int(found.time_ns[-1]))
+            else:
+                found = None
             before = self.carried.pop(ns, None)
             js = found if before is None else before if found is None else _joined(before, found)
             joint_states[ns] = js
             if js is not None and len(js):
-                carried, frontier = _last_known(js, found)
+                carried, frontier = _last_known(js, found, min(self.recent.get(ns, 2**63 - 1), int(found.time_ns[0]))
+                                                if found is not None else None)
+                if found is not None:
+                    self.recent[ns] = int(found.time_ns[0])
                 if carried is not None:
                     self.carried[ns] = carried
                 if frontier is not None:
+                    self.frontier[ns] = frontier
                     frontiers.append(frontier)
+                elif found is None and ns in self.frontier and self._paused(piece, ns):
+                    frontiers.append(self.frontier[ns])
         frontier = None if last or not frontiers else min(frontiers)
         tf: dict[str, dict[Pair, FrameSeries]] = {}
         for ns in names:
@@ -158,6 +195,24 @@ class _Joiner:
                     self.waiting.setdefault(ns, {})[pair] = later
             tf[ns] = out
         return _rebuilt(piece, joint_states, tf), own
+
+    def _paused(self, piece: Recording, ns: str) -> bool:
+        """Whether a namespace's joint states pause in this piece and come again later (the recording's topic table
+        has more of them than were read; a table that does not tell: perhaps), and the transforms waiting for them
+        are fewer than :data:`HOLD_SAMPLES`."""
+        total = [info.count for topic, info in piece.topics.items() if robot_topic_kind(topic) == (ns, JOINT_STATES)]
+        if total and self.seen.get(ns, 0) >= sum(total):
+            return False
+        if sum(len(s) for pairs in self.waiting.values() for s in pairs.values()) < HOLD_SAMPLES:
+            return True
+        if ns not in self.overheld:
+            self.overheld.add(ns)
+            topic = f"{ns}/{JOINT_STATES.lstrip('/')}"
+            warnings.warn(f"{topic} pauses for longer than a check read piece by piece holds transforms "
+                          f"({HOLD_SAMPLES:,}): those after its last message before the pause are not compared "
+                          "(`replay --check --start 0` reads the recording whole)",
+                          TfrecWarning, stacklevel=2)
+        return False
 
 
 def _rebuilt(piece: Recording, joint_states: dict[str, JointStates | None],
