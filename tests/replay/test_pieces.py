@@ -280,14 +280,30 @@ def _tf_after_the_rest(messages: list[Any], topics: dict[int, str]) -> list[Any]
     return out
 
 
+def _tf_drifting_behind(messages: list[Any], topics: dict[int, str]) -> list[Any]:
+    """The /tf messages further and further behind the joint states in the file: the k-th after joint state
+    k + k // 3 (as `tfrec convert` wrote them, 10 ms further a chunk)."""
+    tf = [m for m in messages if topics[m[0]] == "/tf"]
+    js = [m for m in messages if topics[m[0]] == "/joint_states"]
+    out = [m for m in messages if topics[m[0]] not in ("/tf", "/joint_states")]
+    k = 0
+    for j, message in enumerate(js):
+        out.append(message)
+        while k < len(tf) and k + k // 3 <= j:
+            out.append(tf[k])
+            k += 1
+    return out + tf[k:]
+
+
+@pytest.mark.parametrize("order", [_tf_after_the_rest, _tf_drifting_behind])
 def test_transforms_the_file_holds_after_later_joint_states_are_compared_as_in_the_whole_recording(
-        marm: Robot, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+        marm: Robot, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, order: Any) -> None:
     """A file not in log-time order: a piece's transforms may be stamped before the joint states the piece before
-    ended with."""
-    path = _chunked(_between(marm, samples=120), tmp_path, "mcap", monkeypatch, order=_tf_after_the_rest)
+    ended with — by 1.2 s, or by more and more, up to 5 s (20 Hz here: 100 samples)."""
+    path = _chunked(_between(marm, samples=400), tmp_path, "mcap", monkeypatch, order=order)
     whole, said = _whole(path)
-    assert all(f.samples == 119 for f in whole.frames if f.topic == "/tf")
-    for pieces in (30, 53, 1000):  # a piece holds more than a run: transforms are at most a piece late
+    assert all(f.samples == 399 for f in whole.frames if f.topic == "/tf")
+    for pieces in (30, 53, 1000):
         found, piece_said = _pieces(path, pieces)
         assert found.to_dict() == whole.to_dict(), pieces
         assert piece_said == said

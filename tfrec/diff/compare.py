@@ -76,7 +76,7 @@ from tfrec.diff.fold import ErrorFold, SeriesFold, SeriesSpan
 from tfrec.diff.precision import FLOAT32_ULPS, float32_tolerance
 from tfrec.diff.report import Difference, DiffReport, Largest, at_time, format_time
 from tfrec.diff.topics import renamed_b_topics, same_type
-from tfrec.errors import DiffError, TfrecWarning
+from tfrec.errors import DiffError, TfrecWarning, display_path
 from tfrec.formats._collect import decodes_type
 from tfrec.formats.reader import read_pieces, read_recording
 from tfrec.kinematics.rotations import rotation_error
@@ -633,6 +633,11 @@ def _read(a: Recording | str | os.PathLike[str], b: Recording | str | os.PathLik
         (side_a, whole_a), (side_b, whole_b) = _side(a, options), _side(b, options)
         if not (side_a[1].unordered or side_b[1].unordered):
             return (side_a, side_b), whole_a and whole_b
+        for path, side in ((a, side_a), (b, side_b)):
+            if side[1].unordered and not isinstance(path, Recording):
+                warnings.warn(f"{display_path(path)}: the stamps of a /joint_states or /tf series go back or repeat (a "
+                              "chunk given twice, messages out of order): read whole to compare them, in memory that "
+                              "grows with its length", TfrecWarning, stacklevel=3)
     with warnings.catch_warnings():
         if not whole:  # the first walk gave them
             warnings.simplefilter("ignore")

@@ -73,28 +73,34 @@ def _joined(first: JointStates, then: JointStates) -> JointStates:
     return JointStates(time[order], names, positions[order], repeated)
 
 
-def _last_known(joint_states: JointStates, fresh: JointStates | None,
-                since: int | None = None) -> tuple[JointStates | None, int | None]:
+LATE_NS = 5_000_000_000
+"""How far back (ns) a piece's joint states are kept for the next piece at least: transforms the file holds after
+later joint states (a writer that puts each topic's messages of a stretch one after the other) meet the joint
+states around them; twice the lateness seen so far when more."""
+
+
+def _last_known(joint_states: JointStates, fresh: JointStates | None, since: int | None = None,
+                late_ns: int = LATE_NS) -> tuple[JointStates | None, int | None]:
     """(what the next piece needs of the joint states so far, the earliest stamp among the last ones of the joints
     given a position from ``since`` on — ``fresh``, the piece's own joint states, and the piece's before —: how
     far they interpolate; a joint no longer published holds nothing back, one that a message of a subset left out
     does).
 
-    The next piece needs the piece's own joint states — its transforms may be stamped among them, in a file not in
-    time order (a writer that puts each topic's messages of a stretch one after the other) — and before them each
-    joint's last position; a piece without joint states of its own passes on what it was given."""
+    The next piece needs the joint states of the last ``late_ns`` — its transforms may be stamped among them, in a
+    file not in time order — and before them each joint's last position; a piece without joint states of its own
+    passes on what it was given."""
     known = np.isfinite(joint_states.positions)
     has = np.asarray(known.any(axis=0), dtype=bool)
     if not has.any():
         return None, None
     if fresh is None:
         return joint_states, None
-    recent = int(np.searchsorted(joint_states.time_ns, fresh.time_ns[0], side="left"))
+    recent = int(np.searchsorted(joint_states.time_ns, int(joint_states.time_ns[-1]) - late_ns, side="left"))
     rows = np.arange(recent, len(known))
     if recent:
         earlier = known[:recent]
         before = np.asarray(earlier.any(axis=0), dtype=bool)
-        rows = np.union1d((recent - 1 - np.argmax(earlier[::-1], axis=0))[before], rows)
+        rows = np.concatenate([np.unique((recent - 1 - np.argmax(earlier[::-1], axis=0))[before]), rows])
     carried = JointStates(joint_states.time_ns[rows], joint_states.names, joint_states.positions[rows],
                           joint_states.repeated)
     last = len(known) - 1 - np.argmax(known[::-1], axis=0)
@@ -141,6 +147,8 @@ class _Joiner:
         self.seen: dict[str, int] = {}  # namespace → its joint states' messages so far
         self.recent: dict[str, int] = {}  # namespace → the first stamp of the last piece that had joint states
         self.overheld: set[str] = set()  # namespaces whose pause was longer than the hold (said once)
+        self.late_ns = LATE_NS  # how far back joint states are kept for the next piece
+        self.released: int | None = None  # how far the last piece compared transforms
         self.firsts: list[int] = []  # the first stamp of any series: the recording's start
         self.lasts: list[int] = []
 
@@ -150,6 +158,7 @@ class _Joiner:
 
     def join(self, piece: Recording, *, last: bool) -> tuple[Recording, dict[str, NDArray[np.int64]]]:
         names = sorted({*piece.namespaces, "", *self.carried, *self.waiting})
+        self._see_lateness(piece, names)
         frontiers: list[int] = []
         own: dict[str, NDArray[np.int64]] = {}
         joint_states: dict[str, JointStates | None] = {}
@@ -166,7 +175,7 @@ class _Joiner:
             joint_states[ns] = js
             if js is not None and len(js):
                 carried, frontier = _last_known(js, found, min(self.recent.get(ns, 2**63 - 1), int(found.time_ns[0]))
-                                                if found is not None else None)
+                                                if found is not None else None, self.late_ns)
                 if found is not None:
                     self.recent[ns] = int(found.time_ns[0])
                 if carried is not None:
@@ -177,6 +186,7 @@ class _Joiner:
                 elif found is None and ns in self.frontier and self._paused(piece, ns):
                     frontiers.append(self.frontier[ns])
         frontier = None if last or not frontiers else min(frontiers)
+        self.released = frontier
         tf: dict[str, dict[Pair, FrameSeries]] = {}
         for ns in names:
             waiting = self.waiting.pop(ns, {})
@@ -195,6 +205,15 @@ class _Joiner:
                     self.waiting.setdefault(ns, {})[pair] = later
             tf[ns] = out
         return _rebuilt(piece, joint_states, tf), own
+
+    def _see_lateness(self, piece: Recording, names: list[str]) -> None:
+        """Keep joint states twice as far back as transforms came late (stamped before what the last piece
+        compared)."""
+        if self.released is None:
+            return
+        firsts = [int(s.time_ns[0]) for ns in names for s in piece.robot_topics(ns).tf.values() if len(s)]
+        if firsts and min(firsts) < self.released:
+            self.late_ns = max(self.late_ns, 2 * (self.released - min(firsts)))
 
     def _paused(self, piece: Recording, ns: str) -> bool:
         """Whether a namespace's joint states pause in this piece and come again later (the recording's topic table
