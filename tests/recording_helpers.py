@@ -153,12 +153,15 @@ def write_rosbag2(rec: Recording, path: Path, *, storage: str = "sqlite3") -> Pa
     return path
 
 
-def write_rosbag1(rec: Recording, path: Path) -> Path:
-    """The recording as a ROS 1 bag written by rosbags."""
+def write_rosbag1(rec: Recording, path: Path, *, chunk_threshold: int | None = None) -> Path:
+    """The recording as a ROS 1 bag written by rosbags (a chunk ends past ``chunk_threshold`` bytes: rosbags' 1 MiB
+    when None)."""
     from rosbags.rosbag1 import Writer
 
     store = _typestore(ros1=True)
     with Writer(path) as writer:
+        if chunk_threshold is not None:
+            writer.chunk_threshold = chunk_threshold
         connections: dict[str, Any] = {}
         for topic, msgtype, time_ns, msg in recording_messages(rec, _Messages(store, ros1=True)):
             if topic not in connections:

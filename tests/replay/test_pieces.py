@@ -188,20 +188,7 @@ def _chunked(rec: Recording, folder: Path, kind: str, monkeypatch: pytest.Monkey
         monkeypatch.setattr(source, "BATCH_MESSAGES", 3)
         return write_rosbag2(rec, folder / "bag", storage="sqlite3")
     if kind == "rosbag1":
-        from rosbags.rosbag1 import Writer as Ros1Writer
-
-        from ..recording_helpers import _Messages, _typestore, recording_messages
-
-        store = _typestore(ros1=True)
-        path = folder / "rec.bag"
-        with Ros1Writer(path) as bag:
-            bag.chunk_threshold = 300
-            connections: dict[str, Any] = {}
-            for topic, msgtype, time_ns, msg in recording_messages(rec, _Messages(store, ros1=True)):
-                if topic not in connections:
-                    connections[topic] = bag.add_connection(topic, msgtype, typestore=store)
-                bag.write(connections[topic], time_ns, bytes(store.serialize_ros1(msg, msgtype)))
-        return path
+        return write_rosbag1(rec, folder / "rec.bag", chunk_threshold=300)
     from mcap.reader import make_reader
     from mcap.writer import Writer as McapWriter
 
@@ -332,21 +319,7 @@ def _ros1_records(data: bytes) -> list[tuple[int, int, int]]:
 def test_a_damaged_ros1_bag_says_what_reading_it_whole_says_once(marm: Robot, tmp_path: Path, damage: str) -> None:
     """What reading the latched data said of the file (a chunk given twice, the bag cut) is not said again by the
     walk through the pieces."""
-    rec = _between(marm, samples=400)
-    bag = tmp_path / "rec.bag"
-    from rosbags.rosbag1 import Writer as Ros1Writer
-
-    from ..recording_helpers import _Messages, _typestore, recording_messages
-
-    store = _typestore(ros1=True)
-    with Ros1Writer(bag) as writer:
-        writer.chunk_threshold = 4000
-        connections: dict[str, Any] = {}
-        for topic, msgtype, time_ns, msg in recording_messages(rec, _Messages(store, ros1=True)):
-            if topic not in connections:
-                connections[topic] = writer.add_connection(topic, msgtype, typestore=store)
-            writer.write(connections[topic], time_ns, bytes(store.serialize_ros1(msg, msgtype)))
-    data = bag.read_bytes()
+    data = write_rosbag1(_between(marm, samples=400), tmp_path / "rec.bag", chunk_threshold=4000).read_bytes()
     records = _ros1_records(data)
     chunks = [k for k, (_, _, op) in enumerate(records) if op == 5]
     assert len(chunks) > 4
