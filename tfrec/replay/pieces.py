@@ -5,9 +5,9 @@
 has the latched data and the topic table) and prepares each as :func:`tfrec.replay.load_replay` prepares a whole
 recording. So that every recorded transform meets the joint states around it, as in the whole recording:
 
-- each piece starts with the joint states of the piece before, and before them the last joint state that gives
-  each joint a position (the sample before its first transforms, also for transforms that the file holds up to a
-  piece later than the joint states around them);
+- each piece starts with the joint states of the last :data:`LATE_NS` before it (twice the lateness seen, when
+  more), and before them the last joint state that gives each joint a position (the sample before its first
+  transforms, also for transforms that the file holds after later joint states);
 - transforms stamped after the last position of a joint in their piece wait for the next piece (the sample after
   them); while a robot's joint states pause (a piece without any, more of them in the topic table), its
   transforms after their last one wait for them to come again, up to :data:`HOLD_SAMPLES`; the last piece takes
@@ -15,7 +15,8 @@ recording. So that every recorded transform meets the joint states around it, as
 
 Each transform is thus in one piece, and interpolated between the same two joint states as in the whole recording
 (when the joint states arrive in stamp order, as a recorder writes them — one that arrives behind a later piece's
-is used from that piece on —, transforms are at most a piece late, and a pause is shorter than the hold).
+is used from that piece on —, transforms come no later than the joint states kept, and a pause is shorter than
+the hold).
 """
 
 from __future__ import annotations
@@ -173,11 +174,12 @@ class _Joiner:
             before = self.carried.pop(ns, None)
             js = found if before is None else before if found is None else _joined(before, found)
             joint_states[ns] = js
+            since = None  # the joints given a position from here on hold transforms back
+            if found is not None:
+                first = int(found.time_ns[0])
+                since, self.recent[ns] = min(self.recent.get(ns, first), first), first
             if js is not None and len(js):
-                carried, frontier = _last_known(js, found, min(self.recent.get(ns, 2**63 - 1), int(found.time_ns[0]))
-                                                if found is not None else None, self.late_ns)
-                if found is not None:
-                    self.recent[ns] = int(found.time_ns[0])
+                carried, frontier = _last_known(js, found, since, self.late_ns)
                 if carried is not None:
                     self.carried[ns] = carried
                 if frontier is not None:
